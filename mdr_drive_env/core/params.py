@@ -1,0 +1,260 @@
+"""Parameters of the drive model: small frozen dataclasses in SI units, validated at construction.
+
+A bad value raises ``ValueError`` naming the field, the value and the allowed range, e.g.
+``Material.poisson_ratio=0.7 is outside the allowed range (-1, 0.5]``.
+
+Defaults are the paper's parameter set (physics.md section 4).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+from . import materials
+
+_INF = math.inf
+
+
+def check_range(
+    name: str, value: float, low: float = -_INF, high: float = _INF, *, low_open: bool = False, high_open: bool = False
+) -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``value`` is a finite number in the range."""
+    interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if ok:
+        ok = (value > low if low_open else value >= low) and (value < high if high_open else value <= high)
+    if not ok:
+        raise ValueError(f"{name}={value!r} is outside the allowed range {interval}")
+
+
+@dataclass(frozen=True)
+class Material:
+    """A power-law graded elastic body, ``E(z) = E0 (z/c0)^k``.
+
+    Attributes:
+        youngs_modulus: E0 (Pa). ``math.inf`` makes the body rigid.
+        poisson_ratio: nu (-), constant through the depth, in (-1, 0.5].
+        grading_exponent: k (-), in [0, 1); k = 0 is a homogeneous body.
+        reference_depth: c0 (m), the depth at which E = E0.
+        h_normal_override: replaces the closed-form ``h_N(k, nu)`` (-) if given.
+        h_tangential_override: replaces the closed-form ``h_T(k, nu)`` (-) if given.
+    """
+
+    youngs_modulus: float = 2e11
+    poisson_ratio: float = 0.3
+    grading_exponent: float = 0.0
+    reference_depth: float = 1.0
+    h_normal_override: float | None = None
+    h_tangential_override: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.youngs_modulus != _INF:
+            check_range("Material.youngs_modulus", self.youngs_modulus, 0.0, low_open=True)
+        check_range("Material.poisson_ratio", self.poisson_ratio, -1.0, 0.5, low_open=True)
+        check_range("Material.grading_exponent", self.grading_exponent, 0.0, 1.0, high_open=True)
+        check_range("Material.reference_depth", self.reference_depth, 0.0, low_open=True)
+        for name in ("h_normal_override", "h_tangential_override"):
+            value = getattr(self, name)
+            if value is not None:
+                check_range(f"Material.{name}", value, 0.0, low_open=True)
+
+    @classmethod
+    def rigid(cls) -> "Material":
+        """A rigid body (E0 = inf)."""
+        return cls(youngs_modulus=_INF)
+
+    @property
+    def is_rigid(self) -> bool:
+        return self.youngs_modulus == _INF
+
+    @property
+    def h_normal(self) -> float:
+        """h_N(k, nu) (-), or the override."""
+        if self.h_normal_override is not None:
+            return self.h_normal_override
+        return materials.h_normal(self.grading_exponent, self.poisson_ratio)
+
+    @property
+    def h_tangential(self) -> float:
+        """h_T(k, nu) (-), or the override."""
+        if self.h_tangential_override is not None:
+            return self.h_tangential_override
+        return materials.h_tangential(self.grading_exponent, self.poisson_ratio)
+
+    def normal_compliance(self) -> float:
+        """``(1 - nu^2) / (h_N E0)`` (1/Pa); 0 for a rigid body."""
+        return 0.0 if self.is_rigid else (1.0 - self.poisson_ratio**2) / (self.h_normal * self.youngs_modulus)
+
+    def tangential_compliance(self) -> float:
+        """``1 / (h_T E0)`` (1/Pa); 0 for a rigid body."""
+        return 0.0 if self.is_rigid else 1.0 / (self.h_tangential * self.youngs_modulus)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Indenter geometry and friction.
+
+    Attributes:
+        indenter_radius: R (m), radius of the paraboloid ``f(r) = r^2 / (2R)``.
+        friction_coefficient: mu (-), indenter-slider Coulomb friction.
+        base_friction_coefficient: mu1 (-), slider-base friction, ``F_base = sgn(V) mu1 F_z``.
+    """
+
+    indenter_radius: float = 2.5e-3
+    friction_coefficient: float = 0.3
+    base_friction_coefficient: float = 0.1
+
+    def __post_init__(self) -> None:
+        check_range("Contact.indenter_radius", self.indenter_radius, 0.0, low_open=True)
+        check_range("Contact.friction_coefficient", self.friction_coefficient, 0.0, low_open=True)
+        check_range("Contact.base_friction_coefficient", self.base_friction_coefficient, 0.0)
+
+
+@dataclass(frozen=True)
+class Drive:
+    """The slider and its cargo.
+
+    Attributes:
+        slider_mass: M (kg).
+        cargo_mass: m (kg); it sets the load ``F_m = m g`` against the motion.
+        gravity: g (m/s^2).
+        load_force: F_m (N) if given, replacing ``m g``.
+        cargo_inertia: if True the cargo also accelerates with the slider (moving mass M + m);
+            the paper's choice is False (moving mass M).
+    """
+
+    slider_mass: float = 0.05
+    cargo_mass: float = 0.0
+    gravity: float = 9.81
+    load_force: float | None = None
+    cargo_inertia: bool = False
+
+    def __post_init__(self) -> None:
+        check_range("Drive.slider_mass", self.slider_mass, 0.0, low_open=True)
+        check_range("Drive.cargo_mass", self.cargo_mass, 0.0)
+        check_range("Drive.gravity", self.gravity, 0.0)
+        if self.load_force is not None:
+            check_range("Drive.load_force", self.load_force)
+        if not isinstance(self.cargo_inertia, bool):
+            raise ValueError(f"Drive.cargo_inertia={self.cargo_inertia!r} must be a bool")
+
+    @property
+    def load(self) -> float:
+        """F_m (N), the constant force against the +X direction."""
+        return self.cargo_mass * self.gravity if self.load_force is None else float(self.load_force)
+
+    @property
+    def moving_mass(self) -> float:
+        """The mass (kg) in ``M X'' = F_x - F_base - F_m``."""
+        return self.slider_mass + (self.cargo_mass if self.cargo_inertia else 0.0)
+
+
+@dataclass(frozen=True)
+class DriveParams:
+    """The whole physical model: two bodies, the contact and the drive.
+
+    The bodies must share k and c0 unless one of them is rigid (physics.md 1). For a rigid
+    indenter on a graded slider the normal-tangential coupling is neglected (it vanishes only at
+    ``nu = 1/(2+k)``).
+    """
+
+    indenter: Material = field(default_factory=Material)
+    slider: Material = field(default_factory=Material)
+    contact: Contact = field(default_factory=Contact)
+    drive: Drive = field(default_factory=Drive)
+
+    def __post_init__(self) -> None:
+        if self.indenter.is_rigid and self.slider.is_rigid:
+            raise ValueError("DriveParams: indenter and slider cannot both be rigid")
+        if not (self.indenter.is_rigid or self.slider.is_rigid):
+            for name in ("grading_exponent", "reference_depth"):
+                a, b = getattr(self.indenter, name), getattr(self.slider, name)
+                if a != b:
+                    raise ValueError(f"DriveParams: indenter.{name}={a!r} and slider.{name}={b!r} must be equal")
+
+    @classmethod
+    def paper(cls, k: float = 0.0, cargo_mass: float = 0.0) -> "DriveParams":
+        """The paper's parameter set (both bodies of the same graded steel-like material)."""
+        return cls(
+            indenter=Material(grading_exponent=k),
+            slider=Material(grading_exponent=k),
+            drive=Drive(cargo_mass=cargo_mass),
+        )
+
+    @property
+    def _graded(self) -> Material:
+        return self.slider if self.indenter.is_rigid else self.indenter
+
+    @property
+    def k(self) -> float:
+        """Grading exponent k (-) of the contact."""
+        return self._graded.grading_exponent
+
+    @property
+    def c0(self) -> float:
+        """Reference depth c0 (m)."""
+        return self._graded.reference_depth
+
+    @property
+    def normal_stiffness_prefactor(self) -> float:
+        """C_N (Pa) in ``c_N(x) = C_N (|x|/c0)^k`` (paper Eq. 3)."""
+        return 1.0 / (self.indenter.normal_compliance() + self.slider.normal_compliance())
+
+    @property
+    def tangential_stiffness_prefactor(self) -> float:
+        """C_T (Pa) in ``c_T(x) = C_T (|x|/c0)^k`` (paper Eq. 4)."""
+        return 1.0 / (self.indenter.tangential_compliance() + self.slider.tangential_compliance())
+
+    @property
+    def slip_ratio(self) -> float:
+        """``lambda = mu C_N / C_T`` (-): a spring slips when ``|u_x| >= lambda u_z``."""
+        return self.contact.friction_coefficient * self.normal_stiffness_prefactor / self.tangential_stiffness_prefactor
+
+    def with_k(self, k: float) -> "DriveParams":
+        """The same model with grading exponent k in every graded body."""
+        return dataclasses.replace(
+            self,
+            indenter=self.indenter if self.indenter.is_rigid else dataclasses.replace(self.indenter, grading_exponent=k),
+            slider=self.slider if self.slider.is_rigid else dataclasses.replace(self.slider, grading_exponent=k),
+        )
+
+    def with_cargo_mass(self, cargo_mass: float) -> "DriveParams":
+        """The same model with another cargo mass m (kg) (and load m g)."""
+        return dataclasses.replace(self, drive=dataclasses.replace(self.drive, cargo_mass=cargo_mass))
+
+
+@dataclass(frozen=True)
+class Numerics:
+    """Discretisation of the reference solver.
+
+    Attributes:
+        time_step: dt (s) of the semi-implicit Euler integration.
+        spring_spacing: dx (m), the distance between MDR springs.
+    """
+
+    time_step: float
+    spring_spacing: float
+
+    def __post_init__(self) -> None:
+        check_range("Numerics.time_step", self.time_step, 0.0, 1e-4, low_open=True)
+        check_range("Numerics.spring_spacing", self.spring_spacing, 0.0, 1e-5, low_open=True)
+
+
+#: Named numerics presets. ``paper`` is the paper's exact discretisation; ``default`` is the
+#: cheaper one chosen from the convergence study (scripts/convergence.py, docs/numerics.md).
+NUMERICS_PRESETS: dict[str, Numerics] = {
+    "paper": Numerics(time_step=1e-7, spring_spacing=1e-8),
+    "default": Numerics(time_step=1e-6, spring_spacing=1e-7),
+}
+
+
+def numerics_preset(name: str | Numerics) -> Numerics:
+    """Look up a numerics preset by name (a ``Numerics`` passes through)."""
+    if isinstance(name, Numerics):
+        return name
+    try:
+        return NUMERICS_PRESETS[name]
+    except KeyError:
+        raise ValueError(f"numerics={name!r} is not one of {sorted(NUMERICS_PRESETS)}") from None

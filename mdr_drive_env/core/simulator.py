@@ -1,0 +1,242 @@
+"""The drive simulator: MDR spring grid + slider state, advanced one drive period per kernel call."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import kernel as K
+from .materials import contact_radius
+from .params import DriveParams, Numerics, numerics_preset
+from .waveform import Waveform, period_knots
+
+#: Steps per edge below which a waveform is too fast for the time step.
+MIN_STEPS_PER_EDGE = 10
+
+
+@dataclass(frozen=True)
+class PeriodResult:
+    """What happened during one drive period (SI units).
+
+    Attributes:
+        displacement: slider displacement over the period (m), + is against the load.
+        mean_velocity: displacement / T (m/s).
+        peak_tangential_force: max |F_x| over the period (N).
+        peak_normal_force: max F_z over the period (N).
+        indenter_dissipation: energy dissipated by slip in the indenter contact (J), including
+            the energy released by springs leaving the contact.
+        base_dissipation: work of the base friction ``sgn(V) mu1 F_z`` on the slider (J).
+        load_work: work done against the load, ``F_m * displacement`` (J).
+        indenter_work_x: work of the indenter's horizontal motion on the contact (J).
+        indenter_work_z: work of the indenter's vertical motion on the contact (J).
+        end_velocity: slider velocity at the end of the period (m/s).
+        end_position: slider position at the end of the period (m).
+        trace: (rows, 7) array with columns ``kernel.TRACE_COLUMNS`` (s, m, m, m, m/s, N, N), or None.
+    """
+
+    displacement: float
+    mean_velocity: float
+    peak_tangential_force: float
+    peak_normal_force: float
+    indenter_dissipation: float
+    base_dissipation: float
+    load_work: float
+    indenter_work_x: float
+    indenter_work_z: float
+    end_velocity: float
+    end_position: float
+    trace: np.ndarray | None = field(default=None, repr=False)
+
+
+def check_numerics(numerics: Numerics, waveform: Waveform) -> int:
+    """Validate dt against the waveform and return the number of steps per period.
+
+    dt must divide the period (so period boundaries fall on steps) and resolve the fastest edge
+    with at least ``MIN_STEPS_PER_EDGE`` steps.
+    """
+    dt = numerics.time_step
+    n = waveform.period / dt
+    n_steps = int(round(n))
+    if abs(n - n_steps) > 1e-6 * n_steps:
+        raise ValueError(f"Numerics.time_step={dt!r} does not divide the period {waveform.period!r} s")
+    if waveform.fastest_edge < MIN_STEPS_PER_EDGE * dt:
+        raise ValueError(
+            f"Numerics.time_step={dt!r} is not small against the waveform: the fastest edge "
+            f"({waveform.fastest_edge!r} s) needs at least {MIN_STEPS_PER_EDGE} steps"
+        )
+    return n_steps
+
+
+class DriveSimulator:
+    """MDR model of the stick-slip drive, stepped one drive period at a time.
+
+    Args:
+        params: the physical model (bodies, contact, drive).
+        numerics: a :class:`Numerics` or a preset name (``"paper"``, ``"default"``).
+        max_depth: largest indentation (m) any waveform will use; sizes the spring grid.
+
+    The state (spring displacements, slider position and velocity, indenter position) persists
+    across :meth:`step` calls; each call may use another waveform.
+    """
+
+    def __init__(self, params: DriveParams, numerics: Numerics | str = "default", max_depth: float = 6e-6):
+        if not (math.isfinite(max_depth) and max_depth > 0.0):
+            raise ValueError(f"max_depth={max_depth!r} is outside the allowed range (0, inf)")
+        self.params = params
+        self.numerics = numerics_preset(numerics)
+        self.max_depth = float(max_depth)
+        self._build_grid()
+        self.state = np.zeros(K.STATE_SIZE)
+        self._out = np.zeros(K.OUT_SIZE)
+        self._empty_trace = np.zeros((0, len(K.TRACE_COLUMNS)))
+        self.reset()
+
+    def _build_grid(self) -> None:
+        p = self.params
+        k, radius, dx = p.k, p.contact.indenter_radius, self.numerics.spring_spacing
+        a_max = contact_radius(self.max_depth, k, radius)
+        n = int(math.ceil(a_max / dx)) + 2
+        x = np.arange(n, dtype=np.float64) * dx
+        weight = np.full(n, 2.0)
+        weight[0] = 1.0
+        shape = (x / p.c0) ** k * dx * weight
+        self.spring_x = x
+        self.g = x * x / ((1.0 + k) * radius)
+        self.kx = p.tangential_stiffness_prefactor * shape
+        self.kz = p.normal_stiffness_prefactor * shape
+        self.slip_ratio = p.slip_ratio
+
+    def reset(self, position: float = 0.0, velocity: float = 0.0) -> None:
+        """Slider at ``position`` (m) with ``velocity`` (m/s), no contact, indenter at 0."""
+        self.u_x = np.zeros_like(self.g)
+        self.state[:] = 0.0
+        self.state[K.S_X] = position
+        self.state[K.S_V] = velocity
+
+    # --- state accessors (SI units) ---
+    @property
+    def position(self) -> float:
+        """Slider position X (m)."""
+        return float(self.state[K.S_X])
+
+    @property
+    def velocity(self) -> float:
+        """Slider velocity V (m/s)."""
+        return float(self.state[K.S_V])
+
+    @property
+    def time(self) -> float:
+        """Simulated time since reset (s)."""
+        return float(self.state[K.S_TIME])
+
+    @property
+    def indenter_depth(self) -> float:
+        """Current indentation d = z (m)."""
+        return float(self.state[K.S_ZIND])
+
+    @property
+    def forces(self) -> tuple[float, float]:
+        """Current (F_x, F_z) (N)."""
+        return float(self.state[K.S_FX]), float(self.state[K.S_FZ])
+
+    def elastic_energy(self) -> tuple[float, float]:
+        """Elastic energy (J) stored in the (tangential, normal) springs."""
+        d = self.indenter_depth
+        uz = np.maximum(d - self.g, 0.0)
+        return 0.5 * float(np.dot(self.kx, self.u_x**2)), 0.5 * float(np.dot(self.kz, uz**2))
+
+    def kinetic_energy(self) -> float:
+        """Kinetic energy (J) of the moving mass."""
+        return 0.5 * self.params.drive.moving_mass * self.velocity**2
+
+    def step(self, waveform: Waveform, record_every: int = 0) -> PeriodResult:
+        """Advance one drive period with ``waveform``.
+
+        Args:
+            waveform: the indenter's x/z waveform for this period. If its z starts at another
+                depth than the previous period ended, the step is blended out
+                (:func:`waveform.period_knots`).
+            record_every: record a trace row every this many time steps (0: no trace).
+        """
+        check_numerics(self.numerics, waveform)
+        z_start = self.indenter_depth if self.time > 0.0 else None
+        return self.step_knots(*period_knots(waveform, z_start=z_start), record_every=record_every)
+
+    def step_knots(
+        self, tx: np.ndarray, vx: np.ndarray, tz: np.ndarray, vz: np.ndarray, record_every: int = 0
+    ) -> PeriodResult:
+        """Advance one period given x(t), z(t) as piecewise-linear knots (s, m), local time from 0.
+
+        Both knot sets start at t = 0 and end at the same period T, which dt must divide. The
+        first call after :meth:`reset` places the indenter at ``(vx[0], vz[0])``.
+        """
+        tx, vx, tz, vz = (np.ascontiguousarray(a, dtype=np.float64) for a in (tx, vx, tz, vz))
+        for name, t, v in (("x", tx, vx), ("z", tz, vz)):
+            if t.ndim != 1 or t.shape != v.shape or t.size < 2:
+                raise ValueError(f"{name} knots must be two 1D arrays of equal length >= 2")
+            if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
+                raise ValueError(f"{name} knots must be finite")
+            if t[0] != 0.0 or np.any(np.diff(t) <= 0.0):
+                raise ValueError(f"{name} knot times must start at 0 and increase strictly")
+        period = float(tx[-1])
+        if tz[-1] != period:
+            raise ValueError(f"x and z knots must end at the same period (got {period!r} s and {tz[-1]!r} s)")
+        dt = self.numerics.time_step
+        n_steps = int(round(period / dt))
+        if n_steps < 1 or abs(period / dt - n_steps) > 1e-6 * n_steps:
+            raise ValueError(f"Numerics.time_step={dt!r} does not divide the period {period!r} s")
+        if vz.max() > self.max_depth * (1.0 + 1e-12):
+            raise ValueError(f"z reaches {vz.max()!r} m, beyond the simulator's max_depth {self.max_depth!r} m")
+        if record_every < 0:
+            raise ValueError(f"record_every={record_every!r} is outside the allowed range [0, inf)")
+        if self.time == 0.0:
+            self.state[K.S_XIND] = vx[0]
+            self.state[K.S_ZIND] = vz[0]
+        trace = np.empty((n_steps // record_every, len(K.TRACE_COLUMNS))) if record_every else self._empty_trace
+        p = self.params
+        K.advance_period(
+            self.u_x,
+            self.state,
+            self.g,
+            self.kx,
+            self.kz,
+            self.slip_ratio,
+            tx,
+            vx,
+            tz,
+            vz,
+            n_steps,
+            dt,
+            p.drive.moving_mass,
+            p.drive.load,
+            p.contact.base_friction_coefficient,
+            int(record_every),
+            trace,
+            self._out,
+        )
+        o = self._out
+        return PeriodResult(
+            displacement=float(o[K.O_DISPLACEMENT]),
+            mean_velocity=float(o[K.O_MEAN_VELOCITY]),
+            peak_tangential_force=float(o[K.O_PEAK_FX]),
+            peak_normal_force=float(o[K.O_PEAK_FZ]),
+            indenter_dissipation=float(o[K.O_DISS_INDENTER]),
+            base_dissipation=float(o[K.O_DISS_BASE]),
+            load_work=float(o[K.O_WORK_LOAD]),
+            indenter_work_x=float(o[K.O_WORK_INDENTER_X]),
+            indenter_work_z=float(o[K.O_WORK_INDENTER_Z]),
+            end_velocity=self.velocity,
+            end_position=self.position,
+            trace=trace[: int(o[K.O_N_RECORDED])] if record_every else None,
+        )
+
+    def run(self, waveform: Waveform, n_periods: int, record_every: int = 0) -> list[PeriodResult]:
+        """Run ``n_periods`` periods with the same waveform; see :meth:`step`."""
+        return [self.step(waveform, record_every) for _ in range(n_periods)]
+
+
+def concat_traces(results: list[PeriodResult]) -> np.ndarray:
+    """One (rows, 7) trace from the per-period traces of a run."""
+    return np.concatenate([r.trace for r in results if r.trace is not None], axis=0)

@@ -1,0 +1,148 @@
+"""Indenter waveforms: the paper's asymmetric triangle per axis (Eqs. 17-18), with a z phase.
+
+Within one drive period the kernel receives each axis as piecewise-linear knots ``(t_i, v_i)``
+with ``t_0 = 0`` and ``t_last = T``. :func:`period_knots` builds them, and makes a change of
+waveform continuous at the period boundary (see its docstring).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .params import check_range
+
+
+@dataclass(frozen=True)
+class AxisWaveform:
+    """Asymmetric triangle on one axis: 0 -> amplitude in ``rise_time``, back to 0 in ``fall_time``.
+
+    Attributes:
+        amplitude: A_max (m), >= 0.
+        rise_time: t1 (s), > 0.
+        fall_time: t2 (s), > 0. The period is ``t1 + t2``.
+    """
+
+    amplitude: float
+    rise_time: float
+    fall_time: float
+
+    def __post_init__(self) -> None:
+        check_range("AxisWaveform.amplitude", self.amplitude, 0.0, 1e-3)
+        check_range("AxisWaveform.rise_time", self.rise_time, 0.0, 1.0, low_open=True)
+        check_range("AxisWaveform.fall_time", self.fall_time, 0.0, 1.0, low_open=True)
+
+    @property
+    def period(self) -> float:
+        """T = t1 + t2 (s)."""
+        return self.rise_time + self.fall_time
+
+    def __call__(self, t: np.ndarray | float) -> np.ndarray:
+        """Displacement (m) at time(s) ``t`` (s), periodic in T (paper Eq. 18)."""
+        tau = np.mod(np.asarray(t, dtype=float), self.period)
+        rising = self.amplitude * tau / self.rise_time
+        falling = self.amplitude * (self.period - tau) / self.fall_time
+        return np.where(tau <= self.rise_time, rising, falling)
+
+
+#: The paper's waveform (Fig. 2): x: 30 um, t1 = 1.9 ms, t2 = 0.1 ms; z: 6 um, 1.7 ms, 0.3 ms.
+PAPER_X = AxisWaveform(amplitude=30e-6, rise_time=1.9e-3, fall_time=0.1e-3)
+PAPER_Z = AxisWaveform(amplitude=6e-6, rise_time=1.7e-3, fall_time=0.3e-3)
+
+
+@dataclass(frozen=True)
+class Waveform:
+    """The indenter's x and z waveform for one or more drive periods.
+
+    Attributes:
+        x: horizontal triangle; x(t) starts and ends every period at 0.
+        z: vertical triangle; z(t) = indentation depth d(t) (m).
+        z_phase: delay of the z triangle, as a fraction of T in [0, 1):
+            ``z(t) = z_triangle(t - z_phase T)``. 0 is the paper's (both axes start together).
+    """
+
+    x: AxisWaveform = field(default_factory=lambda: PAPER_X)
+    z: AxisWaveform = field(default_factory=lambda: PAPER_Z)
+    z_phase: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_range("Waveform.z_phase", self.z_phase, 0.0, 1.0, high_open=True)
+        if not math.isclose(self.x.period, self.z.period, rel_tol=1e-9, abs_tol=0.0):
+            raise ValueError(
+                f"Waveform: x period {self.x.period!r} s and z period {self.z.period!r} s must be equal"
+            )
+
+    @classmethod
+    def paper(cls) -> "Waveform":
+        """The paper's waveform (Fig. 2)."""
+        return cls()
+
+    @property
+    def period(self) -> float:
+        """T (s)."""
+        return self.x.period
+
+    @property
+    def fastest_edge(self) -> float:
+        """Shortest rise or fall time (s) over both axes."""
+        return min(self.x.rise_time, self.x.fall_time, self.z.rise_time, self.z.fall_time)
+
+    def x_at(self, t: np.ndarray | float) -> np.ndarray:
+        """x(t) (m)."""
+        return self.x(t)
+
+    def z_at(self, t: np.ndarray | float) -> np.ndarray:
+        """z(t) = d(t) (m), including the phase delay."""
+        return self.z(np.asarray(t, dtype=float) - self.z_phase * self.period)
+
+    @property
+    def max_depth(self) -> float:
+        """Largest indentation (m) over a period."""
+        return self.z.amplitude
+
+
+def _axis_knots(corners: list[float], period: float, fn) -> tuple[np.ndarray, np.ndarray]:
+    times = np.unique(np.clip(np.array([0.0, period, *corners]), 0.0, period))
+    # merge knots closer than 1e-12 T (round-off of the phase shift)
+    keep = np.concatenate(([True], np.diff(times) > 1e-12 * period))
+    times = times[keep]
+    times[-1] = period
+    return times, fn(times)
+
+
+def period_knots(waveform: Waveform, z_start: float | None = None, blend_time: float | None = None):
+    """Piecewise-linear knots of one period: ``(tx, vx, tz, vz)``, float64 arrays, times in [0, T].
+
+    x(t) is 0 at both ends of every period, so it is always continuous across periods. z(t) with
+    a phase offset starts at ``z_triangle(-z_phase T)``; if the previous period ended at another
+    depth ``z_start`` (a change of phase or amplitude), the difference is ramped out linearly over
+    ``blend_time`` (default: the new z triangle's shorter edge):
+    ``z(t) = z_new(t) + (z_start - z_new(0)) max(0, 1 - t / blend_time)``, so z is continuous and
+    the extra speed is bounded by ``|z_start - z_new(0)| / blend_time``.
+    """
+    period = waveform.period
+    x_corners = [waveform.x.rise_time]
+    phase_t = waveform.z_phase * period
+    z_corners = [phase_t % period, (phase_t + waveform.z.rise_time) % period]
+    tx, vx = _axis_knots(x_corners, period, waveform.x_at)
+    vx[0] = 0.0
+    vx[-1] = 0.0
+    tz, vz = _axis_knots(z_corners, period, waveform.z_at)
+    vz[-1] = vz[0]  # exactly periodic
+    if z_start is not None and abs(z_start - vz[0]) > 0.0:
+        tb = blend_time if blend_time is not None else min(waveform.z.rise_time, waveform.z.fall_time)
+        tb = min(tb, period)
+        offset = z_start - vz[0]
+        tz = np.unique(np.concatenate((tz, [tb])))
+        vz = waveform.z_at(tz) + offset * np.maximum(0.0, 1.0 - tz / tb)
+        vz[0] = z_start
+        vz[-1] = waveform.z_at(0.0)
+        vz = np.maximum(vz, 0.0)
+    return (
+        np.ascontiguousarray(tx, dtype=np.float64),
+        np.ascontiguousarray(vx, dtype=np.float64),
+        np.ascontiguousarray(tz, dtype=np.float64),
+        np.ascontiguousarray(vz, dtype=np.float64),
+    )
