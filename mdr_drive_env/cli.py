@@ -186,7 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_waveform_arguments(s)
     o = s.add_argument_group("output")
     o.add_argument("--periods", type=int, default=6, help="drive periods to simulate (-)")
-    o.add_argument("--record-every", type=int, default=0, help="trace row every N time steps (0: auto with --plot)")
+    o.add_argument("--record-every", type=int, default=0, help="trace row every N time steps (0: auto with --plot) (-)")
     o.add_argument("--plot", metavar="OUT.png", default=None, help="write X(t), x(t), z(t), F_x, F_z as a PNG")
     o.add_argument("--json", action="store_true", help="print one JSON object (per-period results, params)")
     s.set_defaults(func=cmd_simulate)

@@ -120,7 +120,8 @@ def period_knots(waveform: Waveform, z_start: float | None = None, blend_time: f
     depth ``z_start`` (a change of phase or amplitude), the difference is ramped out linearly over
     ``blend_time`` (default: the new z triangle's shorter edge):
     ``z(t) = z_new(t) + (z_start - z_new(0)) max(0, 1 - t / blend_time)``, so z is continuous and
-    the extra speed is bounded by ``|z_start - z_new(0)| / blend_time``.
+    the extra speed is bounded by ``|z_start - z_new(0)| / blend_time``; the blended depth is
+    clipped to ``[0, max(z_start, new amplitude)]``.
     """
     period = waveform.period
     x_corners = [waveform.x.rise_time]
@@ -139,7 +140,8 @@ def period_knots(waveform: Waveform, z_start: float | None = None, blend_time: f
         vz = waveform.z_at(tz) + offset * np.maximum(0.0, 1.0 - tz / tb)
         vz[0] = z_start
         vz[-1] = waveform.z_at(0.0)
-        vz = np.maximum(vz, 0.0)
+        # never deeper than the deeper of the two waveforms, never out of the half-space
+        vz = np.clip(vz, 0.0, max(z_start, waveform.z.amplitude))
     return (
         np.ascontiguousarray(tx, dtype=np.float64),
         np.ascontiguousarray(vx, dtype=np.float64),

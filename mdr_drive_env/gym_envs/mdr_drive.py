@@ -1,0 +1,267 @@
+"""MDRDrive-v0: learn the drive waveform of a stick-slip piezo micro-drive, one period per step."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ..core import Contact, Drive, DriveParams, DriveSimulator, Material, numerics_preset
+from ..core.materials import normal_force_analytic
+from ..core.waveform import PAPER_X, PAPER_Z, Waveform
+from .spaces import ActionMap, ObservationLayout, sample_range
+
+
+class MDRDriveEnv(gym.Env):
+    """
+    ## Description
+
+    A slider of mass M lies on a fixed base and carries a cargo load ``F_m = m g`` pulling it
+    backwards (-X). An indenter of power-law graded material, ``E(z) = E0 (z/c0)^k``, oscillates
+    horizontally (x) and vertically (z) and drags the slider forward by friction. The contact is the
+    Method of Dimensionality Reduction (MDR) model of Lyashenko, Borysiuk & Popov (2020). Each step
+    simulates one drive period ``T`` (default 2 ms) with the waveform the action chooses; the goal is
+    to move the slider forward (+X) against the load as fast as possible.
+
+    ## Action Space
+
+    ``Box(-1, 1, (5,), float32)``, mapped affinely to the next period's waveform
+    (``value = low + (a + 1) / 2 (high - low)``):
+
+    | index | waveform parameter | range (defaults) |
+    |---|---|---|
+    | 0 | x amplitude | [0, ``x_amplitude_max``] = [0, 30 um] |
+    | 1 | x rise fraction t1/T (slow forward stroke; the fall is the rest) | [0.05, 0.95] |
+    | 2 | z amplitude (maximum indentation depth) | [0, ``z_amplitude_max``] = [0, 6 um] |
+    | 3 | z rise fraction | [0.05, 0.95] |
+    | 4 | z phase delay, fraction of T | [0, 1) |
+
+    Rise fractions and the phase are quantised to ``time_quantum`` (1 us, 1/2000 of T), so corners
+    fall on time steps. Actions outside the box are clipped; a non-finite action raises
+    ``ValueError``. ``env.unwrapped.trapezoid_action()`` is the paper's waveform (Fig. 2) exactly.
+
+    Waveforms stay continuous across period boundaries: x starts and ends every period at 0; if a
+    new z amplitude or phase makes z start at another depth than the last period ended, the jump is
+    ramped out linearly over the new z triangle's shorter edge (``core.waveform.period_knots``).
+
+    ## Observation Space
+
+    ``Box(float32)`` of 14 entries, each normalised to order one and clipped to its bounds:
+
+    | index | entry | unit and scale | bounds |
+    |---|---|---|---|
+    | 0 | displacement over the last period | m / ``reward_scale`` | [-100, 100] |
+    | 1 | mean slider velocity over the last period | m/s / (``reward_scale`` / T) | [-100, 100] |
+    | 2 | slider velocity at the period end | m/s / (``reward_scale`` / T) | [-100, 100] |
+    | 3 | peak tangential force F_x of the last period | N / (mu F_ref) | [0, 2] |
+    | 4 | peak normal force F_z of the last period | N / F_ref | [0, 2] |
+    | 5-9 | previous action | - | [-1, 1] |
+    | 10 | grading exponent k | - | [0, 1] |
+    | 11 | load F_m | N / (mu F_ref) | [0, 100] |
+    | 12 | load F_m | N / 10 N | [0, 100] |
+    | 13 | fraction of the episode elapsed | - | [0, 1] |
+
+    ``F_ref`` is the analytic normal force (paper Eq. 8) at the largest allowed depth
+    ``z_amplitude_max`` for the episode's k, so entry 11 is the load against the largest friction
+    force the contact can transmit. The first observation after ``reset`` has zeros in 0-9.
+
+    ## Rewards
+
+    ``reward = displacement / reward_scale - actuation_penalty * effort`` per period, where the
+    displacement (m) is positive against the load and ``reward_scale`` defaults to 30 um (the
+    paper's x stroke: the trapezoid earns about 0.8 per period at k = 0, m = 0.1 kg).
+    ``effort = ((A_x / A_x,max)^2 + (A_z / A_z,max)^2) / 2`` in [0, 1] is an electrical-energy proxy
+    (a piezo stack's energy per cycle grows with the square of its stroke); the penalty is off by
+    default.
+
+    ## Starting State
+
+    Slider at rest at X = 0, indenter at x = z = 0 (no contact), springs unloaded. k and the cargo
+    mass are drawn uniformly from their ranges (if given as ``(low, high)``) with the env's seeded
+    generator, or set for one episode by ``reset(options={"k": ..., "cargo_mass": ...})``.
+
+    ## Episode End
+
+    Truncation after ``max_periods`` steps (default 50, i.e. 0.1 s), ``truncated=True``. The drive
+    has no absorbing failure state, so ``terminated`` is always False: a slider dragged back by
+    its load keeps earning negative reward until the episode is truncated.
+
+    ## Arguments
+
+    ``gym.make("MDRDrive-v0", **kwargs)`` with flat keyword arguments (SI units):
+    ``k`` (float or (low, high)), ``cargo_mass`` (kg, float or (low, high)), ``youngs_modulus`` (Pa),
+    ``poisson_ratio``, ``reference_depth`` (m), ``rigid_indenter`` (bool), ``indenter_radius`` (m),
+    ``friction_coefficient``, ``base_friction_coefficient``, ``slider_mass`` (kg), ``gravity``
+    (m/s^2), ``cargo_inertia`` (bool), ``numerics`` (preset name), ``period`` (s), ``max_periods``,
+    ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
+    ``max_rise_fraction``, ``reward_scale`` (m), ``actuation_penalty``, ``render_mode``
+    (``"rgb_array"`` or ``"human"``). Bad values raise ``ValueError`` naming the argument.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        k: float | tuple[float, float] = 0.2,
+        cargo_mass: float | tuple[float, float] = 0.1,
+        youngs_modulus: float = 2e11,
+        poisson_ratio: float = 0.3,
+        reference_depth: float = 1.0,
+        rigid_indenter: bool = False,
+        indenter_radius: float = 2.5e-3,
+        friction_coefficient: float = 0.3,
+        base_friction_coefficient: float = 0.1,
+        slider_mass: float = 0.05,
+        gravity: float = 9.81,
+        cargo_inertia: bool = False,
+        numerics: str = "default",
+        period: float = 2e-3,
+        max_periods: int = 50,
+        x_amplitude_max: float = 30e-6,
+        z_amplitude_max: float = 6e-6,
+        min_rise_fraction: float = 0.05,
+        max_rise_fraction: float = 0.95,
+        reward_scale: float = 30e-6,
+        actuation_penalty: float = 0.0,
+        render_mode: str | None = None,
+    ):
+        self.k_range = sample_range("k", k, 0.0, 1.0, high_open=True)
+        self.cargo_mass_range = sample_range("cargo_mass", cargo_mass, 0.0, math.inf)
+        self._material = Material(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
+                                  reference_depth=reference_depth)
+        self.rigid_indenter = bool(rigid_indenter)
+        self._contact = Contact(indenter_radius=indenter_radius, friction_coefficient=friction_coefficient,
+                                base_friction_coefficient=base_friction_coefficient)
+        self._drive = Drive(slider_mass=slider_mass, gravity=gravity, cargo_inertia=bool(cargo_inertia))
+        self.numerics = numerics_preset(numerics)
+        if not (isinstance(max_periods, (int, np.integer)) and max_periods >= 1):
+            raise ValueError(f"max_periods={max_periods!r} is outside the allowed range [1, inf)")
+        for name, value in (("reward_scale", reward_scale), ("period", period)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}={value!r} is outside the allowed range (0, inf)")
+        if not (isinstance(actuation_penalty, (int, float)) and math.isfinite(actuation_penalty)
+                and actuation_penalty >= 0):
+            raise ValueError(f"actuation_penalty={actuation_penalty!r} is outside the allowed range [0, inf)")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode={render_mode!r} is not one of {self.metadata['render_modes']}")
+        self.max_periods = int(max_periods)
+        self.reward_scale = float(reward_scale)
+        self.actuation_penalty = float(actuation_penalty)
+        self.render_mode = render_mode
+        self.action_map = ActionMap(period=float(period), x_amplitude_max=x_amplitude_max,
+                                    z_amplitude_max=z_amplitude_max, min_rise_fraction=min_rise_fraction,
+                                    max_rise_fraction=max_rise_fraction, time_step=self.numerics.time_step)
+        self.layout = ObservationLayout()
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(ActionMap.SIZE,), dtype=np.float32)
+        self.observation_space = spaces.Box(self.layout.low, self.layout.high, dtype=np.float32)
+        self.sim: DriveSimulator | None = None
+        self.last_trace: np.ndarray | None = None
+        self._renderer = None
+
+    # --- helpers ---
+    def params_for(self, k: float, cargo_mass: float) -> DriveParams:
+        """The physical model for one episode."""
+        graded = Material(**{**self._material.__dict__, "grading_exponent": k})
+        return DriveParams(indenter=Material.rigid() if self.rigid_indenter else graded, slider=graded,
+                           contact=self._contact, drive=Drive(**{**self._drive.__dict__, "cargo_mass": cargo_mass}))
+
+    def trapezoid_action(self) -> np.ndarray:
+        """The action whose waveform is the paper's (Fig. 2) exactly, as float32 in the box."""
+        return self.action_map.to_action(Waveform(x=PAPER_X, z=PAPER_Z, z_phase=0.0))
+
+    def action_to_waveform(self, action: np.ndarray) -> Waveform:
+        """The waveform (SI units) an action selects; clips to the box, raises on non-finite."""
+        return self.action_map.to_waveform(action)
+
+    # --- Gymnasium API ---
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = set(options) - {"k", "cargo_mass"}
+        if unknown:
+            raise ValueError(f"reset options {sorted(unknown)} are not supported (use 'k', 'cargo_mass')")
+        k = options.get("k", None)
+        m = options.get("cargo_mass", None)
+        self.k = float(self.np_random.uniform(*self.k_range)) if k is None else float(k)
+        self.cargo_mass = float(self.np_random.uniform(*self.cargo_mass_range)) if m is None else float(m)
+        self.params = self.params_for(self.k, self.cargo_mass)  # validates k and cargo_mass
+        self.sim = DriveSimulator(self.params, self.numerics, max_depth=self.action_map.z_amplitude_max)
+        p = self.params
+        self.force_ref = normal_force_analytic(self.action_map.z_amplitude_max, p.k, p.contact.indenter_radius,
+                                               p.normal_stiffness_prefactor, p.c0)
+        self.period_index = 0
+        self.last_trace = None
+        self._prev_action = np.zeros(ActionMap.SIZE, dtype=np.float32)
+        obs = self._observation(None)
+        return obs, self._info(None, None)
+
+    def step(self, action):
+        if self.sim is None:
+            raise RuntimeError("call reset() before step()")
+        action = np.asarray(action, dtype=np.float64).reshape(ActionMap.SIZE)
+        waveform = self.action_map.to_waveform(action)
+        record = self.action_map.steps_per_period // 200 if self.render_mode is not None else 0
+        result = self.sim.step(waveform, record_every=record)
+        self.last_trace = result.trace
+        self.period_index += 1
+        self._prev_action = np.clip(action, -1.0, 1.0).astype(np.float32)
+        effort = self.action_map.effort(waveform)
+        reward = result.displacement / self.reward_scale - self.actuation_penalty * effort
+        obs = self._observation(result)
+        truncated = self.period_index >= self.max_periods
+        if self.render_mode == "human":
+            self.render()
+        return obs, float(reward), False, truncated, self._info(result, waveform, effort)
+
+    def _observation(self, r) -> np.ndarray:
+        p = self.params
+        mu_fref = p.contact.friction_coefficient * self.force_ref
+        v_scale = self.reward_scale / self.action_map.period
+        dyn = (0.0,) * 5 if r is None else (
+            r.displacement / self.reward_scale, r.mean_velocity / v_scale, r.end_velocity / v_scale,
+            r.peak_tangential_force / mu_fref, r.peak_normal_force / self.force_ref)
+        obs = np.array([*dyn, *self._prev_action, p.k, p.drive.load / mu_fref, p.drive.load / 10.0,
+                        self.period_index / self.max_periods], dtype=np.float32)
+        return np.clip(obs, self.layout.low, self.layout.high)
+
+    def _info(self, r, waveform, effort=0.0) -> dict[str, Any]:
+        info: dict[str, Any] = {"k": self.k, "cargo_mass": self.cargo_mass, "load_force": self.params.drive.load,
+                                "period_index": self.period_index}
+        if r is not None:
+            info.update(
+                displacement=r.displacement, mean_velocity=r.mean_velocity, end_velocity=r.end_velocity,
+                slider_position=r.end_position, peak_tangential_force=r.peak_tangential_force,
+                peak_normal_force=r.peak_normal_force, indenter_dissipation=r.indenter_dissipation,
+                base_dissipation=r.base_dissipation, load_work=r.load_work, effort=effort,
+                waveform=self.action_map.describe(waveform),
+            )
+        return info
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to gym.make")
+            return None
+        from .rendering import Renderer
+
+        if self._renderer is None:
+            self._renderer = Renderer(human=self.render_mode == "human")
+        frame = self._renderer.draw(self)
+        return frame if self.render_mode == "rgb_array" else None
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_renderer"] = None  # matplotlib figures do not pickle
+        return state
+

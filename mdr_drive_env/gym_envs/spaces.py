@@ -1,0 +1,135 @@
+"""Action and observation spaces of MDRDrive: the action <-> waveform map and the observation layout."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.params import check_range
+from ..core.waveform import AxisWaveform, Waveform
+
+
+def sample_range(name: str, value, low: float, high: float, high_open: bool = False) -> tuple[float, float]:
+    """A float or a (low, high) pair as a validated (low, high) range for uniform sampling."""
+    pair = tuple(value) if isinstance(value, (tuple, list, np.ndarray)) else (value, value)
+    if len(pair) != 2:
+        raise ValueError(f"{name}={value!r} must be a float or a (low, high) pair")
+    for v in pair:
+        check_range(name, float(v) if isinstance(v, (int, float, np.floating)) else v, low, high, high_open=high_open)
+    if pair[0] > pair[1]:
+        raise ValueError(f"{name}={value!r}: low must not exceed high")
+    return float(pair[0]), float(pair[1])
+
+
+@dataclass(frozen=True)
+class ActionMap:
+    """Affine map of an action in [-1, 1]^5 to the next period's waveform (SI units).
+
+    Rise fractions and the z phase are quantised to ``time_quantum`` (s) so every corner falls on
+    a time step; times are rounded to 1e-12 s so the paper's waveform is reproduced exactly.
+    """
+
+    period: float = 2e-3
+    x_amplitude_max: float = 30e-6
+    z_amplitude_max: float = 6e-6
+    min_rise_fraction: float = 0.05
+    max_rise_fraction: float = 0.95
+    time_step: float = 1e-6
+    time_quantum: float = 1e-6
+
+    SIZE = 5
+    NAMES = ("x_amplitude", "x_rise_fraction", "z_amplitude", "z_rise_fraction", "z_phase")
+
+    def __post_init__(self) -> None:
+        check_range("x_amplitude_max", self.x_amplitude_max, 0.0, 1e-3, low_open=True)
+        check_range("z_amplitude_max", self.z_amplitude_max, 0.0, 1e-3, low_open=True)
+        check_range("min_rise_fraction", self.min_rise_fraction, 0.0, 0.5, low_open=True)
+        check_range("max_rise_fraction", self.max_rise_fraction, self.min_rise_fraction, 1.0, high_open=True)
+        check_range("period", self.period, 0.0, 1.0, low_open=True)
+        if not _divides(self.time_quantum, self.period):
+            raise ValueError(f"period={self.period!r} must be a multiple of the time quantum {self.time_quantum!r} s")
+        if not _divides(self.time_step, self.time_quantum):
+            raise ValueError(f"the numerics time step {self.time_step!r} s must divide {self.time_quantum!r} s")
+        edge = min(self.min_rise_fraction, 1.0 - self.max_rise_fraction) * self.period
+        if edge < 10 * self.time_step:
+            raise ValueError(f"min_rise_fraction/max_rise_fraction allow an edge of {edge!r} s, "
+                             f"shorter than 10 time steps of {self.time_step!r} s")
+
+    @property
+    def quanta(self) -> int:
+        """Time quanta per period."""
+        return int(round(self.period / self.time_quantum))
+
+    @property
+    def steps_per_period(self) -> int:
+        return int(round(self.period / self.time_step))
+
+    def _rise_quanta(self, fraction: float) -> int:
+        n = self.quanta
+        lo, hi = math.ceil(self.min_rise_fraction * n - 1e-9), math.floor(self.max_rise_fraction * n + 1e-9)
+        return int(min(max(round(fraction * n), lo), hi))
+
+    def _axis(self, amplitude: float, rise_fraction: float) -> AxisWaveform:
+        rise = round(self._rise_quanta(rise_fraction) * self.time_quantum, 12)
+        return AxisWaveform(amplitude, rise, round(self.period - rise, 12))
+
+    def to_waveform(self, action) -> Waveform:
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.size != self.SIZE:
+            raise ValueError(f"action must have {self.SIZE} entries, got {a.size}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action {a.tolist()} is not finite")
+        u = (np.clip(a, -1.0, 1.0) + 1.0) / 2.0  # in [0, 1]
+        span = self.max_rise_fraction - self.min_rise_fraction
+        x = self._axis(u[0] * self.x_amplitude_max, self.min_rise_fraction + u[1] * span)
+        z = self._axis(u[2] * self.z_amplitude_max, self.min_rise_fraction + u[3] * span)
+        phase = (int(round(u[4] * self.quanta)) % self.quanta) / self.quanta
+        return Waveform(x=x, z=z, z_phase=phase)
+
+    def to_action(self, waveform: Waveform) -> np.ndarray:
+        """The action that selects ``waveform`` (inverse of :meth:`to_waveform` on the grid)."""
+        span = self.max_rise_fraction - self.min_rise_fraction
+        u = np.array([
+            waveform.x.amplitude / self.x_amplitude_max,
+            (waveform.x.rise_time / waveform.period - self.min_rise_fraction) / span,
+            waveform.z.amplitude / self.z_amplitude_max,
+            (waveform.z.rise_time / waveform.period - self.min_rise_fraction) / span,
+            waveform.z_phase,
+        ])
+        if np.any(u < -1e-9) or np.any(u > 1 + 1e-9):
+            raise ValueError(f"waveform {waveform} lies outside the action box")
+        return np.clip(2.0 * u - 1.0, -1.0, 1.0).astype(np.float32)
+
+    def effort(self, waveform: Waveform) -> float:
+        """Electrical-energy proxy in [0, 1]: mean squared stroke relative to the actuator limits."""
+        return 0.5 * ((waveform.x.amplitude / self.x_amplitude_max) ** 2
+                      + (waveform.z.amplitude / self.z_amplitude_max) ** 2)
+
+    @staticmethod
+    def describe(waveform: Waveform) -> dict[str, float]:
+        """The waveform in SI units, flat."""
+        return {
+            "x_amplitude": waveform.x.amplitude, "x_rise_time": waveform.x.rise_time,
+            "x_fall_time": waveform.x.fall_time, "z_amplitude": waveform.z.amplitude,
+            "z_rise_time": waveform.z.rise_time, "z_fall_time": waveform.z.fall_time,
+            "z_phase": waveform.z_phase, "period": waveform.period,
+        }
+
+
+def _divides(small: float, big: float) -> bool:
+    n = big / small
+    return round(n) >= 1 and abs(n - round(n)) < 1e-6 * n
+
+
+class ObservationLayout:
+    """Names and bounds of the observation entries (see the env docstring for units and scales)."""
+
+    NAMES = ("displacement", "mean_velocity", "end_velocity", "peak_tangential_force", "peak_normal_force",
+             "prev_x_amplitude", "prev_x_rise_fraction", "prev_z_amplitude", "prev_z_rise_fraction",
+             "prev_z_phase", "k", "load_over_friction", "load_over_10N", "episode_fraction")
+
+    def __init__(self) -> None:
+        self.low = np.array([-100, -100, -100, 0, 0, -1, -1, -1, -1, -1, 0, 0, 0, 0], dtype=np.float32)
+        self.high = np.array([100, 100, 100, 2, 2, 1, 1, 1, 1, 1, 1, 100, 100, 1], dtype=np.float32)

@@ -1,0 +1,207 @@
+"""MDRDrive-v0: the Gymnasium contract, seeding, pickling, subprocesses and physics consistency."""
+
+import multiprocessing as mp
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import mdr_drive_env
+from mdr_drive_env.core import DriveParams, DriveSimulator, Waveform
+from mdr_drive_env.core import kernel as K
+
+ENV_IDS = mdr_drive_env.ENV_IDS
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_gymnasium_env_checker_passes_without_warnings(env_id):
+    from gymnasium.utils.env_checker import check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env = gym.make(env_id, max_periods=5)
+        check_env(env.unwrapped)
+        env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_sb3_env_checker_passes_without_warnings(env_id):
+    from stable_baselines3.common.env_checker import check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make(env_id, max_periods=5), warn=True)
+
+
+def _rollout(env, seed, n=8):
+    obs, _ = env.reset(seed=seed)
+    env.action_space.seed(seed)
+    out = [obs]
+    for _ in range(n):
+        obs, r, term, trunc, info = env.step(env.action_space.sample())
+        out.append(np.append(obs, [r, info["displacement"]]))
+    return out
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_seeded_rollouts_are_identical(env_id):
+    kw = dict(k=(0.0, 0.5), cargo_mass=(0.0, 0.3))
+    a = _rollout(gym.make(env_id, **kw), seed=7)
+    b = _rollout(gym.make(env_id, **kw), seed=7)
+    c = _rollout(gym.make(env_id, **kw), seed=8)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+    assert not np.array_equal(a[0], c[0])  # another seed, another (k, m)
+
+
+def test_pickle_round_trip_continues_identically():
+    env = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.05)
+    env.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        env.step(rng.uniform(-1, 1, 5))
+    clone = pickle.loads(pickle.dumps(env))
+    actions = rng.uniform(-1, 1, (4, 5))
+    for a in actions:
+        o1, r1, *_ = env.step(a)
+        o2, r2, *_ = clone.step(a)
+        np.testing.assert_array_equal(o1, o2)
+        assert r1 == r2
+
+
+def _spawned_rollout(seed):
+    import gymnasium as gym  # no import of mdr_drive_env: the id's module prefix does it
+
+    env = gym.make("mdr_drive_env:MDRDrive-v0", max_periods=3)
+    obs, _ = env.reset(seed=seed)
+    total = 0.0
+    for _ in range(3):
+        obs, r, term, trunc, _ = env.step(env.unwrapped.trapezoid_action())
+        total += r
+    return total, bool(trunc)
+
+
+def test_make_by_module_prefix_in_a_spawned_subprocess():
+    ctx = mp.get_context("spawn")
+    with ctx.Pool(1) as pool:
+        total, truncated = pool.apply(_spawned_rollout, (0,))
+    assert truncated and total == pytest.approx(_spawned_rollout(0)[0], rel=0, abs=0)
+
+
+def test_async_vector_env_and_sb3_subproc_vec_env():
+    vec = gym.make_vec("mdr_drive_env:MDRDrive-v0", num_envs=2, vectorization_mode="async",
+                       vector_kwargs={"context": "spawn"}, max_periods=4)
+    obs, _ = vec.reset(seed=[1, 2])
+    assert obs.shape == (2, 14) and obs.dtype == np.float32
+    obs, r, term, trunc, _ = vec.step(np.zeros((2, 5), dtype=np.float32))
+    assert np.all(np.isfinite(r))
+    vec.close()
+
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
+    sb3 = make_vec_env("mdr_drive_env:MDRDrive-v0", n_envs=2, vec_env_cls=SubprocVecEnv,
+                       vec_env_kwargs={"start_method": "spawn"}, env_kwargs={"max_periods": 4})
+    sb3.reset()
+    _, rewards, _, _ = sb3.step(np.zeros((2, 5), dtype=np.float32))
+    assert rewards.shape == (2,) and np.all(np.isfinite(rewards))
+    sb3.close()
+
+
+def test_trapezoid_action_reproduces_the_simulator_bit_for_bit():
+    env = gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1, max_periods=6)
+    env.reset(seed=0)
+    a = env.unwrapped.trapezoid_action()
+    assert env.action_space.contains(a)
+    assert env.unwrapped.action_to_waveform(a) == Waveform.paper()
+    sim = DriveSimulator(DriveParams.paper(k=0.2, cargo_mass=0.1), "default")
+    for expected in sim.run(Waveform.paper(), 6):
+        _, reward, _, _, info = env.step(a)
+        assert info["displacement"] == expected.displacement
+        assert info["mean_velocity"] == expected.mean_velocity
+        assert reward == expected.displacement / 30e-6
+
+
+def test_truncation_at_max_periods_and_never_terminated():
+    env = gym.make("MDRDrive-v0", max_periods=3, cargo_mass=0.5, k=0.5)  # dragged back hard
+    env.reset(seed=0)
+    flags = [env.step(np.zeros(5))[2:4] for _ in range(3)]
+    assert flags == [(False, False), (False, False), (False, True)]
+
+
+def test_ranges_are_sampled_inside_their_bounds():
+    env = gym.make("MDRDrive-v0", k=(0.1, 0.4), cargo_mass=(0.02, 0.3))
+    ks, ms = [], []
+    for seed in range(40):
+        _, info = env.reset(seed=seed)
+        ks.append(info["k"])
+        ms.append(info["cargo_mass"])
+    assert 0.1 <= min(ks) and max(ks) <= 0.4 and np.ptp(ks) > 0.15
+    assert 0.02 <= min(ms) and max(ms) <= 0.3 and np.ptp(ms) > 0.1
+    _, info = env.reset(seed=0, options={"k": 0.6, "cargo_mass": 0.0})
+    assert info["k"] == 0.6 and info["cargo_mass"] == 0.0 and info["load_force"] == 0.0
+
+
+@pytest.mark.parametrize("kwargs,name", [
+    ({"k": 1.0}, "k"), ({"k": (0.5, 0.1)}, "k"), ({"cargo_mass": -0.1}, "cargo_mass"),
+    ({"max_periods": 0}, "max_periods"), ({"x_amplitude_max": 0.0}, "x_amplitude_max"),
+    ({"reward_scale": -1.0}, "reward_scale"), ({"actuation_penalty": float("nan")}, "actuation_penalty"),
+    ({"numerics": "exact"}, "numerics"), ({"min_rise_fraction": 0.6}, "min_rise_fraction"),
+    ({"poisson_ratio": 0.7}, "poisson_ratio"), ({"render_mode": "ascii"}, "render_mode"),
+])
+@pytest.mark.filterwarnings("ignore:.*render_mode='ascii'.*:UserWarning")  # gym.make's own warning
+def test_bad_arguments_raise_naming_the_argument(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        gym.make("MDRDrive-v0", **kwargs).reset(seed=0)
+
+
+def test_non_finite_actions_raise_and_leave_the_state_untouched():
+    env = gym.make("MDRDrive-v0")
+    env.reset(seed=0)
+    env.step(np.zeros(5))
+    before = env.unwrapped.sim.state.copy()
+    for bad in ([np.nan, 0, 0, 0, 0], [0, 0, np.inf, 0, 0]):
+        with pytest.raises(ValueError, match="not finite"):
+            env.step(np.array(bad, dtype=np.float32))
+    np.testing.assert_array_equal(env.unwrapped.sim.state, before)
+
+
+def test_actuation_penalty_and_info_units():
+    env = gym.make("MDRDrive-v0", actuation_penalty=0.5, k=0.0, cargo_mass=0.0)
+    env.reset(seed=0)
+    _, r, _, _, info = env.step(env.unwrapped.trapezoid_action())
+    assert info["effort"] == 1.0  # full x and z stroke
+    assert r == pytest.approx(info["displacement"] / 30e-6 - 0.5)
+    w = info["waveform"]
+    assert (w["x_amplitude"], w["x_rise_time"], w["z_amplitude"], w["z_rise_time"]) == (30e-6, 1.9e-3, 6e-6, 1.7e-3)
+    assert info["load_force"] == 0.0 and info["mean_velocity"] == info["displacement"] / 2e-3
+
+
+def test_rgb_array_render_shows_a_frame():
+    env = gym.make("MDRDrive-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    env.step(env.unwrapped.trapezoid_action())
+    frame = env.render()
+    assert frame.ndim == 3 and frame.shape[2] == 3 and frame.dtype == np.uint8
+    assert frame.std() > 10  # not a blank image
+    env.close()
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.lists(st.floats(-1, 1), min_size=5, max_size=5), min_size=1, max_size=6),
+       st.floats(0.0, 0.95), st.floats(0.0, 0.6))
+def test_random_action_sequences_stay_finite_and_obey_coulomb(actions, k, m):
+    env = gym.make("MDRDrive-v0", k=k, cargo_mass=m, render_mode="rgb_array")
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+    for a in actions:
+        obs, r, _, _, info = env.step(np.array(a, dtype=np.float32))
+        assert np.all(np.isfinite(obs)) and np.isfinite(r)
+        assert env.observation_space.contains(obs)
+        tr = env.unwrapped.last_trace
+        assert np.all(np.abs(tr[:, K.T_FX]) <= 0.3 * tr[:, K.T_FZ] * (1 + 1e-12))
+        assert info["peak_tangential_force"] <= 0.3 * info["peak_normal_force"] * (1 + 1e-12)
