@@ -74,11 +74,6 @@ def reproduce(out: str | Path = "results/paper", numerics: str = "paper", period
     """
     import json
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     workers = workers or len(os.sched_getaffinity(0))
@@ -119,60 +114,8 @@ def reproduce(out: str | Path = "results/paper", numerics: str = "paper", period
     _write_csv(out / "sensitivity.csv", ["h_N_scale", "h_T_scale", "mean_velocity_m_s"],
                [(sn, st, v) for (sn, st), v in zip(sens_cases, v_sens)])
 
-    # --- figures ---
-    fig, ax = plt.subplots(figsize=(6, 4.2))
-    for m, tr in zip(fig3_masses, traces3):
-        ax.plot(tr[:, K.T_TIME] * 1e3, tr[:, K.T_SLIDER_X] * 1e6, label=f"m = {m:g} kg")
-    ax.set(xlabel="t (ms)", ylabel="X (um)", title=f"Fig. 3: slider position, k = 0 ({numerics} numerics)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out / "fig3.png", dpi=120)
-    plt.close(fig)
-
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
-    for k, tr in zip(FIG4_KS, traces4):
-        a1.plot(tr[:, K.T_TIME] * 1e3, tr[:, K.T_SLIDER_X] * 1e6, label=f"k = {k:g}")
-        a2.plot(tr[:, K.T_TIME] * 1e3, tr[:, K.T_FX], label=f"k = {k:g}", lw=0.8)
-    a1.set(xlabel="t (ms)", ylabel="X (um)", title="Fig. 4 left: slider position, m = 0.1 kg")
-    a2.set(xlabel="t (ms)", ylabel="F_x (N)", title="Fig. 4 right: tangential force, m = 0.1 kg")
-    for a in (a1, a2):
-        a.legend(fontsize=8)
-        a.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out / "fig4.png", dpi=120)
-    plt.close(fig)
-
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
-    vl = np.array(v_left).reshape(len(left_ks), len(left_masses))
-    for k, row in zip(left_ks, vl):
-        a1.plot(left_masses, row * 1e3, "o-", ms=3, label=f"k = {k:g}")
+    plot_figures(out, numerics)
     vr = np.array(v_right).reshape(len(fig5_masses), len(fig5_ks))
-    for m, row in zip(fig5_masses, vr):
-        a2.plot(fig5_ks, row * 1e3, "o-", ms=3, label=f"m = {m:g} kg")
-    a1.set(xlabel="cargo mass m (kg)", ylabel="<V> (mm/s)", title="Fig. 5 left: <V> (6th period) vs m")
-    a2.set(xlabel="k", ylabel="<V> (mm/s)", title="Fig. 5 right: <V> (6th period) vs k")
-    for a in (a1, a2):
-        a.axhline(0, color="k", lw=0.6)
-        a.legend(fontsize=7)
-        a.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out / "fig5.png", dpi=120)
-    plt.close(fig)
-
-    fig, ax = plt.subplots(figsize=(6, 4.2))
-    n = len(scales)
-    for sl, label in ((slice(0, n), "h_N and h_T scaled"), (slice(n, 2 * n), "h_N scaled"),
-                      (slice(2 * n, 3 * n), "h_T scaled")):
-        ax.plot(scales, np.array(v_sens[sl]) * 1e3, "o-", label=label)
-    ax.axhline(0, color="k", lw=0.6)
-    ax.set(xscale="log", xlabel="scale factor on h", ylabel="<V> (mm/s)",
-           title="Sensitivity of <V> to h_N, h_T (k = 0.3, m = 0.1 kg)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out / "sensitivity.png", dpi=120)
-    plt.close(fig)
 
     summary = {
         "numerics": numerics,
@@ -192,3 +135,85 @@ def _dt(numerics: str) -> float:
     from .core import numerics_preset
 
     return numerics_preset(numerics).time_step
+
+
+def _read_csv(path: Path):
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    return rows[0], rows[1:]
+
+
+def plot_figures(out: str | Path, numerics: str = "paper") -> None:
+    """Draw fig3-5 and the sensitivity plot from the CSVs in ``out`` (no simulation)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    head, rows = _read_csv(out / "fig3.csv")
+    a = np.array(rows, dtype=float)
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    for c, name in enumerate(head[1:], 1):
+        ax.plot(a[:, 0] * 1e3, a[:, c] * 1e6, label=f"m = {name.split('_')[-1].replace('kg', '')} kg")
+    ax.set(xlabel="t (ms)", ylabel="X (um)", title=f"Fig. 3: slider position, k = 0 ({numerics} numerics)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "fig3.png", dpi=120)
+    plt.close(fig)
+
+    head, rows = _read_csv(out / "fig4.csv")
+    a = np.array(rows, dtype=float)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    for c in range(1, len(head), 2):
+        k = head[c].split("_")[-1]
+        a1.plot(a[:, 0] * 1e3, a[:, c] * 1e6, label=f"k = {k}")
+        a2.plot(a[:, 0] * 1e3, a[:, c + 1], label=f"k = {k}", lw=0.8)
+    a1.set(xlabel="t (ms)", ylabel="X (um)", title="Fig. 4 left: slider position, m = 0.1 kg")
+    a2.set(xlabel="t (ms)", ylabel="F_x (N)", title="Fig. 4 right: tangential force, m = 0.1 kg")
+    for ax in (a1, a2):
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "fig4.png", dpi=120)
+    plt.close(fig)
+
+    _, rows = _read_csv(out / "fig5.csv")
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8))
+    for col, (panel, key, other, xlabel, fmt) in enumerate((
+            ("left", 2, 1, "cargo mass m (kg)", "k = {:g}"), ("right", 1, 2, "k", "m = {:g} kg"))):
+        sel = [r for r in rows if r[0] == panel]
+        for curve in sorted({float(r[other]) for r in sel}):
+            pts = sorted((float(r[key]), float(r[3])) for r in sel if float(r[other]) == curve)
+            xs, vs = zip(*pts)
+            for row in (0, 1):
+                axes[row, col].plot(xs, np.array(vs) * 1e3, "o-", ms=3, label=fmt.format(curve))
+        axes[0, col].set(title=f"Fig. 5 {panel}: <V> (6th period) vs {'m' if panel == 'left' else 'k'}")
+        axes[1, col].set(ylim=(-20, 20), title="zoom on |<V>| < 20 mm/s (the driving range)")
+        for row in (0, 1):
+            axes[row, col].set(xlabel=xlabel, ylabel="<V> (mm/s)")
+            axes[row, col].axhline(0, color="k", lw=0.6)
+            axes[row, col].grid(alpha=0.3)
+        axes[0, col].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "fig5.png", dpi=120)
+    plt.close(fig)
+
+    _, rows = _read_csv(out / "sensitivity.csv")
+    r = np.array(rows, dtype=float)
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    for mask, label in ((r[:, 0] == r[:, 1], "h_N and h_T scaled"), (r[:, 1] == 1.0, "h_N scaled"),
+                        (r[:, 0] == 1.0, "h_T scaled")):
+        pts = r[mask]
+        pts = pts[np.argsort(pts[:, 0] if label != "h_T scaled" else pts[:, 1])]
+        ax.plot(pts[:, 0] if label != "h_T scaled" else pts[:, 1], pts[:, 2] * 1e3, "o-", label=label,
+                ms=7 if label.startswith("h_N and") else 4)
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set(xscale="log", xlabel="scale factor on h", ylabel="<V> (mm/s)",
+           title="Sensitivity of <V> to h_N, h_T (k = 0.3, m = 0.1 kg)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "sensitivity.png", dpi=120)
+    plt.close(fig)

@@ -205,3 +205,17 @@ def test_random_action_sequences_stay_finite_and_obey_coulomb(actions, k, m):
         tr = env.unwrapped.last_trace
         assert np.all(np.abs(tr[:, K.T_FX]) <= 0.3 * tr[:, K.T_FZ] * (1 + 1e-12))
         assert info["peak_tangential_force"] <= 0.3 * info["peak_normal_force"] * (1 + 1e-12)
+
+
+def test_docs_environment_md_is_the_env_docstring():
+    import inspect
+    from pathlib import Path
+
+    from mdr_drive_env.gym_envs import MDRDriveEnv
+
+    doc = inspect.cleandoc(MDRDriveEnv.__doc__)
+    text = (Path(__file__).parents[1] / "docs" / "environment.md").read_text()
+    assert doc in text, "docs/environment.md is stale: run python scripts/gen_env_doc.py"
+    for section in ("Description", "Action Space", "Observation Space", "Rewards", "Starting State",
+                    "Episode End", "Arguments", "Version History"):
+        assert f"## {section}" in doc
