@@ -14,7 +14,8 @@ def register_envs() -> None:
     from gymnasium.envs.registration import register, registry
 
     if "MDRDrive-v0" not in registry:
-        register(id="MDRDrive-v0", entry_point="mdr_drive_env.gym_envs:MDRDriveEnv")
+        register(id="MDRDrive-v0", entry_point="mdr_drive_env.gym_envs:MDRDriveEnv",
+                 vector_entry_point="mdr_drive_env.gym_envs:MDRDriveVectorEnv")
 
 
 register_envs()

@@ -51,7 +51,8 @@ def add_model_arguments(p: argparse.ArgumentParser) -> None:
     d.add_argument("--cargo-inertia", action="store_true", help="the cargo moves with the slider (mass M + m)")
     n = p.add_argument_group("numerics")
     n.add_argument("--numerics", default="default", choices=sorted(NUMERICS_PRESETS),
-                   help="preset: paper = dt 1e-7 s, dx 1e-8 m; default = dt 1e-6 s, dx 1e-7 m")
+                   help="preset: paper = dt 1e-7 s, dx 1e-8 m; default = dt 1e-6 s, dx 1e-7 m; "
+                        "fast = the node solver (docs/performance.md)")
     n.add_argument("--dt", type=float, default=None, help="override the preset's time step (s)")
     n.add_argument("--dx", type=float, default=None, help="override the preset's spring spacing (m)")
 
@@ -169,6 +170,14 @@ def cmd_reproduce(a: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench(a: argparse.Namespace) -> int:
+    from .bench import run
+
+    res = run(a.out, quick=a.quick)
+    print((__import__("pathlib").Path(a.out) / "bench_speed.md").read_text())
+    return 0 if res["accuracy_fast"]["max_error_over_tolerance"] <= 1.0 else 1
+
+
 def cmd_demo(a: argparse.Namespace) -> int:
     from .demo import demo
 
@@ -199,6 +208,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--workers", type=int, default=None, help="processes (default: available cores)")
     r.add_argument("--quick", action="store_true", help="a small subset of the cases (for CI)")
     r.set_defaults(func=cmd_reproduce)
+
+    b = sub.add_parser("bench", formatter_class=_F, help="speed and accuracy of the solvers",
+                       description="Periods/s of the kernels, env and vector env; accuracy of the fast solver "
+                                   "against the paper preset on the k x load x waveform grid.")
+    b.add_argument("--out", default="results/bench", help="output folder (bench_speed.json, bench_speed.md)")
+    b.add_argument("--quick", action="store_true", help="shorter timing blocks")
+    b.set_defaults(func=cmd_bench)
 
     d = sub.add_parser("demo", formatter_class=_F, help="the README's demo (make demo)",
                        description="Simulate the paper's drive and show what the package does.")

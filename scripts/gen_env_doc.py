@@ -39,10 +39,12 @@ if __name__ == "__main__":  # subprocess vector envs re-import this file
     model = PPO("MlpPolicy", venv, n_steps=256, verbose=1).learn(10_000, progress_bar=True)
 ```
 
-This runs without warnings (about 250 steps/s with two subprocess envs on this 2-core machine).
+This runs without warnings.
 
-One step costs one simulated drive period: about 3 ms with the `default` numerics preset
-(see [numerics.md](numerics.md)).
+One step costs one simulated drive period with the fast solver (the `fast` numerics preset; speed
+and accuracy against the paper's numerics in [performance.md](performance.md)). For many envs in
+one process, `gym.make_vec("MDRDrive-v0", num_envs=64, vectorization_mode="vector_entry_point")`
+steps all of them in one compiled call; `agents.vec_env.BatchedVecEnv` adapts it to SB3.
 """
 
 

@@ -227,26 +227,49 @@ class DriveParams:
 
 @dataclass(frozen=True)
 class Numerics:
-    """Discretisation of the reference solver.
+    """Discretisation of the solver.
 
     Attributes:
-        time_step: dt (s) of the semi-implicit Euler integration.
-        spring_spacing: dx (m), the distance between MDR springs.
+        time_step: dt (s) of the integration.
+        spring_spacing: dx (m), the distance between MDR springs (``method="grid"``).
+        method: ``"grid"``, the reference solver: springs uniform in x, the paper's ``sgn(V)``
+            base friction; or ``"nodes"``, the fast solver: finite-element nodes uniform in the
+            MDR profile g with closed-form weights, Coulomb stick at the base (core/fast_kernel.py).
+        nodes: number of nodes of the fast solver (``method="nodes"``).
+        max_x_step: largest indenter x motion per step (m) of the fast solver: steps shrink on
+            fast edges. ``time_step`` is then the longest step.
+        max_z_step: the same for z (m).
+        node_power: node i sits at ``g_i = g_top (i / (nodes - 2))^node_power`` (-): 1 is uniform
+            in g, 2 uniform in x; above 1, small contacts get more nodes.
     """
 
     time_step: float
-    spring_spacing: float
+    spring_spacing: float = 1e-7
+    method: str = "grid"
+    nodes: int = 64
+    max_x_step: float = 1.0
+    max_z_step: float = 1.0
+    node_power: float = 1.0
 
     def __post_init__(self) -> None:
         check_range("Numerics.time_step", self.time_step, 0.0, 1e-4, low_open=True)
         check_range("Numerics.spring_spacing", self.spring_spacing, 0.0, 1e-5, low_open=True)
+        if self.method not in ("grid", "nodes"):
+            raise ValueError(f"Numerics.method={self.method!r} is not one of ['grid', 'nodes']")
+        check_range("Numerics.max_x_step", self.max_x_step, 0.0, low_open=True)
+        check_range("Numerics.max_z_step", self.max_z_step, 0.0, low_open=True)
+        check_range("Numerics.node_power", self.node_power, 1.0, 3.0)
+        if not isinstance(self.nodes, int) or isinstance(self.nodes, bool) or not 4 <= self.nodes <= 1_000_000:
+            raise ValueError(f"Numerics.nodes={self.nodes!r} is outside the allowed range [4, 1000000]")
 
 
 #: Named numerics presets. ``paper`` is the paper's exact discretisation; ``default`` is the
-#: cheaper one chosen from the convergence study (scripts/convergence.py, docs/numerics.md).
+#: cheaper grid chosen from the convergence study (scripts/convergence.py, docs/numerics.md);
+#: ``fast`` is the fast solver (scripts/bench_speed.py, docs/performance.md).
 NUMERICS_PRESETS: dict[str, Numerics] = {
     "paper": Numerics(time_step=1e-7, spring_spacing=1e-8),
     "default": Numerics(time_step=1e-6, spring_spacing=1e-7),
+    "fast": Numerics(time_step=5e-6, method="nodes", nodes=48, max_x_step=3e-7, max_z_step=1e-7, node_power=1.5),
 }
 
 

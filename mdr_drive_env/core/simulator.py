@@ -8,9 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import kernel as K
+from .fast_kernel import advance_period_nodes, node_weights, normal_force
 from .materials import contact_radius
 from .params import DriveParams, Numerics, numerics_preset
-from .waveform import Waveform, period_knots
+from .waveform import Waveform, knots_from_params, period_knots
 
 #: Steps per edge below which a waveform is too fast for the time step.
 MIN_STEPS_PER_EDGE = 10
@@ -53,13 +54,14 @@ class PeriodResult:
 def check_numerics(numerics: Numerics, waveform: Waveform) -> int:
     """Validate dt against the waveform and return the number of steps per period.
 
-    dt must divide the period (so period boundaries fall on steps) and resolve the fastest edge
-    with at least ``MIN_STEPS_PER_EDGE`` steps.
+    dt must resolve the fastest edge with at least ``MIN_STEPS_PER_EDGE`` steps, and, for the
+    grid solver, divide the period (so period boundaries fall on steps; the node solver cuts its
+    steps at every corner itself).
     """
     dt = numerics.time_step
     n = waveform.period / dt
     n_steps = int(round(n))
-    if abs(n - n_steps) > 1e-6 * n_steps:
+    if numerics.method == "grid" and abs(n - n_steps) > 1e-6 * n_steps:
         raise ValueError(f"Numerics.time_step={dt!r} does not divide the period {waveform.period!r} s")
     if waveform.fastest_edge < MIN_STEPS_PER_EDGE * dt:
         raise ValueError(
@@ -74,7 +76,7 @@ class DriveSimulator:
 
     Args:
         params: the physical model (bodies, contact, drive).
-        numerics: a :class:`Numerics` or a preset name (``"paper"``, ``"default"``).
+        numerics: a :class:`Numerics` or a preset name (``"paper"``, ``"default"``, ``"fast"``).
         max_depth: largest indentation (m) any waveform will use; sizes the spring grid.
 
     The state (spring displacements, slider position and velocity, indenter position) persists
@@ -95,7 +97,17 @@ class DriveSimulator:
 
     def _build_grid(self) -> None:
         p = self.params
-        k, radius, dx = p.k, p.contact.indenter_radius, self.numerics.spring_spacing
+        k, radius, num = p.k, p.contact.indenter_radius, self.numerics
+        self.slip_ratio = p.slip_ratio
+        if num.method == "nodes":
+            # the last node lies beyond max_depth, so a full contact always ends inside the grid
+            self.g = self.max_depth * (np.arange(num.nodes, dtype=np.float64) / (num.nodes - 2)) ** num.node_power
+            self._w, self._left, self._p1, self._p3 = node_weights(self.g, k, radius, p.c0)
+            self.spring_x = np.sqrt((1.0 + k) * radius * self.g)
+            self.kx = p.tangential_stiffness_prefactor * self._w  # stiffness of a node inside the contact
+            self.kz = p.normal_stiffness_prefactor * self._w
+            return
+        dx = num.spring_spacing
         a_max = contact_radius(self.max_depth, k, radius)
         n = int(math.ceil(a_max / dx)) + 2
         x = np.arange(n, dtype=np.float64) * dx
@@ -106,7 +118,6 @@ class DriveSimulator:
         self.g = x * x / ((1.0 + k) * radius)
         self.kx = p.tangential_stiffness_prefactor * shape
         self.kz = p.normal_stiffness_prefactor * shape
-        self.slip_ratio = p.slip_ratio
 
     def reset(self, position: float = 0.0, velocity: float = 0.0) -> None:
         """Slider at ``position`` (m) with ``velocity`` (m/s), no contact, indenter at 0."""
@@ -140,6 +151,14 @@ class DriveSimulator:
     def forces(self) -> tuple[float, float]:
         """Current (F_x, F_z) (N)."""
         return float(self.state[K.S_FX]), float(self.state[K.S_FZ])
+
+    def elastic_normal_force(self, depth: float) -> float:
+        """F_z (N) of the solver's springs at indentation ``depth`` (m) (exact Eq. 8 for the node solver)."""
+        p = self.params
+        if self.numerics.method == "nodes":
+            return normal_force(depth, p.normal_stiffness_prefactor, p.k, (1.0 + p.k) * p.contact.indenter_radius,
+                                p.c0**p.k)
+        return float(np.dot(self.kz, np.maximum(depth - self.g, 0.0)))
 
     def elastic_energy(self) -> tuple[float, float]:
         """Elastic energy (J) stored in the (tangential, normal) springs."""
@@ -185,37 +204,49 @@ class DriveSimulator:
             raise ValueError(f"x and z knots must end at the same period (got {period!r} s and {tz[-1]!r} s)")
         dt = self.numerics.time_step
         n_steps = int(round(period / dt))
-        if n_steps < 1 or abs(period / dt - n_steps) > 1e-6 * n_steps:
+        if self.numerics.method == "grid" and (n_steps < 1 or abs(period / dt - n_steps) > 1e-6 * n_steps):
             raise ValueError(f"Numerics.time_step={dt!r} does not divide the period {period!r} s")
         if vz.max() > self.max_depth * (1.0 + 1e-12):
             raise ValueError(f"z reaches {vz.max()!r} m, beyond the simulator's max_depth {self.max_depth!r} m")
         if record_every < 0:
             raise ValueError(f"record_every={record_every!r} is outside the allowed range [0, inf)")
-        if self.time == 0.0:
+        return self._advance(tx, vx, tz, vz, int(record_every))
+
+    def step_params(self, x_amplitude: float, x_rise_time: float, z_amplitude: float, z_rise_time: float,
+                    z_phase: float, period: float, record_every: int = 0) -> PeriodResult:
+        """Fast path of :meth:`step` from plain floats (m, s; ``z_phase`` in [0, 1)), unvalidated.
+
+        For callers that guarantee valid values (the env's action map): no dataclasses are built.
+        """
+        z_start = self.state[K.S_ZIND] if self.state[K.S_TIME] > 0.0 else -1.0
+        return self._advance(*knots_from_params(x_amplitude, x_rise_time, z_amplitude, z_rise_time, z_phase,
+                                                period, z_start, -1.0), record_every)
+
+    def _advance(self, tx, vx, tz, vz, record_every: int) -> PeriodResult:
+        period = tx[-1]
+        dt = self.numerics.time_step
+        if self.time == 0.0:  # first period: indenter at its start, pressed to depth vz[0], springs unloaded
             self.state[K.S_XIND] = vx[0]
             self.state[K.S_ZIND] = vz[0]
+            self.state[K.S_FZ] = self.elastic_normal_force(vz[0])
+        n_steps = int(round(period / dt))
+        if record_every and self.numerics.method == "nodes":  # steps adapt per segment: bound their number
+            n_steps = (int(np.ceil(period / dt)) + tx.size + tz.size
+                       + int(np.ceil(np.abs(np.diff(vx)).sum() / self.numerics.max_x_step))
+                       + int(np.ceil(np.abs(np.diff(vz)).sum() / self.numerics.max_z_step)))
         trace = np.empty((n_steps // record_every, len(K.TRACE_COLUMNS))) if record_every else self._empty_trace
         p = self.params
-        K.advance_period(
-            self.u_x,
-            self.state,
-            self.g,
-            self.kx,
-            self.kz,
-            self.slip_ratio,
-            tx,
-            vx,
-            tz,
-            vz,
-            n_steps,
-            dt,
-            p.drive.moving_mass,
-            p.drive.load,
-            p.contact.base_friction_coefficient,
-            int(record_every),
-            trace,
-            self._out,
-        )
+        tail = (p.drive.moving_mass, p.drive.load, p.contact.base_friction_coefficient, int(record_every), trace,
+                self._out)
+        num = self.numerics
+        if num.method == "nodes":
+            advance_period_nodes(self.u_x, self.state, self.g, self._w, self._left, self._p1, self._p3,
+                                 p.tangential_stiffness_prefactor, p.normal_stiffness_prefactor, p.k,
+                                 (1.0 + p.k) * p.contact.indenter_radius, p.c0**p.k, self.slip_ratio,
+                                 tx, vx, tz, vz, dt, num.max_x_step, num.max_z_step, *tail)
+        else:
+            K.advance_period(self.u_x, self.state, self.g, self.kx, self.kz, self.slip_ratio,
+                             tx, vx, tz, vz, n_steps, dt, *tail)
         o = self._out
         return PeriodResult(
             displacement=float(o[K.O_DISPLACEMENT]),

@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from .params import check_range
 
@@ -103,13 +104,53 @@ class Waveform:
         return self.z.amplitude
 
 
-def _axis_knots(corners: list[float], period: float, fn) -> tuple[np.ndarray, np.ndarray]:
-    times = np.unique(np.clip(np.array([0.0, period, *corners]), 0.0, period))
-    # merge knots closer than 1e-12 T (round-off of the phase shift)
-    keep = np.concatenate(([True], np.diff(times) > 1e-12 * period))
-    times = times[keep]
-    times[-1] = period
-    return times, fn(times)
+@njit(cache=True)
+def _triangle(t, amplitude, rise, period):
+    tau = t % period
+    if tau <= rise:
+        return amplitude * tau / rise
+    return amplitude * (period - tau) / (period - rise)
+
+
+@njit(cache=True)
+def knots_from_params(x_amplitude, x_rise, z_amplitude, z_rise, z_phase, period, z_start, blend_time):
+    """Compiled core of :func:`period_knots` from plain floats (s, m; ``z_phase`` in [0, 1)).
+
+    ``z_start < 0`` means "no previous period" (no blending); ``blend_time <= 0`` means the new z
+    triangle's shorter edge.
+    """
+    tx = np.array([0.0, x_rise, period])
+    vx = np.array([0.0, x_amplitude, 0.0])
+    shift = z_phase * period
+    cand = np.array([0.0, period, shift % period, (shift + z_rise) % period, 0.0])
+    n = 4
+    if z_start >= 0.0:
+        tb = blend_time if blend_time > 0.0 else min(z_rise, period - z_rise)
+        cand[4] = min(tb, period)
+        n = 5
+    times = np.sort(cand[:n])
+    tz = np.empty(n)
+    m = 0
+    for i in range(n):  # drop duplicates (round-off of the phase shift)
+        if m == 0 or times[i] - tz[m - 1] > 1e-12 * period:
+            tz[m] = times[i]
+            m += 1
+    tz = tz[:m]
+    tz[m - 1] = period
+    vz = np.empty(m)
+    for i in range(m):
+        vz[i] = _triangle(tz[i] - shift, z_amplitude, z_rise, period)
+    vz[m - 1] = vz[0]  # exactly periodic
+    if z_start >= 0.0 and z_start != vz[0]:
+        tb = min(blend_time if blend_time > 0.0 else min(z_rise, period - z_rise), period)
+        offset = z_start - vz[0]
+        top = max(z_start, z_amplitude)
+        for i in range(m):
+            v = vz[i] + offset * max(0.0, 1.0 - tz[i] / tb)
+            vz[i] = min(max(v, 0.0), top)
+        vz[0] = z_start
+        vz[m - 1] = _triangle(-shift, z_amplitude, z_rise, period)
+    return tx, vx, tz, vz
 
 
 def period_knots(waveform: Waveform, z_start: float | None = None, blend_time: float | None = None):
@@ -123,28 +164,6 @@ def period_knots(waveform: Waveform, z_start: float | None = None, blend_time: f
     the extra speed is bounded by ``|z_start - z_new(0)| / blend_time``; the blended depth is
     clipped to ``[0, max(z_start, new amplitude)]``.
     """
-    period = waveform.period
-    x_corners = [waveform.x.rise_time]
-    phase_t = waveform.z_phase * period
-    z_corners = [phase_t % period, (phase_t + waveform.z.rise_time) % period]
-    tx, vx = _axis_knots(x_corners, period, waveform.x_at)
-    vx[0] = 0.0
-    vx[-1] = 0.0
-    tz, vz = _axis_knots(z_corners, period, waveform.z_at)
-    vz[-1] = vz[0]  # exactly periodic
-    if z_start is not None and abs(z_start - vz[0]) > 0.0:
-        tb = blend_time if blend_time is not None else min(waveform.z.rise_time, waveform.z.fall_time)
-        tb = min(tb, period)
-        offset = z_start - vz[0]
-        tz = np.unique(np.concatenate((tz, [tb])))
-        vz = waveform.z_at(tz) + offset * np.maximum(0.0, 1.0 - tz / tb)
-        vz[0] = z_start
-        vz[-1] = waveform.z_at(0.0)
-        # never deeper than the deeper of the two waveforms, never out of the half-space
-        vz = np.clip(vz, 0.0, max(z_start, waveform.z.amplitude))
-    return (
-        np.ascontiguousarray(tx, dtype=np.float64),
-        np.ascontiguousarray(vx, dtype=np.float64),
-        np.ascontiguousarray(tz, dtype=np.float64),
-        np.ascontiguousarray(vz, dtype=np.float64),
-    )
+    return knots_from_params(
+        waveform.x.amplitude, waveform.x.rise_time, waveform.z.amplitude, waveform.z.rise_time, waveform.z_phase,
+        waveform.period, -1.0 if z_start is None else float(z_start), -1.0 if blend_time is None else blend_time)

@@ -2,5 +2,6 @@
 
 from .mdr_drive import MDRDriveEnv
 from .spaces import ActionMap, ObservationLayout
+from .vector import MDRDriveVectorEnv
 
-__all__ = ["ActionMap", "MDRDriveEnv", "ObservationLayout"]
+__all__ = ["ActionMap", "MDRDriveEnv", "MDRDriveVectorEnv", "ObservationLayout"]

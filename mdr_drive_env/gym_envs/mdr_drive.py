@@ -39,8 +39,8 @@ class MDRDriveEnv(gym.Env):
     | 3 | z rise fraction | [0.05, 0.95] |
     | 4 | z phase delay, fraction of T | [0, 1) |
 
-    Rise fractions and the phase are quantised to ``time_quantum`` (1 us, 1/2000 of T), so corners
-    fall on time steps. Actions outside the box are clipped; a non-finite action raises
+    Rise fractions and the phase are quantised to 10 us (1/200 of T), so corners fall on the time
+    steps of every numerics preset. Actions outside the box are clipped; a non-finite action raises
     ``ValueError``. ``env.unwrapped.trapezoid_action()`` is the paper's waveform (Fig. 2) exactly.
 
     Waveforms stay continuous across period boundaries: x starts and ends every period at 0; if a
@@ -95,7 +95,8 @@ class MDRDriveEnv(gym.Env):
     ``k`` (float or (low, high)), ``cargo_mass`` (kg, float or (low, high)), ``youngs_modulus`` (Pa),
     ``poisson_ratio``, ``reference_depth`` (m), ``rigid_indenter`` (bool), ``indenter_radius`` (m),
     ``friction_coefficient``, ``base_friction_coefficient``, ``slider_mass`` (kg), ``gravity``
-    (m/s^2), ``cargo_inertia`` (bool), ``numerics`` (preset name), ``period`` (s), ``max_periods``,
+    (m/s^2), ``cargo_inertia`` (bool), ``numerics`` (preset name: ``"fast"``, the default node
+    solver, see docs/performance.md; ``"default"`` or ``"paper"`` for the reference solver), ``period`` (s), ``max_periods``,
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
     ``max_rise_fraction``, ``reward_scale`` (m), ``actuation_penalty``, ``render_mode``
     (``"rgb_array"`` or ``"human"``). Bad values raise ``ValueError`` naming the argument.
@@ -121,7 +122,7 @@ class MDRDriveEnv(gym.Env):
         slider_mass: float = 0.05,
         gravity: float = 9.81,
         cargo_inertia: bool = False,
-        numerics: str = "default",
+        numerics: str = "fast",
         period: float = 2e-3,
         max_periods: int = 50,
         x_amplitude_max: float = 30e-6,
@@ -158,9 +159,8 @@ class MDRDriveEnv(gym.Env):
         self.action_map = ActionMap(period=float(period), x_amplitude_max=x_amplitude_max,
                                     z_amplitude_max=z_amplitude_max, min_rise_fraction=min_rise_fraction,
                                     max_rise_fraction=max_rise_fraction, time_step=self.numerics.time_step)
-        self.layout = ObservationLayout()
         self.action_space = spaces.Box(-1.0, 1.0, shape=(ActionMap.SIZE,), dtype=np.float32)
-        self.observation_space = spaces.Box(self.layout.low, self.layout.high, dtype=np.float32)
+        self.observation_space = spaces.Box(ObservationLayout.low, ObservationLayout.high, dtype=np.float32)
         self.sim: DriveSimulator | None = None
         self.last_trace: np.ndarray | None = None
         self._renderer = None
@@ -171,6 +171,23 @@ class MDRDriveEnv(gym.Env):
         graded = Material(**{**self._material.__dict__, "grading_exponent": k})
         return DriveParams(indenter=Material.rigid() if self.rigid_indenter else graded, slider=graded,
                            contact=self._contact, drive=Drive(**{**self._drive.__dict__, "cargo_mass": cargo_mass}))
+
+    def sample_episode(self, rng: np.random.Generator, options: dict[str, Any] | None = None):
+        """(k, cargo mass, DriveParams) of a new episode: from ``options`` or drawn from the ranges."""
+        options = dict(options or {})
+        unknown = set(options) - {"k", "cargo_mass"}
+        if unknown:
+            raise ValueError(f"reset options {sorted(unknown)} are not supported (use 'k', 'cargo_mass')")
+        k = options.get("k", None)
+        m = options.get("cargo_mass", None)
+        k = float(rng.uniform(*self.k_range)) if k is None else float(k)
+        m = float(rng.uniform(*self.cargo_mass_range)) if m is None else float(m)
+        return k, m, self.params_for(k, m)  # validates k and cargo_mass
+
+    def reference_force(self, params: DriveParams) -> float:
+        """F_ref (N): the analytic normal force at the largest allowed depth (Eq. 8)."""
+        return normal_force_analytic(self.action_map.z_amplitude_max, params.k, params.contact.indenter_radius,
+                                     params.normal_stiffness_prefactor, params.c0)
 
     def trapezoid_action(self) -> np.ndarray:
         """The action whose waveform is the paper's (Fig. 2) exactly, as float32 in the box."""
@@ -183,19 +200,9 @@ class MDRDriveEnv(gym.Env):
     # --- Gymnasium API ---
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        options = dict(options or {})
-        unknown = set(options) - {"k", "cargo_mass"}
-        if unknown:
-            raise ValueError(f"reset options {sorted(unknown)} are not supported (use 'k', 'cargo_mass')")
-        k = options.get("k", None)
-        m = options.get("cargo_mass", None)
-        self.k = float(self.np_random.uniform(*self.k_range)) if k is None else float(k)
-        self.cargo_mass = float(self.np_random.uniform(*self.cargo_mass_range)) if m is None else float(m)
-        self.params = self.params_for(self.k, self.cargo_mass)  # validates k and cargo_mass
+        self.k, self.cargo_mass, self.params = self.sample_episode(self.np_random, options)
         self.sim = DriveSimulator(self.params, self.numerics, max_depth=self.action_map.z_amplitude_max)
-        p = self.params
-        self.force_ref = normal_force_analytic(self.action_map.z_amplitude_max, p.k, p.contact.indenter_radius,
-                                               p.normal_stiffness_prefactor, p.c0)
+        self.force_ref = self.reference_force(self.params)
         self.period_index = 0
         self.last_trace = None
         self._prev_action = np.zeros(ActionMap.SIZE, dtype=np.float32)
@@ -206,32 +213,32 @@ class MDRDriveEnv(gym.Env):
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
         action = np.asarray(action, dtype=np.float64).reshape(ActionMap.SIZE)
-        waveform = self.action_map.to_waveform(action)
+        wp = self.action_map.to_params(action)
         record = self.action_map.steps_per_period // 200 if self.render_mode is not None else 0
-        result = self.sim.step(waveform, record_every=record)
+        result = self.sim.step_params(wp.x_amplitude, wp.x_rise_time, wp.z_amplitude, wp.z_rise_time, wp.z_phase,
+                                      wp.period, record_every=record)
         self.last_trace = result.trace
         self.period_index += 1
         self._prev_action = np.clip(action, -1.0, 1.0).astype(np.float32)
-        effort = self.action_map.effort(waveform)
+        effort = self.action_map.effort(wp)
         reward = result.displacement / self.reward_scale - self.actuation_penalty * effort
         obs = self._observation(result)
         truncated = self.period_index >= self.max_periods
         if self.render_mode == "human":
             self.render()
-        return obs, float(reward), False, truncated, self._info(result, waveform, effort)
+        return obs, float(reward), False, truncated, self._info(result, wp, effort)
 
     def _observation(self, r) -> np.ndarray:
         p = self.params
         mu_fref = p.contact.friction_coefficient * self.force_ref
         v_scale = self.reward_scale / self.action_map.period
-        dyn = (0.0,) * 5 if r is None else (
+        dyn = np.zeros(5) if r is None else np.array([
             r.displacement / self.reward_scale, r.mean_velocity / v_scale, r.end_velocity / v_scale,
-            r.peak_tangential_force / mu_fref, r.peak_normal_force / self.force_ref)
-        obs = np.array([*dyn, *self._prev_action, p.k, p.drive.load / mu_fref, p.drive.load / 10.0,
-                        self.period_index / self.max_periods], dtype=np.float32)
-        return np.clip(obs, self.layout.low, self.layout.high)
+            r.peak_tangential_force / mu_fref, r.peak_normal_force / self.force_ref])
+        return ObservationLayout.build(dyn[None], self._prev_action[None], np.array([p.k]), np.array([p.drive.load]),
+                                       np.array([mu_fref]), np.array([self.period_index / self.max_periods]))[0]
 
-    def _info(self, r, waveform, effort=0.0) -> dict[str, Any]:
+    def _info(self, r, wp, effort=0.0) -> dict[str, Any]:
         info: dict[str, Any] = {"k": self.k, "cargo_mass": self.cargo_mass, "load_force": self.params.drive.load,
                                 "period_index": self.period_index}
         if r is not None:
@@ -240,7 +247,7 @@ class MDRDriveEnv(gym.Env):
                 slider_position=r.end_position, peak_tangential_force=r.peak_tangential_force,
                 peak_normal_force=r.peak_normal_force, indenter_dissipation=r.indenter_dissipation,
                 base_dissipation=r.base_dissipation, load_work=r.load_work, effort=effort,
-                waveform=self.action_map.describe(waveform),
+                waveform=wp._asdict(),
             )
         return info
 

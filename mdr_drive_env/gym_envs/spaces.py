@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -37,7 +38,7 @@ class ActionMap:
     min_rise_fraction: float = 0.05
     max_rise_fraction: float = 0.95
     time_step: float = 1e-6
-    time_quantum: float = 1e-6
+    time_quantum: float = 1e-5
 
     SIZE = 5
     NAMES = ("x_amplitude", "x_rise_fraction", "z_amplitude", "z_rise_fraction", "z_phase")
@@ -66,27 +67,34 @@ class ActionMap:
     def steps_per_period(self) -> int:
         return int(round(self.period / self.time_step))
 
-    def _rise_quanta(self, fraction: float) -> int:
+    def _rise_time(self, fraction: float) -> float:
         n = self.quanta
         lo, hi = math.ceil(self.min_rise_fraction * n - 1e-9), math.floor(self.max_rise_fraction * n + 1e-9)
-        return int(min(max(round(fraction * n), lo), hi))
+        return round(min(max(round(fraction * n), lo), hi) * self.time_quantum, 12)
 
-    def _axis(self, amplitude: float, rise_fraction: float) -> AxisWaveform:
-        rise = round(self._rise_quanta(rise_fraction) * self.time_quantum, 12)
-        return AxisWaveform(amplitude, rise, round(self.period - rise, 12))
+    def to_params(self, action) -> WaveformParams:
+        """The waveform an action selects, as plain floats (SI units); clips to the box.
 
-    def to_waveform(self, action) -> Waveform:
+        Raises ``ValueError`` for a non-finite action or one of the wrong size.
+        """
         a = np.asarray(action, dtype=np.float64).reshape(-1)
         if a.size != self.SIZE:
             raise ValueError(f"action must have {self.SIZE} entries, got {a.size}")
-        if not np.all(np.isfinite(a)):
+        if not np.isfinite(a).all():
             raise ValueError(f"action {a.tolist()} is not finite")
-        u = (np.clip(a, -1.0, 1.0) + 1.0) / 2.0  # in [0, 1]
+        u0, u1, u2, u3, u4 = ((min(max(float(v), -1.0), 1.0) + 1.0) / 2.0 for v in a)  # each in [0, 1]
         span = self.max_rise_fraction - self.min_rise_fraction
-        x = self._axis(u[0] * self.x_amplitude_max, self.min_rise_fraction + u[1] * span)
-        z = self._axis(u[2] * self.z_amplitude_max, self.min_rise_fraction + u[3] * span)
-        phase = (int(round(u[4] * self.quanta)) % self.quanta) / self.quanta
-        return Waveform(x=x, z=z, z_phase=phase)
+        x_rise = self._rise_time(self.min_rise_fraction + u1 * span)
+        z_rise = self._rise_time(self.min_rise_fraction + u3 * span)
+        phase = (int(round(u4 * self.quanta)) % self.quanta) / self.quanta
+        return WaveformParams(u0 * self.x_amplitude_max, x_rise, round(self.period - x_rise, 12),
+                              u2 * self.z_amplitude_max, z_rise, round(self.period - z_rise, 12), phase, self.period)
+
+    def to_waveform(self, action) -> Waveform:
+        """The waveform an action selects, as a validated :class:`Waveform`."""
+        p = self.to_params(action)
+        return Waveform(x=AxisWaveform(p.x_amplitude, p.x_rise_time, p.x_fall_time),
+                        z=AxisWaveform(p.z_amplitude, p.z_rise_time, p.z_fall_time), z_phase=p.z_phase)
 
     def to_action(self, waveform: Waveform) -> np.ndarray:
         """The action that selects ``waveform`` (inverse of :meth:`to_waveform` on the grid)."""
@@ -102,20 +110,22 @@ class ActionMap:
             raise ValueError(f"waveform {waveform} lies outside the action box")
         return np.clip(2.0 * u - 1.0, -1.0, 1.0).astype(np.float32)
 
-    def effort(self, waveform: Waveform) -> float:
+    def effort(self, p: WaveformParams) -> float:
         """Electrical-energy proxy in [0, 1]: mean squared stroke relative to the actuator limits."""
-        return 0.5 * ((waveform.x.amplitude / self.x_amplitude_max) ** 2
-                      + (waveform.z.amplitude / self.z_amplitude_max) ** 2)
+        return 0.5 * ((p.x_amplitude / self.x_amplitude_max) ** 2 + (p.z_amplitude / self.z_amplitude_max) ** 2)
 
-    @staticmethod
-    def describe(waveform: Waveform) -> dict[str, float]:
-        """The waveform in SI units, flat."""
-        return {
-            "x_amplitude": waveform.x.amplitude, "x_rise_time": waveform.x.rise_time,
-            "x_fall_time": waveform.x.fall_time, "z_amplitude": waveform.z.amplitude,
-            "z_rise_time": waveform.z.rise_time, "z_fall_time": waveform.z.fall_time,
-            "z_phase": waveform.z_phase, "period": waveform.period,
-        }
+
+class WaveformParams(NamedTuple):
+    """One period's waveform as plain floats: amplitudes (m), rise/fall times (s), z phase (-), T (s)."""
+
+    x_amplitude: float
+    x_rise_time: float
+    x_fall_time: float
+    z_amplitude: float
+    z_rise_time: float
+    z_fall_time: float
+    z_phase: float
+    period: float
 
 
 def _divides(small: float, big: float) -> bool:
@@ -130,6 +140,20 @@ class ObservationLayout:
              "prev_x_amplitude", "prev_x_rise_fraction", "prev_z_amplitude", "prev_z_rise_fraction",
              "prev_z_phase", "k", "load_over_friction", "load_over_10N", "episode_fraction")
 
-    def __init__(self) -> None:
-        self.low = np.array([-100, -100, -100, 0, 0, -1, -1, -1, -1, -1, 0, 0, 0, 0], dtype=np.float32)
-        self.high = np.array([100, 100, 100, 2, 2, 1, 1, 1, 1, 1, 1, 100, 100, 1], dtype=np.float32)
+    low = np.array([-100, -100, -100, 0, 0, -1, -1, -1, -1, -1, 0, 0, 0, 0], dtype=np.float32)
+    high = np.array([100, 100, 100, 2, 2, 1, 1, 1, 1, 1, 1, 100, 100, 1], dtype=np.float32)
+
+    @classmethod
+    def build(cls, dynamics, prev_action, k, load, friction_ref, episode_fraction) -> np.ndarray:
+        """Observations of a batch, (n, 14) float32, clipped to the bounds.
+
+        Args:
+            dynamics: (n, 5): displacement, mean velocity, end velocity (already divided by their
+                scales) and peak F_x / (mu F_ref), peak F_z / F_ref.
+            prev_action: (n, 5) previous actions.
+            k, load, friction_ref, episode_fraction: (n,) grading exponent, load F_m (N),
+                ``mu F_ref`` (N), periods elapsed / max_periods.
+        """
+        obs = np.concatenate([np.asarray(dynamics, dtype=np.float64), np.asarray(prev_action, dtype=np.float64),
+                              np.column_stack([k, load / friction_ref, load / 10.0, episode_fraction])], axis=1)
+        return np.clip(obs, cls.low, cls.high).astype(np.float32)

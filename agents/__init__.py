@@ -1,0 +1,1 @@
+"""Training and evaluation of waveform policies on MDRDrive-v0 (Stable-Baselines3)."""

@@ -1,0 +1,183 @@
+"""Speed and accuracy benchmark of the solvers (``mdr-drive bench``, ``scripts/bench_speed.py``).
+
+Everything is measured in one run on one core (numba is single-threaded here), and reported as
+medians over repeated timed blocks. Writes ``bench_speed.json`` and ``bench_speed.md``.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .bench_accuracy import accuracy_report, accuracy_waveforms, grid_displacements, reference_displacements
+from .core import DriveParams, DriveSimulator, Waveform, numerics_preset
+from .core import kernel as K
+from .core.fast_kernel import advance_period_nodes
+from .core.waveform import knots_from_params
+from .gym_envs.spaces import ActionMap
+
+SPEED_KS = (0.0, 0.3, 0.6, 0.9)
+
+
+def _median_rate(fn, count: int, repeats: int) -> float:
+    """Median over ``repeats`` blocks of ``count / time(fn())``."""
+    rates = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        rates.append(count / (time.perf_counter() - t0))
+    return float(np.median(rates))
+
+
+def kernel_rate(preset: str, k: float, waveforms: list, periods: int, repeats: int) -> float:
+    """Periods per second of the compiled per-period kernel alone (knots built beforehand)."""
+    sim = DriveSimulator(DriveParams.paper(k=k, cargo_mass=0.1), preset, max_depth=6e-6)
+    knots = [knots_from_params(w.x.amplitude, w.x.rise_time, w.z.amplitude, w.z.rise_time, w.z_phase, w.period,
+                               -1.0, -1.0) for w in waveforms]
+    sim.step(waveforms[0])  # compile / load and get into contact
+    p, num, out, trace = sim.params, sim.numerics, np.zeros(K.OUT_SIZE), np.zeros((0, 7))
+    tail = (p.drive.moving_mass, p.drive.load, p.contact.base_friction_coefficient, 0, trace, out)
+
+    def block():
+        for i in range(periods):
+            tx, vx, tz, vz = knots[i % len(knots)]
+            if num.method == "nodes":
+                advance_period_nodes(sim.u_x, sim.state, sim.g, sim._w, sim._left, sim._p1, sim._p3,
+                                     p.tangential_stiffness_prefactor, p.normal_stiffness_prefactor, p.k,
+                                     (1.0 + p.k) * p.contact.indenter_radius, p.c0**p.k, sim.slip_ratio,
+                                     tx, vx, tz, vz, num.time_step, num.max_x_step, num.max_z_step, *tail)
+            else:
+                K.advance_period(sim.u_x, sim.state, sim.g, sim.kx, sim.kz, sim.slip_ratio, tx, vx, tz, vz,
+                                 int(round(tx[-1] / num.time_step)), num.time_step, *tail)
+
+    return _median_rate(block, periods, repeats)
+
+
+def env_rate(steps: int, repeats: int, **kwargs) -> float:
+    import gymnasium as gym
+
+    env = gym.make("MDRDrive-v0", max_periods=10**9, **kwargs)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(256)]
+    env.step(actions[0])
+
+    def block():
+        for i in range(steps):
+            env.step(actions[i % 256])
+
+    return _median_rate(block, steps, repeats)
+
+
+def vector_rate(n: int, steps: int, repeats: int) -> float:
+    import gymnasium as gym
+
+    venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=10**9)
+    venv.reset(seed=0)
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (32, n, 5)).astype(np.float32)
+    venv.step(actions[0])
+
+    def block():
+        for i in range(steps):
+            venv.step(actions[i % 32])
+
+    return _median_rate(block, steps * n, repeats)
+
+
+def first_call_seconds() -> dict:
+    """Time of the first period in a fresh process: JIT compile (empty numba cache), then cache load."""
+    import os
+    import tempfile
+
+    code = ("import time; t=time.perf_counter(); from mdr_drive_env.core import DriveSimulator, DriveParams, Waveform;"
+            "s=DriveSimulator(DriveParams.paper(), 'fast'); t1=time.perf_counter(); s.step(Waveform.paper());"
+            "print(t1-t, time.perf_counter()-t1)")
+    res = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        for label in ("compile", "cache_load"):
+            out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+            imp, first = (float(v) for v in out.stdout.split())
+            res[f"{label}_first_period_s"] = first
+            res[f"{label}_import_s"] = imp
+    return res
+
+
+def run(out_dir: str | Path = "results/bench", quick: bool = False, reference_cache: str | Path | None = None) -> dict:
+    from tqdm import tqdm
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    reference_cache = Path(reference_cache or out_dir / "reference_paper.npz")
+    reps = 3 if quick else 7
+    _, random_wfs = accuracy_waveforms(20)
+    paper = [Waveform.paper()]
+    rnd = random_wfs[1:]
+    res: dict = {"machine": {"python": platform.python_version(), "processor": platform.processor() or platform.machine()},
+                 "first_call": first_call_seconds()}
+
+    kernel = {}
+    steps = [(preset, k, name, wfs) for preset in ("fast", "default", "paper") for k in SPEED_KS
+             for name, wfs in (("paper waveform", paper), ("random waveforms", rnd))]
+    for preset, k, name, wfs in tqdm(steps, desc="kernel speed"):
+        periods = {"fast": 200, "default": 20, "paper": 1}[preset] // (4 if quick else 1) or 1
+        r = 2 if preset == "paper" else reps
+        kernel[f"{preset}|{k:g}|{name}"] = kernel_rate(preset, k, wfs, periods, r)
+    res["kernel_periods_per_s"] = kernel
+    fast = [v for key, v in kernel.items() if key.startswith("fast|")]
+    paper_rates = [v for key, v in kernel.items() if key.startswith("paper|")]
+    res["fast_kernel_min_periods_per_s"] = float(min(fast))
+    res["fast_kernel_median_periods_per_s"] = float(np.median(fast))
+    res["speedup_fast_vs_paper_median"] = float(np.median(fast) / np.median(paper_rates))
+
+    res["env_steps_per_s"] = env_rate(500 if quick else 2000, reps)
+    res["env_steps_per_s_default_numerics"] = env_rate(50 if quick else 200, reps, numerics="default")
+    res["vector_env_steps_per_s"] = {str(n): vector_rate(n, max(4, (400 if quick else 2000) // n), reps)
+                                     for n in tqdm((1, 8, 64), desc="vector env")}
+
+    actions, _ = accuracy_waveforms()
+    reference = reference_displacements(reference_cache)
+    for preset in ("fast", "default"):
+        t0 = time.perf_counter()
+        cand = grid_displacements(numerics_preset(preset), actions, workers=1, desc=f"accuracy grid ({preset})")
+        res[f"accuracy_{preset}"] = {**accuracy_report(cand, reference), "wall_s": time.perf_counter() - t0}
+
+    (out_dir / "bench_speed.json").write_text(json.dumps(res, indent=2))
+    (out_dir / "bench_speed.md").write_text(markdown(res))
+    return res
+
+
+def markdown(res: dict) -> str:
+    lines = ["| solver | k | waveforms | periods/s (median) |", "|---|---|---|---|"]
+    for key, v in res["kernel_periods_per_s"].items():
+        preset, k, name = key.split("|")
+        lines.append(f"| {preset} | {k} | {name} | {v:,.0f} |")
+    lines += ["", f"* fast kernel: min {res['fast_kernel_min_periods_per_s']:,.0f}, median "
+                  f"{res['fast_kernel_median_periods_per_s']:,.0f} periods/s; speed-up against the paper preset "
+                  f"(medians, same run): {res['speedup_fast_vs_paper_median']:,.0f}x",
+              f"* `env.step` via `gym.make(\"MDRDrive-v0\")` (default wrappers, fast numerics): "
+              f"{res['env_steps_per_s']:,.0f} steps/s; with `numerics=\"default\"`: "
+              f"{res['env_steps_per_s_default_numerics']:,.0f} steps/s",
+              "* batched vector env (`gym.make_vec(..., vectorization_mode=\"vector_entry_point\")`), env-steps/s: "
+              + ", ".join(f"N = {n}: {v:,.0f}" for n, v in res["vector_env_steps_per_s"].items()),
+              f"* first period in a fresh process, not a per-step cost: JIT compile with an empty numba cache "
+              f"{res['first_call']['compile_first_period_s']:.1f} s (import {res['first_call']['compile_import_s']:.1f} s); "
+              f"from numba's cache {res['first_call']['cache_load_first_period_s']:.2f} s "
+              f"(import {res['first_call']['cache_load_import_s']:.2f} s)", ""]
+    lines += ["| solver | max error (um) | max error / tolerance | within tolerance | worst case |", "|---|---|---|---|---|"]
+    for preset in ("fast", "default"):
+        a = res[f"accuracy_{preset}"]
+        w = a["worst_case"]
+        lines.append(f"| {preset} | {a['max_abs_error_um']:.4f} | {a['max_error_over_tolerance']:.3f} | "
+                     f"{a['fraction_within_tolerance'] * 100:.2f} % | k = {w['k']}, m = {w['cargo_mass']} kg, waveform "
+                     f"{w['waveform']}, period {w['period']}: {w['error_um']:.4f} of {w['reference_um']:.3f} um |")
+    lines.append(f"\nTolerance per period: max(0.15 um, 0.5 % of the paper preset's displacement); "
+                 f"{res['accuracy_fast']['cases']} cases x {res['accuracy_fast']['periods']} periods.")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,302 @@
+"""The fast solver's Numba kernel: MDR springs as finite-element nodes uniform in g.
+
+The reference solver (``kernel.py``) places springs uniformly in x. Here the spring state is
+sampled at nodes ``g_0 = 0 < g_1 < ...`` of the MDR profile ``g = x^2 / ((1+k) R)`` and interpolated
+linearly in g between them. In g, the normal displacement ``u_z = d - g`` and the slip limits
+``+-lambda (d - g)`` are linear, so with hat-function weights integrated in closed form:
+
+* the normal force is exact (paper Eq. 8) at any number of nodes,
+* slipping regions are integrated exactly, and the Coulomb bound ``|F_x| <= mu F_z`` holds exactly,
+* the contact edge, which falls between nodes, is a partial cell with a closed-form weight.
+
+Time integration: velocity Verlet (second order; one spring update per step). Base friction: the
+paper's ``sgn(V) mu1 F_z`` makes V chatter around 0 while the slider sticks to the base; here the
+slider stops at the instant within a step where V reaches 0, then sticks while
+``|F_x - F_m| <= mu1 F_z`` or accelerates the other way: the same dt -> 0 limit without chatter.
+
+State and per-period result layouts are those of ``kernel.py``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .kernel import (
+    O_DISPLACEMENT,
+    O_DISS_BASE,
+    O_DISS_INDENTER,
+    O_MEAN_VELOCITY,
+    O_N_RECORDED,
+    O_PEAK_FX,
+    O_PEAK_FZ,
+    O_WORK_INDENTER_X,
+    O_WORK_INDENTER_Z,
+    O_WORK_LOAD,
+    S_FX,
+    S_FZ,
+    S_NACT,
+    S_TIME,
+    S_V,
+    S_X,
+    S_XIND,
+    S_ZIND,
+    T_FX,
+    T_FZ,
+    T_SLIDER_V,
+    T_SLIDER_X,
+    T_TIME,
+    T_X,
+    T_Z,
+    _interp,
+)
+
+
+def node_weights(g: np.ndarray, k: float, radius: float, c0: float):
+    """Closed-form hat-function weights of nodes ``g`` (per unit stiffness prefactor, both halves).
+
+    Returns ``(w, left)``: ``w[i] = int c(x) phi_i dx`` over both neighbouring cells (the weight of a
+    node inside the contact) and ``left[i]``, the part from the cell to its left (the weight of the
+    last node in contact, to which the edge cell's weight is added). Also ``x^(k+1)``, ``x^(k+3)``.
+    """
+    s = (1.0 + k) * radius
+    x = np.sqrt(s * g)
+    p1 = x ** (k + 1.0)
+    p3 = x ** (k + 3.0)
+    scale = 2.0 / c0**k  # both halves of the symmetric contact, (|x|/c0)^k
+    i1 = np.diff(p1) / (k + 1.0)  # int x^k dx over each cell
+    i3 = np.diff(p3) / (s * (k + 3.0))  # int x^k g(x) dx over each cell
+    dg = np.diff(g)
+    right = scale * (g[1:] * i1 - i3) / dg  # cell i, hat of its left node i
+    left_cell = scale * (i3 - g[:-1] * i1) / dg  # cell i, hat of its right node i + 1
+    w = np.zeros_like(g)
+    left = np.zeros_like(g)
+    w[:-1] += right
+    w[1:] += left_cell
+    left[1:] = left_cell
+    return w, left, p1, p3
+
+
+@njit(cache=True)
+def normal_force(d, c_n, k, s, c0k):
+    """F_z (N) at depth d (m), paper Eq. 8: ``2 C_N / c0^k int_0^a x^k (d - x^2/s) dx``, s = (1+k) R."""
+    if d <= 0.0:
+        return 0.0
+    a = np.sqrt(s * d)
+    a1 = a ** (k + 1.0)
+    return c_n * 2.0 / c0k * (d * a1 / (k + 1.0) - a1 * a * a / (s * (k + 3.0)))
+
+
+@njit(cache=True, inline="always")
+def _half_kick(V, drive, f_lim, h, mass):
+    """Advance V over h (s) under ``drive = F_x - F_m`` (N) and Coulomb base friction ``f_lim`` (N).
+
+    The base force opposes V; if V reaches 0 within h, the slider stops there and, for the rest of
+    h, sticks while ``|drive| <= f_lim`` or accelerates the other way. Returns (V, base impulse).
+    """
+    if V != 0.0:
+        f_base = f_lim if V > 0.0 else -f_lim
+        v_new = V + h * (drive - f_base) / mass
+        if v_new * V > 0.0:
+            return v_new, f_base * h
+        if v_new == 0.0:
+            return 0.0, f_base * h
+        tau = -V * mass / (drive - f_base)  # time to stop
+        h_rest = h - tau
+        imp = f_base * tau
+    else:
+        h_rest = h
+        imp = 0.0
+    if drive > f_lim:
+        return h_rest * (drive - f_lim) / mass, imp + f_lim * h_rest
+    if drive < -f_lim:
+        return h_rest * (drive + f_lim) / mass, imp - f_lim * h_rest
+    return 0.0, imp + drive * h_rest  # sticks: static friction balances the drive
+
+
+@njit(cache=True)
+def advance_period_nodes(
+    u_x,
+    state,
+    g,
+    w,
+    left,
+    p1,
+    p3,
+    c_t,
+    c_n,
+    k,
+    s,
+    c0k,
+    slip_ratio,
+    tx,
+    vx,
+    tz,
+    vz,
+    dt_max,
+    x_step,
+    z_step,
+    moving_mass,
+    load,
+    mu1,
+    record_every,
+    trace,
+    out,
+):
+    """Advance ``u_x`` (node values, m) and ``state`` by one period.
+
+    The period is cut at every corner of x(t) and z(t); each segment is split into equal steps no
+    longer than ``dt_max`` (s) in which the indenter moves at most ``x_step`` (m) in x and
+    ``z_step`` (m) in z. ``w``, ``left``, ``p1``, ``p3`` from :func:`node_weights`; ``c_t``, ``c_n``:
+    C_T, C_N (Pa); ``s = (1+k) R``; ``c0k = c0^k``. Other arguments as in ``kernel.advance_period``.
+    """
+    n_nodes = g.size
+    kp1 = k + 1.0
+    kp3s = s * (k + 3.0)
+    edge_scale = 2.0 / c0k
+    X = state[S_X]
+    V = state[S_V]
+    fx_now = state[S_FX]
+    fz_now = state[S_FZ]
+    n_act = np.int64(state[S_NACT])  # nodes in contact: g[0 .. n_act-1] < d
+    x_prev = state[S_XIND]
+    z_prev = state[S_ZIND]
+    t_start = state[S_TIME]
+    X_start = X
+    period = tx[tx.size - 1]
+    jx = 0
+    jz = 0
+    peak_fx = 0.0
+    peak_fz = 0.0
+    diss_ind = 0.0
+    diss_base = 0.0
+    work_load = 0.0
+    work_x = 0.0
+    work_z = 0.0
+    n_rec = 0
+    breaks = np.unique(np.concatenate((tx, tz)))
+    n_steps_total = 0
+    step_in_seg = 0
+    n_in_seg = 0
+    seg = -1
+    t_seg = 0.0
+    dt = 0.0
+    while True:
+        if step_in_seg == n_in_seg:  # next segment: choose its step
+            seg += 1
+            if seg == breaks.size - 1:
+                break
+            t0 = breaks[seg]
+            t1 = breaks[seg + 1]
+            xa, _ = _interp(t0, tx, vx, 0)
+            xb, _ = _interp(t1, tx, vx, 0)
+            za, _ = _interp(t0, tz, vz, 0)
+            zb, _ = _interp(t1, tz, vz, 0)
+            n_in_seg = max(1, int(np.ceil((t1 - t0) / dt_max - 1e-9)),
+                           int(np.ceil(abs(xb - xa) / x_step - 1e-9)), int(np.ceil(abs(zb - za) / z_step - 1e-9)))
+            dt = (t1 - t0) / n_in_seg
+            t_seg = t0
+            step_in_seg = 0
+        step_in_seg += 1
+        n_steps_total += 1
+        t = t_seg + step_in_seg * dt
+        if step_in_seg == n_in_seg:
+            t = breaks[seg + 1]
+        x_new, jx = _interp(t, tx, vx, jx)
+        d_new, jz = _interp(t, tz, vz, jz)
+
+        # velocity Verlet: half kick with the forces at t_n, drift, springs, half kick at t_{n+1}
+        V, imp1 = _half_kick(V, fx_now - load, mu1 * fz_now, 0.5 * dt, moving_mass)
+        dX = dt * V
+        X += dX
+        shift = (x_new - x_prev) - dX
+        work_x += fx_now * (x_new - x_prev)
+        work_load += load * dX
+
+        # nodes in contact: g < d
+        n_new = n_act
+        while n_new < n_nodes and g[n_new] < d_new:
+            n_new += 1
+        while n_new > 0 and g[n_new - 1] >= d_new:
+            n_new -= 1
+        if n_new == n_nodes:
+            raise ValueError("indentation exceeds the node grid; build the simulator with a larger max_depth")
+        for i in range(n_new, n_act):
+            u_x[i] = 0.0
+        fx = 0.0
+        fz = 0.0
+        if n_new > 0:
+            last = n_new - 1
+            a = np.sqrt(s * d_new)
+            a1 = a**kp1
+            a3 = a1 * a * a
+            fz = c_n * edge_scale * (d_new * a1 / kp1 - a3 / kp3s)  # paper Eq. 8, exact
+            gap = d_new - g[last]
+            edge = 0.0
+            if gap > 1e-12 * d_new:
+                edge = edge_scale * (d_new * (a1 - p1[last]) / kp1 - (a3 - p3[last]) / kp3s) / gap
+            slip = 0.0  # sum of w * lim * overshoot over the nodes that slip in this step
+            for i in range(last):
+                lim = slip_ratio * (d_new - g[i])
+                u = u_x[i] + shift
+                if u > lim:
+                    slip += w[i] * lim * (u - lim)
+                    u = lim
+                elif u < -lim:
+                    slip += w[i] * lim * (-lim - u)
+                    u = -lim
+                u_x[i] = u
+                fx += w[i] * u
+            w_last = left[last] + edge  # the last node in contact carries the edge cell
+            lim = slip_ratio * gap
+            u = u_x[last] + shift
+            if u > lim:
+                slip += w_last * lim * (u - lim)
+                u = lim
+            elif u < -lim:
+                slip += w_last * lim * (-lim - u)
+                u = -lim
+            u_x[last] = u
+            fx = c_t * (fx + w_last * u)
+            diss_ind += c_t * slip
+
+        V, imp2 = _half_kick(V, fx - load, mu1 * fz, 0.5 * dt, moving_mass)
+        diss_base += (imp1 + imp2) / dt * dX  # mean base force over the step times the displacement
+        work_z += 0.5 * (fz_now + fz) * (d_new - z_prev)
+        fx_now = fx
+        fz_now = fz
+        x_prev = x_new
+        z_prev = d_new
+        n_act = n_new
+        if abs(fx) > peak_fx:
+            peak_fx = abs(fx)
+        if fz > peak_fz:
+            peak_fz = fz
+        if record_every > 0 and n_steps_total % record_every == 0 and n_rec < trace.shape[0]:
+            trace[n_rec, T_TIME] = t_start + t
+            trace[n_rec, T_X] = x_new
+            trace[n_rec, T_Z] = d_new
+            trace[n_rec, T_SLIDER_X] = X
+            trace[n_rec, T_SLIDER_V] = V
+            trace[n_rec, T_FX] = fx
+            trace[n_rec, T_FZ] = fz
+            n_rec += 1
+
+    state[S_X] = X
+    state[S_V] = V
+    state[S_FX] = fx_now
+    state[S_FZ] = fz_now
+    state[S_NACT] = n_act
+    state[S_XIND] = x_prev
+    state[S_ZIND] = z_prev
+    state[S_TIME] = t_start + period
+    out[O_DISPLACEMENT] = X - X_start
+    out[O_MEAN_VELOCITY] = (X - X_start) / period
+    out[O_PEAK_FX] = peak_fx
+    out[O_PEAK_FZ] = peak_fz
+    out[O_DISS_INDENTER] = diss_ind
+    out[O_DISS_BASE] = diss_base
+    out[O_WORK_LOAD] = work_load
+    out[O_WORK_INDENTER_X] = work_x
+    out[O_WORK_INDENTER_Z] = work_z
+    out[O_N_RECORDED] = n_rec

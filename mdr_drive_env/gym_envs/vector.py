@@ -1,0 +1,149 @@
+"""MDRDrive-v0 as a native Gymnasium vector env: N drives stepped by one compiled call per period."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from ..core import kernel as K
+from ..core.batch import BatchedDriveSimulator
+from .mdr_drive import MDRDriveEnv
+from .spaces import ActionMap, ObservationLayout
+
+_INFO_KEYS = ("displacement", "mean_velocity", "end_velocity", "peak_tangential_force", "peak_normal_force",
+              "indenter_dissipation", "base_dissipation", "load_work")
+_OUT_COLUMNS = (K.O_DISPLACEMENT, K.O_MEAN_VELOCITY, None, K.O_PEAK_FX, K.O_PEAK_FZ, K.O_DISS_INDENTER,
+                K.O_DISS_BASE, K.O_WORK_LOAD)
+
+
+class MDRDriveVectorEnv(VectorEnv):
+    """``num_envs`` copies of :class:`MDRDriveEnv` stepped together by the batched fast solver.
+
+    Takes the single env's keyword arguments (``numerics`` must be a ``method="nodes"`` preset,
+    default ``"fast"``) plus ``num_envs`` and ``autoreset_mode`` (``NEXT_STEP``, Gymnasium's default:
+    the step after an episode ends resets that sub-env and ignores its action; or ``SAME_STEP``:
+    the sub-env resets at once and ``info["final_obs"]``, ``info["final_info"]`` hold the last
+    observation and info). Sub-env i seeded with ``seed + i`` plays exactly the episode of
+    ``gym.make("MDRDrive-v0", numerics=...)`` reset with ``seed + i``, bit for bit.
+
+    Create with ``gym.make_vec("MDRDrive-v0", num_envs=N, vectorization_mode="vector_entry_point")``.
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(self, num_envs: int = 8, autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+                 render_mode: str | None = None, **kwargs: Any):
+        if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs={num_envs!r} is outside the allowed range [1, inf)")
+        if render_mode is not None:
+            raise ValueError(f"render_mode={render_mode!r}: the vector env does not render; use MDRDrive-v0")
+        mode = AutoresetMode(autoreset_mode)
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"autoreset_mode={autoreset_mode!r} is not one of ['NextStep', 'SameStep']")
+        kwargs.setdefault("numerics", "fast")
+        self.template = MDRDriveEnv(**kwargs)  # validates every argument
+        if self.template.numerics.method != "nodes":
+            raise ValueError(f"numerics={kwargs['numerics']!r}: the vector env needs the fast solver (method='nodes')")
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
+        self.num_envs = int(num_envs)
+        self.single_action_space = self.template.action_space
+        self.single_observation_space = self.template.observation_space
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.sim = BatchedDriveSimulator(self.num_envs, self.template.numerics, self.template.action_map.z_amplitude_max)
+        n = self.num_envs
+        self.k = np.zeros(n)
+        self.cargo_mass = np.zeros(n)
+        self.load = np.zeros(n)
+        self.friction_ref = np.ones(n)
+        self.force_ref = np.ones(n)
+        self.period_index = np.zeros(n, dtype=np.int64)
+        self.prev_action = np.zeros((n, ActionMap.SIZE))
+        self._rngs = [seeding.np_random(None)[0] for _ in range(n)]
+        self._autoreset = np.zeros(n, dtype=bool)
+        self._last_obs = np.zeros((n, ObservationLayout.low.size), dtype=np.float32)
+
+    def _reset_one(self, i: int, options: dict[str, Any] | None) -> None:
+        t = self.template
+        self.k[i], self.cargo_mass[i], params = t.sample_episode(self._rngs[i], options)
+        self.sim.set_params(i, params)
+        self.load[i] = params.drive.load
+        self.force_ref[i] = t.reference_force(params)
+        self.friction_ref[i] = params.contact.friction_coefficient * self.force_ref[i]
+        self.period_index[i] = 0
+        self.prev_action[i] = 0.0
+
+    def _observe(self, dynamics: np.ndarray) -> np.ndarray:
+        return ObservationLayout.build(dynamics, self.prev_action, self.k, self.load, self.friction_ref,
+                                       self.period_index / self.template.max_periods)
+
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
+        """Reset every sub-env (or those in ``options["reset_mask"]``); ``seed`` int -> seed + i."""
+        options = dict(options or {})
+        mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, dtype=bool)), dtype=bool)
+        seeds = [None if seed is None else seed + i for i in range(self.num_envs)] if not isinstance(seed, list) else seed
+        if len(seeds) != self.num_envs:
+            raise ValueError(f"seed list of length {len(seeds)} for {self.num_envs} envs")
+        for i in np.flatnonzero(mask):
+            if seeds[i] is not None:
+                self._rngs[i] = seeding.np_random(seeds[i])[0]
+            self._reset_one(i, options)
+        self._autoreset[mask] = False
+        obs = self._observe(np.zeros((self.num_envs, 5)))
+        self._last_obs[mask] = obs[mask]
+        return self._last_obs.copy(), {"k": self.k.copy(), "cargo_mass": self.cargo_mass.copy(),
+                                       "load_force": self.load.copy()}
+
+    def step(self, actions):
+        t = self.template
+        amap = t.action_map
+        actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, ActionMap.SIZE)
+        waveforms = np.empty((self.num_envs, 5))
+        for i, a in enumerate(actions):
+            p = amap.to_params(a)  # raises on non-finite actions, before any state changes
+            waveforms[i] = (p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase)
+        stepped = ~self._autoreset
+        out = self.sim.step(waveforms, amap.period)
+        self.period_index[stepped] += 1
+        self.prev_action[stepped] = np.clip(actions[stepped], -1.0, 1.0)
+        v_scale = t.reward_scale / amap.period
+        end_v = self.sim.state[:, K.S_V]
+        dynamics = np.column_stack([out[:, K.O_DISPLACEMENT] / t.reward_scale, out[:, K.O_MEAN_VELOCITY] / v_scale,
+                                    end_v / v_scale, out[:, K.O_PEAK_FX] / self.friction_ref,
+                                    out[:, K.O_PEAK_FZ] / self.force_ref])
+        effort = 0.5 * ((waveforms[:, 0] / amap.x_amplitude_max) ** 2 + (waveforms[:, 2] / amap.z_amplitude_max) ** 2)
+        rewards = out[:, K.O_DISPLACEMENT] / t.reward_scale - t.actuation_penalty * effort
+        obs = self._observe(dynamics)
+        truncated = stepped & (self.period_index >= t.max_periods)
+        terminated = np.zeros(self.num_envs, dtype=bool)
+        info: dict[str, Any] = {"k": self.k.copy(), "cargo_mass": self.cargo_mass.copy(), "load_force": self.load.copy(),
+                                "effort": effort, "slider_position": self.sim.state[:, K.S_X].copy()}
+        for key, col in zip(_INFO_KEYS, _OUT_COLUMNS):
+            info[key] = end_v.copy() if col is None else out[:, col].copy()
+        info = {**info, **{f"_{key}": stepped.copy() for key in info}}
+
+        # sub-envs that were waiting for their autoreset: reset now, ignore what was just stepped
+        for i in np.flatnonzero(~stepped):
+            self._reset_one(i, None)
+        if (~stepped).any():
+            fresh = self._observe(np.zeros((self.num_envs, 5)))
+            obs[~stepped] = fresh[~stepped]
+            rewards[~stepped] = 0.0
+        if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP and truncated.any():
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i in np.flatnonzero(truncated):
+                final_obs[i] = obs[i].copy()
+                self._reset_one(i, None)
+            fresh = self._observe(np.zeros((self.num_envs, 5)))
+            obs[truncated] = fresh[truncated]
+            info["final_obs"], info["_final_obs"] = final_obs, truncated.copy()
+            info["final_info"] = {k: v.copy() for k, v in info.items() if not k.startswith(("final", "_final"))}
+            info["_final_info"] = truncated.copy()
+        else:
+            self._autoreset = truncated | terminated
+        self._last_obs = obs
+        return obs, rewards.astype(np.float64), terminated, truncated, info
