@@ -184,6 +184,23 @@ def cmd_demo(a: argparse.Namespace) -> int:
     return demo(a.out)
 
 
+def _agents_arguments(p: argparse.ArgumentParser, module: str) -> None:
+    try:
+        mod = __import__(f"agents.{module}", fromlist=["add_arguments"])
+    except ImportError as e:  # the train extra is missing
+        p.set_defaults(_import_error=str(e))
+        return
+    mod.add_arguments(p)
+
+
+def _agents_main(module: str, a: argparse.Namespace) -> int:
+    if getattr(a, "_import_error", None):
+        print(f"mdr-drive {module} needs the train extra (pip install -e '.[train]'): {a._import_error}",
+              file=sys.stderr)
+        return 2
+    return __import__(f"agents.{module}", fromlist=["main"]).main(a)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mdr-drive", description=__doc__, formatter_class=_F)
     parser.add_argument("--version", action="version", version=f"mdr-drive {__version__}")
@@ -215,6 +232,21 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--out", default="results/bench", help="output folder (bench_speed.json, bench_speed.md)")
     b.add_argument("--quick", action="store_true", help="shorter timing blocks")
     b.set_defaults(func=cmd_bench)
+
+    t = sub.add_parser("train", formatter_class=_F, help="train a waveform policy (needs the train extra)",
+                       description="Train PPO or SAC on MDRDrive-v0 (agents/train.py); see docs/results.md.")
+    _agents_arguments(t, "train")
+    t.set_defaults(func=lambda a: _agents_main("train", a))
+
+    e = sub.add_parser("evaluate", formatter_class=_F, help="a trained policy against the trapezoid at one point",
+                       description="Steady velocity of a policy and of the paper's trapezoid (agents/evaluate.py).")
+    _agents_arguments(e, "evaluate")
+    e.set_defaults(func=lambda a: _agents_main("evaluate", a))
+
+    w = sub.add_parser("benchmark", formatter_class=_F, help="learned vs trapezoid vs CMA-ES over k and load",
+                       description="The waveform benchmark (agents/benchmark.py); writes results/benchmark/.")
+    _agents_arguments(w, "benchmark")
+    w.set_defaults(func=lambda a: _agents_main("benchmark", a))
 
     d = sub.add_parser("demo", formatter_class=_F, help="the README's demo (make demo)",
                        description="Simulate the paper's drive and show what the package does.")

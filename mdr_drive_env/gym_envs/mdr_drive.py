@@ -81,7 +81,10 @@ class MDRDriveEnv(gym.Env):
 
     Slider at rest at X = 0, indenter at x = z = 0 (no contact), springs unloaded. k and the cargo
     mass are drawn uniformly from their ranges (if given as ``(low, high)``) with the env's seeded
-    generator, or set for one episode by ``reset(options={"k": ..., "cargo_mass": ...})``.
+    generator, or set for one episode by ``reset(options={"k": ..., "cargo_mass": ...})``. With
+    ``load_ratio`` the load is drawn instead as a fraction of ``mu F_ref`` (observation entry 11),
+    which puts the working range of every k in the same interval (the paper's trapezoid stalls at
+    a ratio of about 0.1 to 0.3).
 
     ## Episode End
 
@@ -92,13 +95,14 @@ class MDRDriveEnv(gym.Env):
     ## Arguments
 
     ``gym.make("MDRDrive-v0", **kwargs)`` with flat keyword arguments (SI units):
-    ``k`` (float or (low, high)), ``cargo_mass`` (kg, float or (low, high)), ``youngs_modulus`` (Pa),
+    ``k`` (float or (low, high)), ``cargo_mass`` (kg, float or (low, high)), ``load_ratio`` (float or
+    (low, high), replaces ``cargo_mass`` when given: ``m g = ratio mu F_ref``), ``youngs_modulus`` (Pa),
     ``poisson_ratio``, ``reference_depth`` (m), ``rigid_indenter`` (bool), ``indenter_radius`` (m),
     ``friction_coefficient``, ``base_friction_coefficient``, ``slider_mass`` (kg), ``gravity``
     (m/s^2), ``cargo_inertia`` (bool), ``numerics`` (preset name: ``"fast"``, the default node
     solver, see docs/performance.md; ``"default"`` or ``"paper"`` for the reference solver), ``period`` (s), ``max_periods``,
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
-    ``max_rise_fraction``, ``reward_scale`` (m), ``actuation_penalty``, ``render_mode``
+    ``max_rise_fraction``, ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``render_mode``
     (``"rgb_array"`` or ``"human"``). Bad values raise ``ValueError`` naming the argument.
 
     ## Version History
@@ -112,6 +116,7 @@ class MDRDriveEnv(gym.Env):
         self,
         k: float | tuple[float, float] = 0.2,
         cargo_mass: float | tuple[float, float] = 0.1,
+        load_ratio: float | tuple[float, float] | None = None,
         youngs_modulus: float = 2e11,
         poisson_ratio: float = 0.3,
         reference_depth: float = 1.0,
@@ -131,10 +136,12 @@ class MDRDriveEnv(gym.Env):
         max_rise_fraction: float = 0.95,
         reward_scale: float = 30e-6,
         actuation_penalty: float = 0.0,
+        reward_floor: float | None = None,
         render_mode: str | None = None,
     ):
         self.k_range = sample_range("k", k, 0.0, 1.0, high_open=True)
         self.cargo_mass_range = sample_range("cargo_mass", cargo_mass, 0.0, math.inf)
+        self.load_ratio_range = None if load_ratio is None else sample_range("load_ratio", load_ratio, 0.0, 10.0)
         self._material = Material(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
                                   reference_depth=reference_depth)
         self.rigid_indenter = bool(rigid_indenter)
@@ -152,6 +159,9 @@ class MDRDriveEnv(gym.Env):
             raise ValueError(f"actuation_penalty={actuation_penalty!r} is outside the allowed range [0, inf)")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is not one of {self.metadata['render_modes']}")
+        if reward_floor is not None and not (isinstance(reward_floor, (int, float)) and math.isfinite(reward_floor)):
+            raise ValueError(f"reward_floor={reward_floor!r} is outside the allowed range (-inf, inf) or None")
+        self.reward_floor = None if reward_floor is None else float(reward_floor)
         self.max_periods = int(max_periods)
         self.reward_scale = float(reward_scale)
         self.actuation_penalty = float(actuation_penalty)
@@ -181,6 +191,10 @@ class MDRDriveEnv(gym.Env):
         k = options.get("k", None)
         m = options.get("cargo_mass", None)
         k = float(rng.uniform(*self.k_range)) if k is None else float(k)
+        if m is None and self.load_ratio_range is not None:  # load as a fraction of mu F_ref at this k
+            ratio = float(rng.uniform(*self.load_ratio_range))
+            p0 = self.params_for(k, 0.0)
+            m = ratio * p0.contact.friction_coefficient * self.reference_force(p0) / p0.drive.gravity
         m = float(rng.uniform(*self.cargo_mass_range)) if m is None else float(m)
         return k, m, self.params_for(k, m)  # validates k and cargo_mass
 
@@ -222,6 +236,8 @@ class MDRDriveEnv(gym.Env):
         self._prev_action = np.clip(action, -1.0, 1.0).astype(np.float32)
         effort = self.action_map.effort(wp)
         reward = result.displacement / self.reward_scale - self.actuation_penalty * effort
+        if self.reward_floor is not None:
+            reward = max(reward, self.reward_floor)
         obs = self._observation(result)
         truncated = self.period_index >= self.max_periods
         if self.render_mode == "human":

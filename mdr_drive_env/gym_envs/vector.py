@@ -69,7 +69,9 @@ class MDRDriveVectorEnv(VectorEnv):
 
     def _reset_one(self, i: int, options: dict[str, Any] | None) -> None:
         t = self.template
-        self.k[i], self.cargo_mass[i], params = t.sample_episode(self._rngs[i], options)
+        # an option given as a sequence of num_envs values sets sub-env i to its i-th value
+        own = {key: (v[i] if np.ndim(v) == 1 and len(v) == self.num_envs else v) for key, v in (options or {}).items()}
+        self.k[i], self.cargo_mass[i], params = t.sample_episode(self._rngs[i], own)
         self.sim.set_params(i, params)
         self.load[i] = params.drive.load
         self.force_ref[i] = t.reference_force(params)
@@ -82,7 +84,11 @@ class MDRDriveVectorEnv(VectorEnv):
                                        self.period_index / self.template.max_periods)
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
-        """Reset every sub-env (or those in ``options["reset_mask"]``); ``seed`` int -> seed + i."""
+        """Reset every sub-env (or those in ``options["reset_mask"]``); ``seed`` int -> seed + i.
+
+        ``options["k"]``, ``options["cargo_mass"]`` set the next episode of every reset sub-env, or,
+        given as sequences of ``num_envs`` values, of each sub-env its own.
+        """
         options = dict(options or {})
         mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, dtype=bool)), dtype=bool)
         seeds = [None if seed is None else seed + i for i in range(self.num_envs)] if not isinstance(seed, list) else seed
@@ -117,6 +123,8 @@ class MDRDriveVectorEnv(VectorEnv):
                                     out[:, K.O_PEAK_FZ] / self.force_ref])
         effort = 0.5 * ((waveforms[:, 0] / amap.x_amplitude_max) ** 2 + (waveforms[:, 2] / amap.z_amplitude_max) ** 2)
         rewards = out[:, K.O_DISPLACEMENT] / t.reward_scale - t.actuation_penalty * effort
+        if t.reward_floor is not None:
+            rewards = np.maximum(rewards, t.reward_floor)
         obs = self._observe(dynamics)
         truncated = stepped & (self.period_index >= t.max_periods)
         terminated = np.zeros(self.num_envs, dtype=bool)

@@ -1,0 +1,189 @@
+"""Learned waveforms against the paper's trapezoid and CMA-ES over k and the load (``mdr-drive benchmark``).
+
+    mdr-drive benchmark --policies agents/pretrained/ppo_generalist runs/ppo_s1 runs/ppo_s2 --out results/benchmark
+
+Every method is evaluated with one protocol (``agents.evaluate``): a fresh drive, 30 periods, the
+steady velocity is the mean over the last 10. Policies given as several training seeds are
+reported as mean and standard deviation. The critical load of a method at k is the largest cargo
+mass below which its steady velocity stays positive: on a fine load grid for the trapezoid and the
+policies (one batched run), by bisection for CMA-ES (which re-optimises at every load).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from .baselines import CMA_BUDGET, cma_optimize
+from .evaluate import AVERAGE_PERIODS, EVAL_PERIODS, Policy, open_loop_velocity, policy_rollout, trapezoid_action
+
+GRID_KS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
+GRID_MASSES = (0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5)
+QUICK_KS = (0.0, 0.3)
+QUICK_MASSES = (0.0, 0.1)
+#: Fine load grid (kg) of the critical-load search, as fractions of a k-dependent upper bound.
+CRITICAL_GRID = 64
+
+
+def first_stall(masses: np.ndarray, velocity: np.ndarray) -> float:
+    """Largest mass of the grid before the velocity first drops to <= 0 (0 if it never moves)."""
+    bad = np.flatnonzero(velocity <= 0.0)
+    if bad.size == 0:
+        return float(masses[-1])
+    return float(masses[bad[0] - 1]) if bad[0] > 0 else 0.0
+
+
+def upper_mass(k: float) -> float:
+    """A load (kg) above every method's critical load at k: 0.8 of mu F_ref / g (the trapezoid stalls
+    at 0.18-0.33 of it)."""
+    import gymnasium as gym
+
+    import mdr_drive_env  # noqa: F401
+
+    env = gym.make("MDRDrive-v0", k=k, load_ratio=0.8).unwrapped
+    env.reset(seed=0)
+    return env.cargo_mass
+
+
+def critical_loads_grid(ks, velocity_fn) -> dict[float, float]:
+    """Critical load per k from ``velocity_fn(points) -> velocities`` on a fine load grid (two passes)."""
+    out = {}
+    for k in ks:
+        hi = upper_mass(k)
+        masses = np.linspace(0.0, hi, CRITICAL_GRID)
+        m1 = first_stall(masses, velocity_fn([(k, m) for m in masses]))
+        step = masses[1]
+        fine = np.linspace(m1, min(m1 + step, hi), CRITICAL_GRID)  # refine between the last mover and the stall
+        out[k] = first_stall(fine, velocity_fn([(k, m) for m in fine])) if m1 < hi else hi
+    return out
+
+
+def critical_load_cma(k: float, hi: float, budget: int, iterations: int = 8) -> float:
+    lo = 0.0
+    if cma_optimize(k, 0.0, budget).velocity <= 0.0:
+        return 0.0
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        if cma_optimize(k, mid, budget).velocity > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool = False,
+        cma_budget: int | None = None) -> dict:
+    from .plots import plot_all
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    ks, masses = (QUICK_KS, QUICK_MASSES) if quick else (GRID_KS, GRID_MASSES)
+    budget = cma_budget or (48 if quick else CMA_BUDGET)
+    points = [(k, m) for k in ks for m in masses]
+    t0 = time.perf_counter()
+    rows, res = [], {"grid": {"k": list(ks), "cargo_mass": list(masses)}, "protocol": {
+        "periods": EVAL_PERIODS, "averaged_over_last": AVERAGE_PERIODS}, "cma_budget_per_point": budget}
+
+    trap = open_loop_velocity(points, trapezoid_action())
+    rows += [("trapezoid", "", k, m, v) for (k, m), v in zip(points, trap)]
+    cma_v, cma_actions = [], []
+    for k, m in tqdm(points, desc="CMA-ES per point", unit="point"):
+        r = cma_optimize(k, m, budget)
+        cma_v.append(r.velocity)
+        cma_actions.append(r.action.tolist())
+    rows += [("cma-es", "", k, m, v) for (k, m), v in zip(points, cma_v)]
+    loaded = [Policy(p) for p in tqdm(policies, desc="load policies")]
+    learned = []
+    waveforms = {}
+    for path, pol in zip(policies, loaded):
+        disp, acts = policy_rollout(pol, points)
+        v = disp[-AVERAGE_PERIODS:].mean(axis=0) / 2e-3
+        learned.append(v)
+        waveforms[path] = acts[-1].tolist()
+        rows += [("learned", path, k, m, x) for (k, m), x in zip(points, v)]
+    with open(out / "velocities.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["method", "policy", "k", "cargo_mass_kg", "steady_velocity_m_s"])
+        w.writerows(rows)
+
+    crit = {"trapezoid": critical_loads_grid(ks, lambda pts: open_loop_velocity(pts, trapezoid_action()))}
+    for path, pol in tqdm(list(zip(policies, loaded)), desc="critical loads (policies)"):
+        crit[path] = critical_loads_grid(ks, lambda pts, pol=pol: policy_rollout(pol, pts)[0][-AVERAGE_PERIODS:]
+                                         .mean(axis=0) / 2e-3)
+    crit["cma-es"] = {k: critical_load_cma(k, 2.0 * max(crit["trapezoid"][k], 1e-4), budget, 4 if quick else 8)
+                      for k in tqdm(ks, desc="critical loads (CMA-ES)")}
+
+    learned = np.array(learned) if learned else np.zeros((0, len(points)))
+    res.update({
+        "points": points, "trapezoid": trap.tolist(), "cma_es": cma_v, "cma_actions": cma_actions,
+        "learned_mean": learned.mean(axis=0).tolist() if len(learned) else [],
+        "learned_std": learned.std(axis=0).tolist() if len(learned) else [],
+        "learned_last_actions": waveforms, "policies": policies,
+        "critical_load_kg": {name: {f"{k:g}": v for k, v in c.items()} for name, c in crit.items()},
+    })
+    res["summary"] = summarize(res, ks)
+    res["wall_time_s"] = round(time.perf_counter() - t0, 1)
+    (out / "benchmark.json").write_text(json.dumps(res, indent=1))
+    (out / "benchmark.md").write_text(markdown(res, ks, masses))
+    plot_all(res, ks, masses, out)
+    return res
+
+
+def summarize(res: dict, ks) -> dict:
+    trap, cma = np.array(res["trapezoid"]), np.array(res["cma_es"])
+    s = {}
+    if res["learned_mean"]:
+        lm = np.array(res["learned_mean"])
+        moving = (trap > 0) | (lm > 0)
+        s["learned_ge_trapezoid_where_moving"] = bool(np.all(lm[moving] >= trap[moving]))
+        s["points_learned_below_trapezoid"] = int(np.sum(lm[moving] < trap[moving]))
+        pos = cma > 0
+        s["mean_fraction_of_cma_where_cma_moves"] = float(np.mean(lm[pos] / cma[pos])) if pos.any() else None
+        crit = res["critical_load_kg"]
+        per_seed = [p for p in res["policies"]]
+        ratios = {f"{k:g}": float(np.mean([crit[p][f"{k:g}"] for p in per_seed]) / crit["trapezoid"][f"{k:g}"])
+                  if crit["trapezoid"][f"{k:g}"] > 0 else None for k in ks}
+        s["critical_load_ratio_learned_over_trapezoid"] = ratios
+    return s
+
+
+def markdown(res: dict, ks, masses) -> str:
+    n = len(masses)
+    lines = ["Steady velocity (mm/s): trapezoid / CMA-ES / learned (mean +- std over "
+             f"{len(res['policies'])} seeds)", "", "| k \\ m (kg) | " + " | ".join(f"{m:g}" for m in masses) + " |",
+             "|---|" + "---|" * n]
+    for i, k in enumerate(ks):
+        cells = []
+        for j in range(n):
+            idx = i * n + j
+            c = f"{res['trapezoid'][idx] * 1e3:.2f} / {res['cma_es'][idx] * 1e3:.2f}"
+            if res["learned_mean"]:
+                c += f" / {res['learned_mean'][idx] * 1e3:.2f} +- {res['learned_std'][idx] * 1e3:.2f}"
+            cells.append(c)
+        lines.append(f"| {k:g} | " + " | ".join(cells) + " |")
+    lines += ["", "Critical load (kg):", "", "| method | " + " | ".join(f"k = {k:g}" for k in ks) + " |",
+              "|---|" + "---|" * len(ks)]
+    for name, c in res["critical_load_kg"].items():
+        lines.append(f"| {name} | " + " | ".join(f"{c[f'{k:g}']:.4f}" for k in ks) + " |")
+    lines += ["", "Summary: " + json.dumps(res["summary"])]
+    return "\n".join(lines) + "\n"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--policies", nargs="*", default=[], help="policy folders (one per training seed)")
+    p.add_argument("--out", default="results/benchmark", help="output folder")
+    p.add_argument("--quick", action="store_true", help="a CI-sized grid and CMA-ES budget")
+    p.add_argument("--cma-budget", type=int, default=None, help=f"CMA-ES evaluations per point (default {CMA_BUDGET}) (-)")
+
+
+def main(args: argparse.Namespace) -> int:
+    res = run(args.policies, args.out, args.quick, args.cma_budget)
+    print((Path(args.out) / "benchmark.md").read_text())
+    print(f"wall time {res['wall_time_s']} s; figures and tables in {args.out}/")
+    return 0

@@ -1,0 +1,120 @@
+"""Steady-state velocity of waveform policies and fixed waveforms (``mdr-drive evaluate``).
+
+One protocol for every method: a fresh drive runs ``EVAL_PERIODS`` periods, and the steady
+velocity is the mean slider velocity over the last ``AVERAGE_PERIODS`` (after the transient; a
+mean over several periods also averages period-doubled states).
+
+    mdr-drive evaluate --policy agents/pretrained/ppo_generalist --k 0.2 --cargo-mass 0.1 --json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
+from mdr_drive_env.core import DriveParams, Waveform
+from mdr_drive_env.core import kernel as K
+from mdr_drive_env.core.batch import BatchedDriveSimulator
+from mdr_drive_env.gym_envs.spaces import ActionMap
+
+EVAL_PERIODS = 30
+AVERAGE_PERIODS = 10
+ACTION_MAP = ActionMap()
+
+
+def trapezoid_action() -> np.ndarray:
+    """The env action of the paper's waveform (Fig. 2)."""
+    return ACTION_MAP.to_action(Waveform.paper())
+
+
+def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS) -> np.ndarray:
+    """Steady velocity (m/s) of fixed actions, one per (k, cargo mass) point, batched in one call per period."""
+    actions = np.atleast_2d(np.asarray(actions, dtype=np.float64))
+    if len(actions) == 1 and len(points) > 1:
+        actions = np.repeat(actions, len(points), axis=0)
+    sim = BatchedDriveSimulator(len(points))
+    for i, (k, m) in enumerate(points):
+        sim.set_params(i, DriveParams.paper(k=k, cargo_mass=m))
+    wf = np.array([[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
+                   for p in (ACTION_MAP.to_params(a) for a in actions)])
+    disp = np.array([sim.step(wf, ACTION_MAP.period)[:, K.O_DISPLACEMENT].copy() for _ in range(periods)])
+    return disp[-average:].mean(axis=0) / ACTION_MAP.period
+
+
+class Policy:
+    """A trained SB3 policy with its VecNormalize statistics, as ``obs -> action`` (deterministic)."""
+
+    def __init__(self, path: str | Path):
+        import pickle
+
+        from stable_baselines3 import PPO, SAC
+
+        path = Path(path)
+        run = json.loads((path / "run.json").read_text()) if (path / "run.json").exists() else {}
+        algo = {"ppo": PPO, "sac": SAC}[run.get("algo", "ppo")]
+        self.model = algo.load(path / "model.zip", device="cpu")
+        self.obs_rms = None
+        if (path / "vecnormalize.pkl").exists():
+            with open(path / "vecnormalize.pkl", "rb") as f:
+                vn = pickle.load(f)
+            self.obs_rms, self.clip_obs, self.epsilon = vn.obs_rms, vn.clip_obs, vn.epsilon
+        self.run = run
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        if self.obs_rms is not None:
+            obs = np.clip((obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
+                          -self.clip_obs, self.clip_obs).astype(np.float32)
+        action, _ = self.model.predict(obs, deterministic=True)
+        return action
+
+
+def policy_rollout(policy, points, periods: int = EVAL_PERIODS):
+    """Run ``policy`` closed loop at each (k, cargo mass) point; returns (displacements (periods, n) m,
+    actions (periods, n, 5))."""
+    n = len(points)
+    venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods)
+    obs, _ = venv.reset(seed=0, options={"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]})
+    disp, acts = [], []
+    for _ in range(periods):
+        a = np.asarray(policy(obs), dtype=np.float32).reshape(n, ActionMap.SIZE)
+        obs, _, _, _, info = venv.step(a)
+        disp.append(info["displacement"])
+        acts.append(a)
+    return np.array(disp), np.array(acts)
+
+
+def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS) -> np.ndarray:
+    """Steady velocity (m/s) of a closed-loop policy at each point."""
+    disp, _ = policy_rollout(policy, points, periods)
+    return disp[-average:].mean(axis=0) / ACTION_MAP.period
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--policy", required=True, help="folder with model.zip and vecnormalize.pkl")
+    p.add_argument("--k", type=float, required=True, help="grading exponent k (-)")
+    p.add_argument("--cargo-mass", type=float, required=True, help="cargo mass m (kg)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def main(args: argparse.Namespace) -> int:
+    policy = Policy(args.policy)
+    point = [(args.k, args.cargo_mass)]
+    disp, acts = policy_rollout(policy, point)
+    learned = float(disp[-AVERAGE_PERIODS:, 0].mean() / ACTION_MAP.period)
+    trapezoid = float(open_loop_velocity(point, trapezoid_action())[0])
+    last = ACTION_MAP.to_params(acts[-1, 0])._asdict()
+    res = {"k": args.k, "cargo_mass": args.cargo_mass, "learned_mean_velocity": learned,
+           "trapezoid_mean_velocity": trapezoid, "learned_waveform_last_period": last,
+           "protocol": f"mean over periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}, m/s"}
+    if args.json:
+        print(json.dumps(res))
+    else:
+        print(f"k = {args.k:g}, m = {args.cargo_mass:g} kg: learned {learned * 1e3:.3f} mm/s, "
+              f"trapezoid {trapezoid * 1e3:.3f} mm/s")
+        print("learned waveform (last period):", {k: f"{v:.4g}" for k, v in last.items()})
+    return 0

@@ -1,0 +1,101 @@
+"""Figures of the waveform benchmark (PNG): velocity vs k and vs load, critical load, waveforms, heatmap."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mdr_drive_env.core.waveform import knots_from_params
+
+from .evaluate import ACTION_MAP, trapezoid_action
+
+
+def _waveform(action):
+    p = ACTION_MAP.to_params(action)
+    tx, vx, tz, vz = knots_from_params(p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase,
+                                       p.period, -1.0, -1.0)
+    return tx * 1e3, vx * 1e6, tz * 1e3, vz * 1e6
+
+
+def plot_all(res: dict, ks, masses, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nk, nm = len(ks), len(masses)
+    trap = np.array(res["trapezoid"]).reshape(nk, nm) * 1e3
+    cma = np.array(res["cma_es"]).reshape(nk, nm) * 1e3
+    has_learned = bool(res["learned_mean"])
+    lm = np.array(res["learned_mean"]).reshape(nk, nm) * 1e3 if has_learned else None
+    ls = np.array(res["learned_std"]).reshape(nk, nm) * 1e3 if has_learned else None
+
+    for name, axis_vals, other, pick, xlabel in (
+            ("velocity_vs_k", ks, masses, lambda a, j: a[:, j], "k"),
+            ("velocity_vs_load", masses, ks, lambda a, i: a[i, :], "cargo mass m (kg)")):
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        chosen = [i for i in range(len(other))][:: max(1, len(other) // 3)][:3]
+        for c, j in enumerate(chosen):
+            col = f"C{c}"
+            lab = f"m = {other[j]:g} kg" if name == "velocity_vs_k" else f"k = {other[j]:g}"
+            ax.plot(axis_vals, pick(trap, j), "-o", color=col, ms=3, label=f"trapezoid, {lab}")
+            ax.plot(axis_vals, pick(cma, j), "--s", color=col, ms=3, label=f"CMA-ES, {lab}")
+            if has_learned:
+                ax.errorbar(axis_vals, pick(lm, j), yerr=pick(ls, j), fmt=":^", color=col, ms=4,
+                            label=f"learned, {lab}")
+        ax.axhline(0, color="k", lw=0.6)
+        ax.set(xlabel=xlabel, ylabel="steady velocity (mm/s)", ylim=(max(-20, ax.get_ylim()[0]), None),
+               title="steady velocity (mean of periods 21-30)")
+        ax.legend(fontsize=6, ncol=3)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(out / f"{name}.png", dpi=120)
+        plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for name, c in res["critical_load_kg"].items():
+        style = "-o" if name in ("trapezoid", "cma-es") else ":^"
+        ax.plot(ks, [c[f"{k:g}"] for k in ks], style, ms=4, label=name)
+    ax.set(yscale="log", xlabel="k", ylabel="critical cargo mass (kg)", title="critical load vs k")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "critical_load_vs_k.png", dpi=120)
+    plt.close(fig)
+
+    if has_learned:
+        fig, ax = plt.subplots(figsize=(6, 4.5))
+        diff = lm - trap
+        lim = max(1e-9, np.abs(diff).max())
+        im = ax.imshow(diff, cmap="RdBu", vmin=-lim, vmax=lim, origin="lower", aspect="auto")
+        ax.set(xticks=range(nm), xticklabels=[f"{m:g}" for m in masses], yticks=range(nk),
+               yticklabels=[f"{k:g}" for k in ks], xlabel="cargo mass m (kg)", ylabel="k",
+               title="learned minus trapezoid steady velocity (mm/s)")
+        for i in range(nk):
+            for j in range(nm):
+                ax.text(j, i, f"{diff[i, j]:.1f}", ha="center", va="center", fontsize=6)
+        fig.colorbar(im)
+        fig.tight_layout()
+        fig.savefig(out / "heatmap_learned_minus_trapezoid.png", dpi=120)
+        plt.close(fig)
+
+        first = res["policies"][0]
+        acts = res["learned_last_actions"][first]
+        picks = [i for i in range(len(res["points"]))][:: max(1, len(res["points"]) // 4)][:4]
+        fig, axes = plt.subplots(1, len(picks), figsize=(3.2 * len(picks), 3.2), squeeze=False)
+        tt = _waveform(trapezoid_action())
+        for ax, i in zip(axes[0], picks):
+            k, m = res["points"][i]
+            lw = _waveform(acts[i])
+            ax.plot(tt[0], tt[1], color="0.6", label="trapezoid x")
+            ax.plot(tt[2], np.array(tt[3]) * 5, color="0.6", ls="--", label="trapezoid z (x5)")
+            ax.plot(lw[0], lw[1], color="C3", label="learned x")
+            ax.plot(lw[2], np.array(lw[3]) * 5, color="C3", ls="--", label="learned z (x5)")
+            ax.set(title=f"k = {k:g}, m = {m:g} kg", xlabel="t (ms)", ylabel="um")
+            ax.grid(alpha=0.3)
+        axes[0][0].legend(fontsize=6)
+        fig.suptitle("waveform of the 30th period (first policy) vs the trapezoid", fontsize=9)
+        fig.tight_layout()
+        fig.savefig(out / "learned_waveforms.png", dpi=120)
+        plt.close(fig)

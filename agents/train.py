@@ -1,0 +1,212 @@
+"""Train a waveform policy on MDRDrive-v0 with Stable-Baselines3 (``mdr-drive train``).
+
+    mdr-drive train --algo ppo --k 0 0.6 --cargo-mass 0 1.0 --steps 1000000 --seed 0 --out runs/ppo_s0
+    mdr-drive train --resume runs/ppo_s0 --steps 500000      # continue, same step counter
+
+Writes into ``--out``: ``model.zip``, ``vecnormalize.pkl`` (normalisation statistics, needed to run
+the policy), ``checkpoints/``, ``best/`` (best evaluation on held-out points), ``tb/`` (TensorBoard),
+``evaluations.npz`` and ``run.json`` (command, versions, seed, steps, wall time, steps/s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from .evaluate import trapezoid_action
+
+CONFIG_DIR = Path(__file__).parent / "configs"
+ENV_ID = "MDRDrive-v0"
+#: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
+HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0.25))
+
+
+def load_config(algo: str, path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start``
+    (not an RL Zoo key) is returned among the hyperparameters."""
+    path = Path(path) if path else CONFIG_DIR / f"{algo}.yaml"
+    data = yaml.safe_load(path.read_text())
+    if ENV_ID not in data:
+        raise ValueError(f"{path}: no '{ENV_ID}' section")
+    return {**data[ENV_ID], "warm_start": data.get("warm_start", "none")}, dict(data.get("env_kwargs", {}))
+
+
+def _range(values: list[float] | None, default):
+    if values is None:
+        return default
+    if len(values) not in (1, 2):
+        raise ValueError(f"expected one value or a (low, high) pair, got {values}")
+    return float(values[0]) if len(values) == 1 else (float(values[0]), float(values[1]))
+
+
+def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any]):
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from .vec_env import BatchedVecEnv
+
+    return VecMonitor(BatchedVecEnv(n_envs, seed=seed, **env_kwargs))
+
+
+def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS):
+    """One single env per held-out (k, cargo mass) point (fixed per env)."""
+    import gymnasium as gym
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
+
+    import mdr_drive_env  # noqa: F401  registers the env
+
+    kw = {key: v for key, v in env_kwargs.items() if key not in ("k", "cargo_mass", "load_ratio")}
+    # the same wrapper stack as the training env, so VecNormalize statistics can be synchronised
+    return VecMonitor(DummyVecEnv([lambda k=k, m=m: gym.make(ENV_ID, k=k, cargo_mass=m, **kw) for k, m in points]))
+
+
+def warm_start_at(model, action: np.ndarray) -> None:
+    """Initialise the policy's mean action at ``action`` (the last layer's weights scaled down).
+
+    PPO: the Gaussian mean is the action (clipped to the box by SB3). SAC: the mean is squashed by
+    tanh, so the bias is ``atanh`` of the action kept inside (-0.95, 0.95).
+    """
+    import torch
+
+    net = model.policy.action_net if hasattr(model.policy, "action_net") else model.policy.actor.mu
+    a = np.asarray(action, dtype=np.float32)
+    if not hasattr(model.policy, "action_net"):
+        a = np.arctanh(np.clip(a, -0.95, 0.95))
+    with torch.no_grad():
+        net.weight.mul_(0.01)
+        net.bias.copy_(torch.as_tensor(a))
+
+
+def versions() -> dict[str, str]:
+    import gymnasium
+    import numba
+    import stable_baselines3
+    import torch
+
+    import mdr_drive_env
+
+    return {"python": platform.python_version(), "mdr_drive": mdr_drive_env.__version__, "torch": torch.__version__,
+            "stable_baselines3": stable_baselines3.__version__, "gymnasium": gymnasium.__version__,
+            "numba": numba.__version__, "numpy": np.__version__}
+
+
+def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str | Path = "runs/ppo",
+          n_envs: int | None = None, k=None, cargo_mass=None, load_ratio=None, config: str | Path | None = None,
+          resume: str | Path | None = None, eval_freq: int = 20_000, checkpoint_freq: int = 100_000,
+          progress_bar: bool = True, verbose: int = 0) -> dict[str, Any]:
+    """Train (or resume) a policy; returns the run record also written to ``run.json``."""
+    import torch
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    algos = {"ppo": PPO, "sac": SAC}
+    out = Path(resume or out)
+    run_file = out / "run.json"
+    previous = json.loads(run_file.read_text()) if resume else None
+    if resume:
+        algo, seed = previous["algo"], previous["seed"]
+        hyper, env_kwargs = previous["hyperparameters"], previous["env_kwargs"]
+    else:
+        if algo not in algos:
+            raise ValueError(f"algo={algo!r} is not one of {sorted(algos)}")
+        hyper, env_kwargs = load_config(algo, config)
+        env_kwargs["k"] = _range(k, env_kwargs.get("k", 0.2))
+        if cargo_mass is not None:  # an explicit cargo mass replaces the config's load ratio
+            env_kwargs.pop("load_ratio", None)
+            env_kwargs["cargo_mass"] = _range(cargo_mass, None)
+        if load_ratio is not None:
+            env_kwargs["load_ratio"] = _range(load_ratio, None)
+        if n_envs:
+            hyper["n_envs"] = n_envs
+    hyper = dict(hyper)
+    n = int(hyper.pop("n_envs", 8))
+    total = int(steps if steps is not None else hyper.pop("n_timesteps", 1e6))
+    hyper.pop("n_timesteps", None)
+    hyper.pop("policy", None)
+    normalize = hyper.pop("normalize", True)
+    threads = len(os.sched_getaffinity(0))
+    torch.set_num_threads(threads)
+    out.mkdir(parents=True, exist_ok=True)
+
+    venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs)
+    eval_env = make_eval_env(env_kwargs)
+    if resume:
+        hyper.pop("warm_start", None)
+        venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
+        model = algos[algo].load(out / "model.zip", env=venv, device="cpu")
+    else:
+        if normalize:
+            venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=hyper.get("gamma", 0.99))
+        warm = hyper.pop("warm_start", "trapezoid")
+        model = algos[algo]("MlpPolicy", venv, seed=seed, device="cpu", tensorboard_log=str(out / "tb"),
+                            verbose=verbose, **hyper)
+        hyper["warm_start"] = warm
+        if warm == "trapezoid":
+            warm_start_at(model, trapezoid_action())
+    if normalize or resume:
+        eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
+    callbacks = [
+        CheckpointCallback(max(checkpoint_freq // n, 1), str(out / "checkpoints"), name_prefix=algo,
+                           save_vecnormalize=True),
+        EvalCallback(eval_env, n_eval_episodes=len(HELD_OUT_POINTS), eval_freq=max(eval_freq // n, 1),
+                     best_model_save_path=str(out / "best"), log_path=str(out), deterministic=True),
+    ]
+    start_steps = model.num_timesteps
+    t0 = time.perf_counter()
+    model.learn(total, callback=callbacks, progress_bar=progress_bar, reset_num_timesteps=not resume,
+                tb_log_name=algo)
+    wall = time.perf_counter() - t0
+    model.save(out / "model.zip")
+    if isinstance(model.get_env(), VecNormalize):
+        model.get_env().save(str(out / "vecnormalize.pkl"))
+    record = {
+        "algo": algo, "seed": seed, "env_id": ENV_ID, "env_kwargs": env_kwargs,
+        "hyperparameters": {**hyper, "n_envs": n, "normalize": normalize},
+        "command": " ".join(sys.argv), "versions": versions(), "torch_threads": threads,
+        "total_timesteps": int(model.num_timesteps), "steps_this_run": int(model.num_timesteps - start_steps),
+        "wall_time_s": round(wall + (previous["wall_time_s"] if previous else 0.0), 1),
+        "steps_per_s_this_run": round((model.num_timesteps - start_steps) / wall, 1),
+        "resumes": (previous["resumes"] + 1) if previous else 0,
+        "held_out_points": HELD_OUT_POINTS,
+    }
+    run_file.write_text(json.dumps(record, indent=2))
+    return record
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--algo", choices=["ppo", "sac"], default="ppo", help="SB3 algorithm")
+    p.add_argument("--k", type=float, nargs="+", default=None,
+                   help="grading exponent k, one value or a low high range sampled per episode (-)")
+    p.add_argument("--cargo-mass", type=float, nargs="+", default=None,
+                   help="cargo mass m, one value or a low high range sampled per episode; replaces the "
+                        "config's load ratio (kg)")
+    p.add_argument("--load-ratio", type=float, nargs="+", default=None,
+                   help="load as a fraction of mu F_ref, one value or a low high range (-); default from the config")
+    p.add_argument("--steps", type=int, default=None, help="environment steps (drive periods) to train (-)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the policy and the environments (-)")
+    p.add_argument("--n-envs", type=int, default=None, help="drives stepped together in the batched env (-)")
+    p.add_argument("--config", default=None, help="RL-Zoo-style YAML (default: agents/configs/<algo>.yaml)")
+    p.add_argument("--out", default=None, help="output folder (default: runs/<algo>_s<seed>)")
+    p.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR (same step counter)")
+    p.add_argument("--eval-freq", type=int, default=20_000, help="evaluate on held-out points every N steps (-)")
+    p.add_argument("--checkpoint-freq", type=int, default=100_000, help="checkpoint every N steps (-)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def main(args: argparse.Namespace) -> int:
+    out = args.out or f"runs/{args.algo}_s{args.seed}"
+    record = train(args.algo, args.steps, args.seed, out, args.n_envs, args.k, args.cargo_mass, args.load_ratio,
+                   args.config,
+                   args.resume, args.eval_freq, args.checkpoint_freq, progress_bar=not args.no_progress)
+    print(json.dumps({key: record[key] for key in ("algo", "seed", "total_timesteps", "wall_time_s",
+                                                    "steps_per_s_this_run")}, indent=2))
+    return 0

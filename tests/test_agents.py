@@ -1,0 +1,74 @@
+"""agents/: training, resume, evaluation and the baselines of the waveform benchmark."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+pytest.importorskip("cma")
+
+from agents.baselines import cma_optimize  # noqa: E402
+from agents.evaluate import AVERAGE_PERIODS, EVAL_PERIODS, Policy, open_loop_velocity, policy_rollout  # noqa: E402
+from agents.train import train  # noqa: E402
+from mdr_drive_env.core import DriveParams, DriveSimulator, Waveform  # noqa: E402
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_training_writes_model_stats_tensorboard_and_resumes(algo, tmp_path):
+    out = tmp_path / algo
+    kw = dict(n_envs=4, eval_freq=200, checkpoint_freq=200, progress_bar=False)
+    first = train(algo, steps=256, seed=0, out=out, **kw)
+    assert first["total_timesteps"] >= 256
+    for name in ("model.zip", "vecnormalize.pkl", "run.json", "evaluations.npz"):
+        assert (out / name).exists(), name
+    assert list((out / "tb").rglob("events.out.tfevents*"))
+    assert list((out / "checkpoints").glob("*vecnormalize*.pkl"))
+    record = json.loads((out / "run.json").read_text())
+    assert record["seed"] == 0 and record["versions"]["torch"].startswith("2.13") and record["wall_time_s"] > 0
+    resumed = train(resume=out, steps=128, **kw)
+    assert resumed["total_timesteps"] >= first["total_timesteps"] + 128
+    assert resumed["resumes"] == 1
+    policy = Policy(out)
+    v = open_loop_velocity([(0.2, 0.1)], policy(np.zeros((1, 14), dtype=np.float32)))
+    assert np.isfinite(v).all()
+
+
+def test_evaluate_cli_prints_finite_velocities(tmp_path):
+    out = tmp_path / "ppo"
+    train("ppo", steps=128, seed=1, out=out, n_envs=4, eval_freq=10_000, progress_bar=False)
+    res = subprocess.run([sys.executable, "-m", "mdr_drive_env.cli", "evaluate", "--policy", str(out), "--k", "0.2",
+                          "--cargo-mass", "0.1", "--json"], capture_output=True, text=True, check=True)
+    data = json.loads(res.stdout)
+    assert np.isfinite(data["learned_mean_velocity"]) and np.isfinite(data["trapezoid_mean_velocity"])
+    assert set(data["learned_waveform_last_period"]) >= {"x_amplitude", "z_amplitude", "z_phase"}
+
+
+def test_trapezoid_baseline_equals_the_simulator_with_the_paper_waveform():
+    from agents.evaluate import trapezoid_action
+
+    points = [(0.0, 0.1), (0.2, 0.1), (0.5, 0.0)]
+    v = open_loop_velocity(points, trapezoid_action())
+    for (k, m), vb in zip(points, v):
+        sim = DriveSimulator(DriveParams.paper(k=k, cargo_mass=m), "fast")
+        d = [r.displacement for r in sim.run(Waveform.paper(), EVAL_PERIODS)]
+        assert vb == pytest.approx(np.mean(d[-AVERAGE_PERIODS:]) / 2e-3, rel=1e-12, abs=1e-15)
+
+
+def test_cma_es_on_a_tiny_budget_stays_in_the_box_and_beats_nothing_it_did_not_see():
+    r = cma_optimize(0.2, 0.1, budget=24, popsize=6, seed=3)
+    assert r.action.shape == (5,) and np.all(r.action >= -1.0) and np.all(r.action <= 1.0)
+    assert r.evaluations <= 31  # the trapezoid + at most 5 populations of 6
+    assert r.velocity == pytest.approx(open_loop_velocity([(0.2, 0.1)], r.action)[0], rel=1e-12)
+
+
+def test_policy_rollout_uses_each_points_own_load():
+    class Constant:
+        def __call__(self, obs):
+            return np.tile(np.array([1.0, 1.0, 1.0, 0.7777778, -1.0], dtype=np.float32), (len(obs), 1))
+
+    disp, acts = policy_rollout(Constant(), [(0.0, 0.0), (0.0, 0.6)], periods=6)
+    assert disp.shape == (6, 2) and acts.shape == (6, 2, 5)
+    assert disp[-1, 0] > disp[-1, 1]  # the heavier load moves less
