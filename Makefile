@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 PYTEST_ARGS ?=
 
-.PHONY: install test demo reproduce convergence bench clean
+.PHONY: install test demo reproduce convergence bench train benchmark clean
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -19,7 +19,7 @@ install: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2 $(PYTEST_ARGS)
 
-## make demo: the main job (simulate the paper's drive, print and plot it)
+## make demo: the main job: the paper's drive, then the shipped policy against the trapezoid
 demo: $(STAMP)
 	$(VENV)/bin/mdr-drive demo --out results/demo
 
@@ -30,6 +30,18 @@ reproduce: $(STAMP)
 ## make convergence: the dt/dx convergence table under results/convergence
 convergence: $(STAMP)
 	$(PY) scripts/convergence.py --out results/convergence
+
+## make bench: speed and accuracy of the solvers (results/bench)
+bench: $(STAMP)
+	$(VENV)/bin/mdr-drive bench --out results/bench
+
+## make train: the shipped policy's training command (PPO, seed 0, about 4 minutes)
+train: $(STAMP)
+	$(VENV)/bin/mdr-drive train --algo ppo --steps 1000000 --seed 0 --out runs/ppo_s0
+
+## make benchmark: learned (3 seeds) vs trapezoid vs CMA-ES (results/benchmark)
+benchmark: $(STAMP)
+	$(VENV)/bin/mdr-drive benchmark --policies runs/ppo_s0 runs/ppo_s1 runs/ppo_s2 --out results/benchmark
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info

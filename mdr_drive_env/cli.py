@@ -178,12 +178,6 @@ def cmd_bench(a: argparse.Namespace) -> int:
     return 0 if res["accuracy_fast"]["max_error_over_tolerance"] <= 1.0 else 1
 
 
-def cmd_demo(a: argparse.Namespace) -> int:
-    from .demo import demo
-
-    return demo(a.out)
-
-
 def _agents_arguments(p: argparse.ArgumentParser, module: str) -> None:
     try:
         mod = __import__(f"agents.{module}", fromlist=["add_arguments"])
@@ -249,9 +243,9 @@ def build_parser() -> argparse.ArgumentParser:
     w.set_defaults(func=lambda a: _agents_main("benchmark", a))
 
     d = sub.add_parser("demo", formatter_class=_F, help="the README's demo (make demo)",
-                       description="Simulate the paper's drive and show what the package does.")
-    d.add_argument("--out", default="results/demo", help="output folder")
-    d.set_defaults(func=cmd_demo)
+                       description="Simulate the paper's drive, then run the shipped policy against the trapezoid.")
+    _agents_arguments(d, "demo")
+    d.set_defaults(func=lambda a: _agents_main("demo", a))
     return parser
 
 

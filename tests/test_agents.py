@@ -72,3 +72,16 @@ def test_policy_rollout_uses_each_points_own_load():
     disp, acts = policy_rollout(Constant(), [(0.0, 0.0), (0.0, 0.6)], periods=6)
     assert disp.shape == (6, 2) and acts.shape == (6, 2, 5)
     assert disp[-1, 0] > disp[-1, 1]  # the heavier load moves less
+
+
+def test_rl_zoo_trains_with_the_shipped_config(tmp_path):
+    pytest.importorskip("rl_zoo3")
+    from pathlib import Path
+
+    conf = Path(__file__).parents[1] / "agents" / "configs" / "ppo.yaml"
+    res = subprocess.run([sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "MDRDrive-v0",
+                          "--gym-packages", "mdr_drive_env", "-n", "300", "-conf", str(conf), "--log-folder",
+                          str(tmp_path), "--eval-freq", "-1", "--env-kwargs", "k:(0.0,0.6)", "load_ratio:(0.0,0.6)",
+                          "reward_floor:-2.0"], capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert list(tmp_path.rglob("MDRDrive-v0.zip")) and list(tmp_path.rglob("vecnormalize.pkl"))
