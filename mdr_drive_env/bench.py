@@ -20,7 +20,6 @@ from .core import DriveParams, DriveSimulator, Waveform, numerics_preset
 from .core import kernel as K
 from .core.fast_kernel import advance_period_nodes
 from .core.waveform import knots_from_params
-from .gym_envs.spaces import ActionMap
 
 SPEED_KS = (0.0, 0.3, 0.6, 0.9)
 

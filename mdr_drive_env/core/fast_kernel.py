@@ -22,34 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .kernel import (
-    O_DISPLACEMENT,
-    O_DISS_BASE,
-    O_DISS_INDENTER,
-    O_MEAN_VELOCITY,
-    O_N_RECORDED,
-    O_PEAK_FX,
-    O_PEAK_FZ,
-    O_WORK_INDENTER_X,
-    O_WORK_INDENTER_Z,
-    O_WORK_LOAD,
-    S_FX,
-    S_FZ,
-    S_NACT,
-    S_TIME,
-    S_V,
-    S_X,
-    S_XIND,
-    S_ZIND,
-    T_FX,
-    T_FZ,
-    T_SLIDER_V,
-    T_SLIDER_X,
-    T_TIME,
-    T_X,
-    T_Z,
-    _interp,
-)
+from .kernel import S_FX, S_FZ, S_NACT, S_TIME, S_V, S_X, S_XIND, S_ZIND, _interp, record_row, store_period
 
 
 def node_weights(g: np.ndarray, k: float, radius: float, c0: float):
@@ -272,31 +245,8 @@ def advance_period_nodes(
             peak_fx = abs(fx)
         if fz > peak_fz:
             peak_fz = fz
-        if record_every > 0 and n_steps_total % record_every == 0 and n_rec < trace.shape[0]:
-            trace[n_rec, T_TIME] = t_start + t
-            trace[n_rec, T_X] = x_new
-            trace[n_rec, T_Z] = d_new
-            trace[n_rec, T_SLIDER_X] = X
-            trace[n_rec, T_SLIDER_V] = V
-            trace[n_rec, T_FX] = fx
-            trace[n_rec, T_FZ] = fz
-            n_rec += 1
+        if record_every > 0 and n_steps_total % record_every == 0:
+            n_rec = record_row(trace, n_rec, t_start + t, x_new, d_new, X, V, fx, fz)
 
-    state[S_X] = X
-    state[S_V] = V
-    state[S_FX] = fx_now
-    state[S_FZ] = fz_now
-    state[S_NACT] = n_act
-    state[S_XIND] = x_prev
-    state[S_ZIND] = z_prev
-    state[S_TIME] = t_start + period
-    out[O_DISPLACEMENT] = X - X_start
-    out[O_MEAN_VELOCITY] = (X - X_start) / period
-    out[O_PEAK_FX] = peak_fx
-    out[O_PEAK_FZ] = peak_fz
-    out[O_DISS_INDENTER] = diss_ind
-    out[O_DISS_BASE] = diss_base
-    out[O_WORK_LOAD] = work_load
-    out[O_WORK_INDENTER_X] = work_x
-    out[O_WORK_INDENTER_Z] = work_z
-    out[O_N_RECORDED] = n_rec
+    store_period(state, out, X, V, fx_now, fz_now, n_act, x_prev, z_prev, t_start + period, X_start, period,
+                 peak_fx, peak_fz, diss_ind, diss_base, work_load, work_x, work_z, n_rec)

@@ -61,6 +61,45 @@ def _interp(t, times, values, j):
     return values[j] + (values[j + 1] - values[j]) * w, j
 
 
+@njit(cache=True, inline="always")
+def record_row(trace, n_rec, t, x, z, X, V, fx, fz):
+    """Write one trace row (if the buffer has room); returns the new row count."""
+    if n_rec < trace.shape[0]:
+        trace[n_rec, T_TIME] = t
+        trace[n_rec, T_X] = x
+        trace[n_rec, T_Z] = z
+        trace[n_rec, T_SLIDER_X] = X
+        trace[n_rec, T_SLIDER_V] = V
+        trace[n_rec, T_FX] = fx
+        trace[n_rec, T_FZ] = fz
+        n_rec += 1
+    return n_rec
+
+
+@njit(cache=True, inline="always")
+def store_period(state, out, X, V, fx, fz, n_act, x_ind, z_ind, t_end, X_start, period, peak_fx, peak_fz,
+                 diss_ind, diss_base, work_load, work_x, work_z, n_rec):
+    """Write the state at the end of a period and the period's results."""
+    state[S_X] = X
+    state[S_V] = V
+    state[S_FX] = fx
+    state[S_FZ] = fz
+    state[S_NACT] = n_act
+    state[S_XIND] = x_ind
+    state[S_ZIND] = z_ind
+    state[S_TIME] = t_end
+    out[O_DISPLACEMENT] = X - X_start
+    out[O_MEAN_VELOCITY] = (X - X_start) / period
+    out[O_PEAK_FX] = peak_fx
+    out[O_PEAK_FZ] = peak_fz
+    out[O_DISS_INDENTER] = diss_ind
+    out[O_DISS_BASE] = diss_base
+    out[O_WORK_LOAD] = work_load
+    out[O_WORK_INDENTER_X] = work_x
+    out[O_WORK_INDENTER_Z] = work_z
+    out[O_N_RECORDED] = n_rec
+
+
 @njit(cache=True)
 def advance_period(
     u_x,
@@ -181,32 +220,8 @@ def advance_period(
             peak_fx = abs(fx)
         if fz > peak_fz:
             peak_fz = fz
-        if record_every > 0 and (n + 1) % record_every == 0 and n_rec < trace.shape[0]:
-            trace[n_rec, T_TIME] = t_start + t
-            trace[n_rec, T_X] = x_new
-            trace[n_rec, T_Z] = d_new
-            trace[n_rec, T_SLIDER_X] = X
-            trace[n_rec, T_SLIDER_V] = V
-            trace[n_rec, T_FX] = fx
-            trace[n_rec, T_FZ] = fz
-            n_rec += 1
+        if record_every > 0 and (n + 1) % record_every == 0:
+            n_rec = record_row(trace, n_rec, t_start + t, x_new, d_new, X, V, fx, fz)
 
-    state[S_X] = X
-    state[S_V] = V
-    state[S_FX] = fx_now
-    state[S_FZ] = fz_now
-    state[S_NACT] = n_act
-    state[S_XIND] = x_prev
-    state[S_ZIND] = z_prev
-    state[S_TIME] = t_start + period
-
-    out[O_DISPLACEMENT] = X - X_start
-    out[O_MEAN_VELOCITY] = (X - X_start) / period
-    out[O_PEAK_FX] = peak_fx
-    out[O_PEAK_FZ] = peak_fz
-    out[O_DISS_INDENTER] = diss_ind
-    out[O_DISS_BASE] = diss_base
-    out[O_WORK_LOAD] = work_load
-    out[O_WORK_INDENTER_X] = work_x
-    out[O_WORK_INDENTER_Z] = work_z
-    out[O_N_RECORDED] = n_rec
+    store_period(state, out, X, V, fx_now, fz_now, n_act, x_prev, z_prev, t_start + period, X_start, period,
+                 peak_fx, peak_fz, diss_ind, diss_base, work_load, work_x, work_z, n_rec)
