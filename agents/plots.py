@@ -45,8 +45,9 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
                 ax.errorbar(axis_vals, pick(lm, j), yerr=pick(ls, j), fmt=":^", color=col, ms=4,
                             label=f"learned, {lab}")
         ax.axhline(0, color="k", lw=0.6)
-        ax.set(xlabel=xlabel, ylabel="steady velocity (mm/s)", ylim=(max(-20, ax.get_ylim()[0]), None),
-               title="steady velocity (mean of periods 21-30)")
+        top = max(np.max(trap), np.max(cma), np.max(lm) if has_learned else 0.0)
+        ax.set(xlabel=xlabel, ylabel="steady velocity (mm/s)", ylim=(-20, 1.1 * top),
+               title="steady velocity (mean of periods 21-30); below -20 mm/s: dragged back")
         ax.legend(fontsize=6, ncol=3)
         ax.grid(alpha=0.3)
         fig.tight_layout()
@@ -66,15 +67,17 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
 
     if has_learned:
         fig, ax = plt.subplots(figsize=(6, 4.5))
-        diff = lm - trap
-        lim = max(1e-9, np.abs(diff).max())
+        diff = np.where((lm > 0) | (trap > 0), lm - trap, np.nan)  # blank where neither moves the load
+        lim = max(1e-9, np.nanmax(np.abs(diff)) if np.isfinite(diff).any() else 1.0)
+        ax.set_facecolor("0.85")
         im = ax.imshow(diff, cmap="RdBu", vmin=-lim, vmax=lim, origin="lower", aspect="auto")
         ax.set(xticks=range(nm), xticklabels=[f"{m:g}" for m in masses], yticks=range(nk),
                yticklabels=[f"{k:g}" for k in ks], xlabel="cargo mass m (kg)", ylabel="k",
-               title="learned minus trapezoid steady velocity (mm/s)")
+               title="learned minus trapezoid (mm/s); grey: neither moves the load")
         for i in range(nk):
             for j in range(nm):
-                ax.text(j, i, f"{diff[i, j]:.1f}", ha="center", va="center", fontsize=6)
+                ax.text(j, i, "-" if np.isnan(diff[i, j]) else f"{diff[i, j]:.1f}", ha="center", va="center",
+                        fontsize=6)
         fig.colorbar(im)
         fig.tight_layout()
         fig.savefig(out / "heatmap_learned_minus_trapezoid.png", dpi=120)
