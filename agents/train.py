@@ -101,6 +101,7 @@ def versions() -> dict[str, str]:
 def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str | Path = "runs/ppo",
           n_envs: int | None = None, k=None, cargo_mass=None, load_ratio=None, config: str | Path | None = None,
           resume: str | Path | None = None, eval_freq: int = 20_000, checkpoint_freq: int = 100_000,
+          warm_start: str | None = None,
           progress_bar: bool = True, verbose: int = 0) -> dict[str, Any]:
     """Train (or resume) a policy; returns the run record also written to ``run.json``."""
     import torch
@@ -141,17 +142,27 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     eval_env = make_eval_env(env_kwargs)
     if resume:
         hyper.pop("warm_start", None)
+        hyper.pop("warm_start_mse", None)
         venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
         model = algos[algo].load(out / "model.zip", env=venv, device="cpu")
     else:
         if normalize:
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=hyper.get("gamma", 0.99))
-        warm = hyper.pop("warm_start", "trapezoid")
+        warm = warm_start or hyper.pop("warm_start", "trapezoid")
+        hyper.pop("warm_start", None)
         model = algos[algo]("MlpPolicy", venv, seed=seed, device="cpu", tensorboard_log=str(out / "tb"),
                             verbose=verbose, **hyper)
         hyper["warm_start"] = warm
         if warm == "trapezoid":
             warm_start_at(model, trapezoid_action())
+        elif warm.startswith("cma:"):  # behaviour cloning of a CMA-ES teacher (agents/teacher.py)
+            from .teacher import clone_into
+
+            if algo != "ppo":
+                raise ValueError("warm_start='cma:...' is implemented for PPO's Gaussian policy only")
+            hyper["warm_start_mse"] = clone_into(model, dict(np.load(warm[4:])), model.get_env(), seed=seed)
+        elif warm != "none":
+            raise ValueError(f"warm_start={warm!r} is not one of ['none', 'trapezoid', 'cma:<teacher.npz>']")
     if normalize or resume:
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     callbacks = [
@@ -199,6 +210,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR (same step counter)")
     p.add_argument("--eval-freq", type=int, default=20_000, help="evaluate on held-out points every N steps (-)")
     p.add_argument("--checkpoint-freq", type=int, default=100_000, help="checkpoint every N steps (-)")
+    p.add_argument("--warm-start", default=None, metavar="none|trapezoid|cma:FILE",
+                   help="initial policy: as is, mean at the trapezoid, or cloned from a CMA-ES teacher "
+                        "(python -m agents.teacher); default from the config")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -206,7 +220,8 @@ def main(args: argparse.Namespace) -> int:
     out = args.out or f"runs/{args.algo}_s{args.seed}"
     record = train(args.algo, args.steps, args.seed, out, args.n_envs, args.k, args.cargo_mass, args.load_ratio,
                    args.config,
-                   args.resume, args.eval_freq, args.checkpoint_freq, progress_bar=not args.no_progress)
+                   args.resume, args.eval_freq, args.checkpoint_freq, warm_start=args.warm_start,
+                   progress_bar=not args.no_progress)
     print(json.dumps({key: record[key] for key in ("algo", "seed", "total_timesteps", "wall_time_s",
                                                     "steps_per_s_this_run")}, indent=2))
     return 0

@@ -85,3 +85,19 @@ def test_rl_zoo_trains_with_the_shipped_config(tmp_path):
                           "reward_floor:-2.0"], capture_output=True, text=True, cwd=tmp_path, timeout=600)
     assert res.returncode == 0, res.stderr[-2000:]
     assert list(tmp_path.rglob("MDRDrive-v0.zip")) and list(tmp_path.rglob("vecnormalize.pkl"))
+
+
+def test_cma_teacher_is_cloned_into_the_policy(tmp_path):
+    from agents.teacher import build
+
+    data = build(n=3, periods=4, workers=1, budget=24)
+    assert data["obs"].shape == (12, 14) and data["targets"].shape == (12, 5)
+    assert np.all(np.abs(data["actions"]) <= 1.0)
+    np.savez(tmp_path / "teacher.npz", **data)
+    out = tmp_path / "ppo_bc"
+    record = train("ppo", steps=64, seed=0, out=out, n_envs=4, eval_freq=10_000, progress_bar=False,
+                   warm_start=f"cma:{tmp_path / 'teacher.npz'}")
+    assert record["hyperparameters"]["warm_start_mse"] < 0.02  # the policy's mean reproduces the teacher
+    with pytest.raises(ValueError, match="PPO"):
+        train("sac", steps=64, seed=0, out=tmp_path / "sac_bc", n_envs=2, progress_bar=False,
+              warm_start=f"cma:{tmp_path / 'teacher.npz'}")
