@@ -35,13 +35,15 @@ convergence: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/mdr-drive bench --out results/bench
 
-## make train: the shipped policy's training command (PPO, seed 0, about 4 minutes)
+## make train: the shipped policy's recipe: CMA-ES teacher, then PPO seeds 0-2 (about 15 minutes)
 train: $(STAMP)
-	$(VENV)/bin/mdr-drive train --algo ppo --steps 1000000 --seed 0 --out runs/ppo_s0
+	$(PY) -m agents.teacher --points 160 --out runs/teacher.npz
+	for s in 0 1 2; do $(VENV)/bin/mdr-drive train --algo ppo --steps 1000000 --seed $$s \
+	    --warm-start cma:runs/teacher.npz --out runs/ppo_bc_s$$s || exit 1; done
 
 ## make benchmark: learned (3 seeds) vs trapezoid vs CMA-ES (results/benchmark)
 benchmark: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --policies runs/ppo_s0 runs/ppo_s1 runs/ppo_s2 --out results/benchmark
+	$(VENV)/bin/mdr-drive benchmark --policies runs/ppo_bc_s0 runs/ppo_bc_s1 runs/ppo_bc_s2 --out results/benchmark
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info

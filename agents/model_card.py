@@ -31,6 +31,15 @@ def evaluation_table(policy_dir: str | Path) -> str:
     return "\n".join(lines)
 
 
+def teacher_note(run: dict) -> str:
+    warm = run["hyperparameters"].get("warm_start", "none")
+    if not warm.startswith("cma:"):
+        return f"`{warm}`"
+    return (f"behaviour cloning of the CMA-ES teacher `{warm[4:]}` (built by `python -m agents.teacher "
+            f"--points 160 --out {warm[4:]}`: 160 (k, load) points x 480 CMA-ES evaluations, about 2 minutes "
+            f"on 2 cores), fit MSE {run['hyperparameters'].get('warm_start_mse', float('nan')):.4f}, then PPO")
+
+
 def ship(src: str | Path, dst: str | Path) -> Path:
     src, dst = Path(src), Path(dst)
     dst.mkdir(parents=True, exist_ok=True)
@@ -47,6 +56,7 @@ One policy for every grading exponent and load in its training range: it observe
 * Algorithm: {run['algo'].upper()}, seed {run['seed']}, {run['total_timesteps']:,} environment steps (drive
   periods), {run['wall_time_s']:.0f} s wall time on this 2-core machine ({run['steps_per_s_this_run']:,.0f} steps/s,
   torch threads {run['torch_threads']}), warm start: {run['hyperparameters'].get('warm_start', 'none')}
+* Warm start: {teacher_note(run)}
 * Training distribution (env kwargs): `{json.dumps(run['env_kwargs'])}`
 * Hyperparameters: `{json.dumps({k: v for k, v in run['hyperparameters'].items() if k != 'policy_kwargs'})}`,
   policy `{json.dumps(run['hyperparameters'].get('policy_kwargs', {}))}`

@@ -108,7 +108,11 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0, help="seed of the point sample (-)")
     ap.add_argument("--out", default="runs/teacher.npz", help="output .npz")
     a = ap.parse_args(argv)
+    import time
+
+    t0 = time.perf_counter()
     data = build(a.points, seed=a.seed)
+    data["wall_time_s"] = np.array(time.perf_counter() - t0)
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(a.out, **data)
     print(f"wrote {a.out}: {len(data['points'])} points, {len(data['obs'])} observation-action pairs")
