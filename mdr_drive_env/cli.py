@@ -29,6 +29,14 @@ from .core.waveform import PAPER_X, PAPER_Z
 _F = argparse.ArgumentDefaultsHelpFormatter
 
 
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is outside the allowed range [1, inf)")
+    return value
+
+
 def add_model_arguments(p: argparse.ArgumentParser) -> None:
     """Options for the physical model (DriveParams) and the numerics."""
     m = p.add_argument_group("material (both bodies, unless --rigid-indenter)")
@@ -205,7 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_model_arguments(s)
     add_waveform_arguments(s)
     o = s.add_argument_group("output")
-    o.add_argument("--periods", type=int, default=6, help="drive periods to simulate (-)")
+    o.add_argument("--periods", type=positive_int, default=6, help="drive periods to simulate (-)")
     o.add_argument("--record-every", type=int, default=0, help="trace row every N time steps (0: auto with --plot) (-)")
     o.add_argument("--plot", metavar="OUT.png", default=None, help="write X(t), x(t), z(t), F_x, F_z as a PNG")
     o.add_argument("--json", action="store_true", help="print one JSON object (per-period results, params)")
@@ -215,7 +223,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Write Figs. 3, 4, 5 and the h_N/h_T sensitivity plot as PNG + CSV.")
     r.add_argument("--out", default="results/paper", help="output folder")
     r.add_argument("--numerics", default="paper", choices=sorted(NUMERICS_PRESETS), help="numerics preset")
-    r.add_argument("--periods", type=int, default=10, help="periods shown in Figs. 3 and 4 (-)")
+    r.add_argument("--periods", type=positive_int, default=10, help="periods shown in Figs. 3 and 4 (-)")
     r.add_argument("--workers", type=int, default=None, help="processes (default: available cores)")
     r.add_argument("--quick", action="store_true", help="a small subset of the cases (for CI)")
     r.set_defaults(func=cmd_reproduce)
@@ -252,8 +260,6 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if getattr(args, "periods", 1) is not None and getattr(args, "periods", 1) < 1:
-        parser.error(f"--periods={args.periods} must be >= 1")
     try:
         return args.func(args)
     except ValueError as e:

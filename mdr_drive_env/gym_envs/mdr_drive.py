@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -178,9 +179,9 @@ class MDRDriveEnv(gym.Env):
     # --- helpers ---
     def params_for(self, k: float, cargo_mass: float) -> DriveParams:
         """The physical model for one episode."""
-        graded = Material(**{**self._material.__dict__, "grading_exponent": k})
+        graded = dataclasses.replace(self._material, grading_exponent=k)
         return DriveParams(indenter=Material.rigid() if self.rigid_indenter else graded, slider=graded,
-                           contact=self._contact, drive=Drive(**{**self._drive.__dict__, "cargo_mass": cargo_mass}))
+                           contact=self._contact, drive=dataclasses.replace(self._drive, cargo_mass=cargo_mass))
 
     def sample_episode(self, rng: np.random.Generator, options: dict[str, Any] | None = None):
         """(k, cargo mass, DriveParams) of a new episode: from ``options`` or drawn from the ranges."""
