@@ -18,7 +18,6 @@ import numpy as np
 from .bench_accuracy import accuracy_report, accuracy_waveforms, grid_displacements, reference_displacements
 from .core import DriveParams, DriveSimulator, Waveform, numerics_preset
 from .core import kernel as K
-from .core.fast_kernel import advance_period_nodes
 from .core.waveform import knots_from_params
 
 SPEED_KS = (0.0, 0.3, 0.6, 0.9)
@@ -40,20 +39,11 @@ def kernel_rate(preset: str, k: float, waveforms: list, periods: int, repeats: i
     knots = [knots_from_params(w.x.amplitude, w.x.rise_time, w.z.amplitude, w.z.rise_time, w.z_phase, w.period,
                                -1.0, -1.0) for w in waveforms]
     sim.step(waveforms[0])  # compile / load and get into contact
-    p, num, out, trace = sim.params, sim.numerics, np.zeros(K.OUT_SIZE), np.zeros((0, 7))
-    tail = (p.drive.moving_mass, p.drive.load, p.contact.base_friction_coefficient, 0, trace, out)
+    out, trace = np.zeros(K.OUT_SIZE), np.zeros((0, 7))
 
     def block():
         for i in range(periods):
-            tx, vx, tz, vz = knots[i % len(knots)]
-            if num.method == "nodes":
-                advance_period_nodes(sim.u_x, sim.state, sim.g, sim._w, sim._left, sim._p1, sim._p3,
-                                     p.tangential_stiffness_prefactor, p.normal_stiffness_prefactor, p.k,
-                                     (1.0 + p.k) * p.contact.indenter_radius, p.c0**p.k, sim.slip_ratio,
-                                     tx, vx, tz, vz, num.time_step, num.max_x_step, num.max_z_step, *tail)
-            else:
-                K.advance_period(sim.u_x, sim.state, sim.g, sim.kx, sim.kz, sim.slip_ratio, tx, vx, tz, vz,
-                                 int(round(tx[-1] / num.time_step)), num.time_step, *tail)
+            sim.run_kernel(*knots[i % len(knots)], 0, trace, out)
 
     return _median_rate(block, periods, repeats)
 

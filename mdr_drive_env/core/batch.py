@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 from . import kernel as K
-from .fast_kernel import advance_period_nodes, node_weights, normal_force
+from .fast_kernel import advance_period_nodes, node_positions, node_weights, normal_force
 from .params import DriveParams, Numerics, numerics_preset
 from .waveform import knots_from_params
 
@@ -57,7 +57,7 @@ class BatchedDriveSimulator:
         self.n = n
         self.max_depth = float(max_depth)
         nodes = self.numerics.nodes
-        self.g = self.max_depth * (np.arange(nodes, dtype=np.float64) / (nodes - 2)) ** self.numerics.node_power
+        self.g = node_positions(self.max_depth, nodes, self.numerics.node_power)
         self.u = np.zeros((n, nodes))
         self.state = np.zeros((n, K.STATE_SIZE))
         self.w = np.zeros((n, nodes))

@@ -25,6 +25,12 @@ from numba import njit
 from .kernel import S_FX, S_FZ, S_NACT, S_TIME, S_V, S_X, S_XIND, S_ZIND, _interp, record_row, store_period
 
 
+def node_positions(max_depth: float, nodes: int, power: float) -> np.ndarray:
+    """Node positions in g (m): ``g_i = max_depth (i / (nodes - 2))^power``; the last node lies
+    beyond ``max_depth``, so a full contact always ends inside the grid."""
+    return max_depth * (np.arange(nodes, dtype=np.float64) / (nodes - 2)) ** power
+
+
 def node_weights(g: np.ndarray, k: float, radius: float, c0: float):
     """Closed-form hat-function weights of nodes ``g`` (per unit stiffness prefactor, both halves).
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import kernel as K
-from .fast_kernel import advance_period_nodes, node_weights, normal_force
+from .fast_kernel import advance_period_nodes, node_positions, node_weights, normal_force
 from .materials import contact_radius
 from .params import DriveParams, Numerics, numerics_preset
 from .waveform import Waveform, knots_from_params, period_knots
@@ -100,12 +100,14 @@ class DriveSimulator:
         k, radius, num = p.k, p.contact.indenter_radius, self.numerics
         self.slip_ratio = p.slip_ratio
         if num.method == "nodes":
-            # the last node lies beyond max_depth, so a full contact always ends inside the grid
-            self.g = self.max_depth * (np.arange(num.nodes, dtype=np.float64) / (num.nodes - 2)) ** num.node_power
-            self._w, self._left, self._p1, self._p3 = node_weights(self.g, k, radius, p.c0)
+            self.g = node_positions(self.max_depth, num.nodes, num.node_power)
+            w, left, p1, p3 = node_weights(self.g, k, radius, p.c0)
             self.spring_x = np.sqrt((1.0 + k) * radius * self.g)
-            self.kx = p.tangential_stiffness_prefactor * self._w  # stiffness of a node inside the contact
-            self.kz = p.normal_stiffness_prefactor * self._w
+            self.kx = p.tangential_stiffness_prefactor * w  # stiffness of a node inside the contact
+            self.kz = p.normal_stiffness_prefactor * w
+            # the kernel's model arguments, fixed for the simulator's life
+            self._model = (self.g, w, left, p1, p3, p.tangential_stiffness_prefactor, p.normal_stiffness_prefactor,
+                           k, (1.0 + k) * radius, p.c0**k, self.slip_ratio)
             return
         dx = num.spring_spacing
         a_max = contact_radius(self.max_depth, k, radius)
@@ -118,6 +120,7 @@ class DriveSimulator:
         self.g = x * x / ((1.0 + k) * radius)
         self.kx = p.tangential_stiffness_prefactor * shape
         self.kz = p.normal_stiffness_prefactor * shape
+        self._model = (self.g, self.kx, self.kz, self.slip_ratio)
 
     def reset(self, position: float = 0.0, velocity: float = 0.0) -> None:
         """Slider at ``position`` (m) with ``velocity`` (m/s), no contact, indenter at 0."""
@@ -235,18 +238,7 @@ class DriveSimulator:
                        + int(np.ceil(np.abs(np.diff(vx)).sum() / self.numerics.max_x_step))
                        + int(np.ceil(np.abs(np.diff(vz)).sum() / self.numerics.max_z_step)))
         trace = np.empty((n_steps // record_every, len(K.TRACE_COLUMNS))) if record_every else self._empty_trace
-        p = self.params
-        tail = (p.drive.moving_mass, p.drive.load, p.contact.base_friction_coefficient, int(record_every), trace,
-                self._out)
-        num = self.numerics
-        if num.method == "nodes":
-            advance_period_nodes(self.u_x, self.state, self.g, self._w, self._left, self._p1, self._p3,
-                                 p.tangential_stiffness_prefactor, p.normal_stiffness_prefactor, p.k,
-                                 (1.0 + p.k) * p.contact.indenter_radius, p.c0**p.k, self.slip_ratio,
-                                 tx, vx, tz, vz, dt, num.max_x_step, num.max_z_step, *tail)
-        else:
-            K.advance_period(self.u_x, self.state, self.g, self.kx, self.kz, self.slip_ratio,
-                             tx, vx, tz, vz, n_steps, dt, *tail)
+        self.run_kernel(tx, vx, tz, vz, record_every, trace, self._out)
         o = self._out
         return PeriodResult(
             displacement=float(o[K.O_DISPLACEMENT]),
@@ -262,6 +254,21 @@ class DriveSimulator:
             end_position=self.position,
             trace=trace[: int(o[K.O_N_RECORDED])] if record_every else None,
         )
+
+    def run_kernel(self, tx, vx, tz, vz, record_every: int, trace: np.ndarray, out: np.ndarray) -> None:
+        """One compiled kernel call for one period: no validation, no result object.
+
+        ``tx, vx, tz, vz`` are float64 knots (:meth:`step_knots`), ``trace`` a (rows, 7) buffer
+        (``record_every = 0``: none), ``out`` the (``kernel.OUT_SIZE``,) per-period results.
+        """
+        p, num = self.params, self.numerics
+        tail = (p.drive.moving_mass, p.drive.load, p.contact.base_friction_coefficient, int(record_every), trace, out)
+        if num.method == "nodes":
+            advance_period_nodes(self.u_x, self.state, *self._model, tx, vx, tz, vz, num.time_step, num.max_x_step,
+                                 num.max_z_step, *tail)
+        else:
+            K.advance_period(self.u_x, self.state, *self._model, tx, vx, tz, vz, int(round(tx[-1] / num.time_step)),
+                             num.time_step, *tail)
 
     def run(self, waveform: Waveform, n_periods: int, record_every: int = 0) -> list[PeriodResult]:
         """Run ``n_periods`` periods with the same waveform; see :meth:`step`."""
