@@ -235,25 +235,36 @@ class MDRDriveEnv(gym.Env):
         self.last_trace = result.trace
         self.period_index += 1
         self._prev_action = np.clip(action, -1.0, 1.0).astype(np.float32)
-        effort = self.action_map.effort(wp)
-        reward = result.displacement / self.reward_scale - self.actuation_penalty * effort
-        if self.reward_floor is not None:
-            reward = max(reward, self.reward_floor)
+        effort = self.action_map.effort(wp.x_amplitude, wp.z_amplitude)
+        reward = self.reward_of(result.displacement, effort)
         obs = self._observation(result)
         truncated = self.period_index >= self.max_periods
         if self.render_mode == "human":
             self.render()
-        return obs, float(reward), False, truncated, self._info(result, wp, effort)
+        return obs, float(reward), False, truncated, self._info(result, wp, float(effort))
+
+    def reward_of(self, displacement, effort):
+        """Reward(s) of a period: displacement (m) / reward_scale - actuation_penalty * effort,
+        clamped below at reward_floor if set (floats or arrays; the vector env uses it too)."""
+        reward = displacement / self.reward_scale - self.actuation_penalty * effort
+        return reward if self.reward_floor is None else np.maximum(reward, self.reward_floor)
+
+    def dynamics_of(self, displacement, mean_velocity, end_velocity, peak_fx, peak_fz, force_ref) -> np.ndarray:
+        """Observation entries 0-4, (n, 5), from (n,) arrays in SI units and F_ref (N)."""
+        v_scale = self.reward_scale / self.action_map.period
+        mu_fref = self._contact.friction_coefficient * force_ref
+        return np.column_stack([displacement / self.reward_scale, mean_velocity / v_scale, end_velocity / v_scale,
+                                peak_fx / mu_fref, peak_fz / force_ref])
 
     def _observation(self, r) -> np.ndarray:
         p = self.params
-        mu_fref = p.contact.friction_coefficient * self.force_ref
-        v_scale = self.reward_scale / self.action_map.period
-        dyn = np.zeros(5) if r is None else np.array([
-            r.displacement / self.reward_scale, r.mean_velocity / v_scale, r.end_velocity / v_scale,
-            r.peak_tangential_force / mu_fref, r.peak_normal_force / self.force_ref])
-        return ObservationLayout.build(dyn[None], self._prev_action[None], np.array([p.k]), np.array([p.drive.load]),
-                                       np.array([mu_fref]), np.array([self.period_index / self.max_periods]))[0]
+        fref = np.array([self.force_ref])
+        dyn = np.zeros((1, 5)) if r is None else self.dynamics_of(
+            *(np.array([v]) for v in (r.displacement, r.mean_velocity, r.end_velocity, r.peak_tangential_force,
+                                      r.peak_normal_force)), fref)
+        return ObservationLayout.build(dyn, self._prev_action[None], np.array([p.k]), np.array([p.drive.load]),
+                                       p.contact.friction_coefficient * fref,
+                                       np.array([self.period_index / self.max_periods]))[0]
 
     def _info(self, r, wp, effort=0.0) -> dict[str, Any]:
         info: dict[str, Any] = {"k": self.k, "cargo_mass": self.cargo_mass, "load_force": self.params.drive.load,

@@ -110,9 +110,10 @@ class ActionMap:
             raise ValueError(f"waveform {waveform} lies outside the action box")
         return np.clip(2.0 * u - 1.0, -1.0, 1.0).astype(np.float32)
 
-    def effort(self, p: WaveformParams) -> float:
-        """Electrical-energy proxy in [0, 1]: mean squared stroke relative to the actuator limits."""
-        return 0.5 * ((p.x_amplitude / self.x_amplitude_max) ** 2 + (p.z_amplitude / self.z_amplitude_max) ** 2)
+    def effort(self, x_amplitude, z_amplitude):
+        """Electrical-energy proxy in [0, 1]: mean squared stroke relative to the actuator limits
+        (amplitudes in m, floats or arrays)."""
+        return 0.5 * ((x_amplitude / self.x_amplitude_max) ** 2 + (z_amplitude / self.z_amplitude_max) ** 2)
 
 
 class WaveformParams(NamedTuple):

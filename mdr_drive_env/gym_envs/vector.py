@@ -116,15 +116,11 @@ class MDRDriveVectorEnv(VectorEnv):
         out = self.sim.step(waveforms, amap.period)
         self.period_index[stepped] += 1
         self.prev_action[stepped] = np.clip(actions[stepped], -1.0, 1.0)
-        v_scale = t.reward_scale / amap.period
         end_v = self.sim.state[:, K.S_V]
-        dynamics = np.column_stack([out[:, K.O_DISPLACEMENT] / t.reward_scale, out[:, K.O_MEAN_VELOCITY] / v_scale,
-                                    end_v / v_scale, out[:, K.O_PEAK_FX] / self.friction_ref,
-                                    out[:, K.O_PEAK_FZ] / self.force_ref])
-        effort = 0.5 * ((waveforms[:, 0] / amap.x_amplitude_max) ** 2 + (waveforms[:, 2] / amap.z_amplitude_max) ** 2)
-        rewards = out[:, K.O_DISPLACEMENT] / t.reward_scale - t.actuation_penalty * effort
-        if t.reward_floor is not None:
-            rewards = np.maximum(rewards, t.reward_floor)
+        dynamics = t.dynamics_of(out[:, K.O_DISPLACEMENT], out[:, K.O_MEAN_VELOCITY], end_v, out[:, K.O_PEAK_FX],
+                                 out[:, K.O_PEAK_FZ], self.force_ref)
+        effort = amap.effort(waveforms[:, 0], waveforms[:, 2])
+        rewards = t.reward_of(out[:, K.O_DISPLACEMENT], effort)
         obs = self._observe(dynamics)
         truncated = stepped & (self.period_index >= t.max_periods)
         terminated = np.zeros(self.num_envs, dtype=bool)
