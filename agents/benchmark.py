@@ -21,7 +21,16 @@ import numpy as np
 from tqdm import tqdm
 
 from .baselines import CMA_BUDGET, cma_optimize
-from .evaluate import AVERAGE_PERIODS, EVAL_PERIODS, Policy, open_loop_velocity, policy_rollout, trapezoid_action
+from .evaluate import (
+    AVERAGE_PERIODS,
+    EVAL_PERIODS,
+    Policy,
+    open_loop_velocity,
+    policy_rollout,
+    policy_velocity,
+    steady_velocity_of,
+    trapezoid_action,
+)
 
 GRID_KS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
 GRID_MASSES = (0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5)
@@ -103,7 +112,7 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     waveforms = {}
     for path, pol in zip(policies, loaded):
         disp, acts = policy_rollout(pol, points)
-        v = disp[-AVERAGE_PERIODS:].mean(axis=0) / 2e-3
+        v = steady_velocity_of(disp)
         learned.append(v)
         waveforms[path] = acts[-1].tolist()
         rows += [("learned", path, k, m, x) for (k, m), x in zip(points, v)]
@@ -114,8 +123,7 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
 
     crit = {"trapezoid": critical_loads_grid(ks, lambda pts: open_loop_velocity(pts, trapezoid_action()))}
     for path, pol in tqdm(list(zip(policies, loaded)), desc="critical loads (policies)"):
-        crit[path] = critical_loads_grid(ks, lambda pts, pol=pol: policy_rollout(pol, pts)[0][-AVERAGE_PERIODS:]
-                                         .mean(axis=0) / 2e-3)
+        crit[path] = critical_loads_grid(ks, lambda pts, pol=pol: policy_velocity(pol, pts))
     crit["cma-es"] = {k: critical_load_cma(k, 2.0 * max(crit["trapezoid"][k], 1e-4), budget, 4 if quick else 8)
                       for k in tqdm(ks, desc="critical loads (CMA-ES)")}
 

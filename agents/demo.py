@@ -11,7 +11,15 @@ from tqdm import tqdm
 
 from mdr_drive_env.core import DriveParams, DriveSimulator, Waveform
 
-from .evaluate import AVERAGE_PERIODS, EVAL_PERIODS, Policy, open_loop_velocity, policy_rollout, trapezoid_action
+from .evaluate import (
+    AVERAGE_PERIODS,
+    EVAL_PERIODS,
+    Policy,
+    open_loop_velocity,
+    policy_rollout,
+    steady_velocity_of,
+    trapezoid_action,
+)
 
 PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
 DEMO_KS = (0.0, 0.1, 0.2, 0.3)
@@ -46,7 +54,7 @@ def main(args: argparse.Namespace) -> int:
         trap = open_loop_velocity(points, trapezoid_action())
         bar.update()
         disp, acts = policy_rollout(policy, points)
-        learned = disp[-AVERAGE_PERIODS:].mean(axis=0) / 2e-3
+        learned = steady_velocity_of(disp)
         bar.update()
     print(f"\nsteady velocity (mm/s, mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}): "
           f"learned policy / paper trapezoid")

@@ -27,6 +27,11 @@ AVERAGE_PERIODS = 10
 ACTION_MAP = ActionMap()
 
 
+def steady_velocity_of(displacements: np.ndarray, average: int = AVERAGE_PERIODS) -> np.ndarray:
+    """Steady velocity (m/s): mean of the last ``average`` rows of per-period displacements (m) / T."""
+    return np.asarray(displacements)[-average:].mean(axis=0) / ACTION_MAP.period
+
+
 def trapezoid_action() -> np.ndarray:
     """The env action of the paper's waveform (Fig. 2)."""
     return ACTION_MAP.to_action(Waveform.paper())
@@ -43,7 +48,7 @@ def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: in
     wf = np.array([[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
                    for p in (ACTION_MAP.to_params(a) for a in actions)])
     disp = np.array([sim.step(wf, ACTION_MAP.period)[:, K.O_DISPLACEMENT].copy() for _ in range(periods)])
-    return disp[-average:].mean(axis=0) / ACTION_MAP.period
+    return steady_velocity_of(disp, average)
 
 
 class Policy:
@@ -91,7 +96,7 @@ def policy_rollout(policy, points, periods: int = EVAL_PERIODS):
 def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS) -> np.ndarray:
     """Steady velocity (m/s) of a closed-loop policy at each point."""
     disp, _ = policy_rollout(policy, points, periods)
-    return disp[-average:].mean(axis=0) / ACTION_MAP.period
+    return steady_velocity_of(disp, average)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -105,7 +110,7 @@ def main(args: argparse.Namespace) -> int:
     policy = Policy(args.policy)
     point = [(args.k, args.cargo_mass)]
     disp, acts = policy_rollout(policy, point)
-    learned = float(disp[-AVERAGE_PERIODS:, 0].mean() / ACTION_MAP.period)
+    learned = float(steady_velocity_of(disp)[0])
     trapezoid = float(open_loop_velocity(point, trapezoid_action())[0])
     last = ACTION_MAP.to_params(acts[-1, 0])._asdict()
     res = {"k": args.k, "cargo_mass": args.cargo_mass, "learned_mean_velocity": learned,
