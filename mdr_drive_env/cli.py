@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import json
 import math
 import sys
@@ -186,6 +187,19 @@ def cmd_bench(a: argparse.Namespace) -> int:
     return 0 if res["accuracy_fast"]["max_error_over_tolerance"] <= 1.0 else 1
 
 
+#: Subcommands implemented in agents/: (name, help, description).
+AGENT_COMMANDS = (
+    ("train", "train a waveform policy (needs the train extra)",
+     "Train PPO or SAC on MDRDrive-v0 (agents/train.py); see docs/results.md."),
+    ("evaluate", "a trained policy against the trapezoid at one point",
+     "Steady velocity of a policy and of the paper's trapezoid (agents/evaluate.py)."),
+    ("benchmark", "learned vs trapezoid vs CMA-ES over k and load",
+     "The waveform benchmark (agents/benchmark.py); writes results/benchmark/."),
+    ("demo", "the README's demo (make demo)",
+     "Simulate the paper's drive, then run the shipped policy against the trapezoid."),
+)
+
+
 def _agents_arguments(p: argparse.ArgumentParser, module: str) -> None:
     try:
         mod = __import__(f"agents.{module}", fromlist=["add_arguments"])
@@ -235,25 +249,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--quick", action="store_true", help="shorter timing blocks")
     b.set_defaults(func=cmd_bench)
 
-    t = sub.add_parser("train", formatter_class=_F, help="train a waveform policy (needs the train extra)",
-                       description="Train PPO or SAC on MDRDrive-v0 (agents/train.py); see docs/results.md.")
-    _agents_arguments(t, "train")
-    t.set_defaults(func=lambda a: _agents_main("train", a))
-
-    e = sub.add_parser("evaluate", formatter_class=_F, help="a trained policy against the trapezoid at one point",
-                       description="Steady velocity of a policy and of the paper's trapezoid (agents/evaluate.py).")
-    _agents_arguments(e, "evaluate")
-    e.set_defaults(func=lambda a: _agents_main("evaluate", a))
-
-    w = sub.add_parser("benchmark", formatter_class=_F, help="learned vs trapezoid vs CMA-ES over k and load",
-                       description="The waveform benchmark (agents/benchmark.py); writes results/benchmark/.")
-    _agents_arguments(w, "benchmark")
-    w.set_defaults(func=lambda a: _agents_main("benchmark", a))
-
-    d = sub.add_parser("demo", formatter_class=_F, help="the README's demo (make demo)",
-                       description="Simulate the paper's drive, then run the shipped policy against the trapezoid.")
-    _agents_arguments(d, "demo")
-    d.set_defaults(func=lambda a: _agents_main("demo", a))
+    for name, help_text, description in AGENT_COMMANDS:  # implemented in agents/ (the train extra)
+        a = sub.add_parser(name, formatter_class=_F, help=help_text, description=description)
+        _agents_arguments(a, name)
+        a.set_defaults(func=functools.partial(_agents_main, name))
     return parser
 
 
