@@ -250,21 +250,20 @@ class MDRDriveEnv(gym.Env):
         return reward if self.reward_floor is None else np.maximum(reward, self.reward_floor)
 
     def dynamics_of(self, displacement, mean_velocity, end_velocity, peak_fx, peak_fz, force_ref) -> np.ndarray:
-        """Observation entries 0-4, (n, 5), from (n,) arrays in SI units and F_ref (N)."""
+        """Observation entries 0-4 from SI values and F_ref (N): floats give (5,), (n,) arrays (n, 5)."""
         v_scale = self.reward_scale / self.action_map.period
         mu_fref = self._contact.friction_coefficient * force_ref
-        return np.column_stack([displacement / self.reward_scale, mean_velocity / v_scale, end_velocity / v_scale,
-                                peak_fx / mu_fref, peak_fz / force_ref])
+        return np.array([displacement / self.reward_scale, mean_velocity / v_scale, end_velocity / v_scale,
+                         peak_fx / mu_fref, peak_fz / force_ref]).T  # (5,) stays (5,); (5, n) becomes (n, 5)
 
     def _observation(self, r) -> np.ndarray:
         p = self.params
-        fref = np.array([self.force_ref])
-        dyn = np.zeros((1, 5)) if r is None else self.dynamics_of(
-            *(np.array([v]) for v in (r.displacement, r.mean_velocity, r.end_velocity, r.peak_tangential_force,
-                                      r.peak_normal_force)), fref)
-        return ObservationLayout.build(dyn, self._prev_action[None], np.array([p.k]), np.array([p.drive.load]),
-                                       p.contact.friction_coefficient * fref,
-                                       np.array([self.period_index / self.max_periods]))[0]
+        dyn = np.zeros(5) if r is None else self.dynamics_of(
+            r.displacement, r.mean_velocity, r.end_velocity, r.peak_tangential_force, r.peak_normal_force,
+            self.force_ref)
+        mu_fref = p.contact.friction_coefficient * self.force_ref
+        return ObservationLayout.build(dyn[None], self._prev_action[None], np.array([p.k]), np.array([p.drive.load]),
+                                       np.array([mu_fref]), np.array([self.period_index / self.max_periods]))[0]
 
     def _info(self, r, wp, effort=0.0) -> dict[str, Any]:
         info: dict[str, Any] = {"k": self.k, "cargo_mass": self.cargo_mass, "load_force": self.params.drive.load,
