@@ -29,25 +29,32 @@ class CMAResult:
 
 
 def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize: int = CMA_POPSIZE,
-                 seed: int = 0, sigma0: float = 0.5) -> CMAResult:
-    """Maximise the steady velocity over fixed actions in [-1, 1]^5, starting at the trapezoid."""
+                 seed: int = 0, sigma0: float = 0.5, cycle: int = 1, x0=None) -> CMAResult:
+    """Maximise the steady velocity over open-loop drives in [-1, 1]^5.
+
+    ``cycle = 1`` searches fixed actions (one waveform every period); ``cycle = p`` searches cycles
+    of p actions played in turn (a 5 p dimensional search). The search starts at ``x0`` (an action
+    or a (p, 5) cycle; default: the trapezoid every period), and the result is never worse than
+    the trapezoid. ``action`` is (5,) for ``cycle = 1``, else (p, 5).
+    """
     import cma
 
-    x0 = np.clip(trapezoid_action(), -0.95, 0.95)
-    es = cma.CMAEvolutionStrategy(x0.tolist(), sigma0, {"bounds": [-1.0, 1.0], "popsize": popsize,
-                                                         "maxfevals": budget, "seed": seed + 1, "verbose": -9})
+    start = np.tile(trapezoid_action(), (cycle, 1)) if x0 is None else np.asarray(x0, dtype=np.float64).reshape(cycle, 5)
+    es = cma.CMAEvolutionStrategy(np.clip(start, -0.95, 0.95).ravel().tolist(), sigma0, {
+        "bounds": [-1.0, 1.0], "popsize": popsize, "maxfevals": budget, "seed": seed + 1, "verbose": -9})
     point = [(k, cargo_mass)]
-    best_x = np.asarray(trapezoid_action(), dtype=np.float64)  # the result is never worse than the trapezoid
-    best_v, evals = float(open_loop_velocity(point, best_x)[0]), 1
+    best_x = np.tile(trapezoid_action(), (cycle, 1)).astype(np.float64)  # never worse than the trapezoid
+    best_v, evals = float(open_loop_velocity(point, best_x[None])[0]), 1
     while not es.stop():
         xs = np.clip(np.array(es.ask()), -1.0, 1.0)
-        v = open_loop_velocity(point * len(xs), xs)
+        v = open_loop_velocity(point * len(xs), xs.reshape(len(xs), cycle, 5))
         evals += len(xs)
         es.tell(list(xs), list(-v))
         i = int(np.argmax(v))
         if v[i] > best_v:
-            best_x, best_v = xs[i].copy(), float(v[i])
-    return CMAResult(np.clip(best_x, -1.0, 1.0), best_v, evals)
+            best_x, best_v = xs[i].reshape(cycle, 5).copy(), float(v[i])
+    best_x = np.clip(best_x, -1.0, 1.0)
+    return CMAResult(best_x[0] if cycle == 1 else best_x, best_v, evals)
 
 
 __all__ = ["ACTION_MAP", "CMAResult", "cma_optimize", "trapezoid_action"]

@@ -38,16 +38,23 @@ def trapezoid_action() -> np.ndarray:
 
 
 def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS) -> np.ndarray:
-    """Steady velocity (m/s) of fixed actions, one per (k, cargo mass) point, batched in one call per period."""
-    actions = np.atleast_2d(np.asarray(actions, dtype=np.float64))
+    """Steady velocity (m/s) of open-loop drives, one per (k, cargo mass) point, batched in one call per period.
+
+    ``actions`` is one action (5,), one per point (n, 5), or a cycle of p actions per point
+    (n, p, 5) played in turn (period t uses action t mod p), e.g. p = 2 alternates two waveforms.
+    """
+    actions = np.asarray(actions, dtype=np.float64)
+    if actions.ndim < 3:
+        actions = np.atleast_2d(actions)[:, None, :]
     if len(actions) == 1 and len(points) > 1:
         actions = np.repeat(actions, len(points), axis=0)
     sim = BatchedDriveSimulator(len(points))
     for i, (k, m) in enumerate(points):
         sim.set_params(i, DriveParams.paper(k=k, cargo_mass=m))
-    wf = np.array([[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
-                   for p in (ACTION_MAP.to_params(a) for a in actions)])
-    disp = np.array([sim.step(wf, ACTION_MAP.period)[:, K.O_DISPLACEMENT].copy() for _ in range(periods)])
+    cycle = [np.array([[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
+                       for p in (ACTION_MAP.to_params(a) for a in actions[:, j])]) for j in range(actions.shape[1])]
+    disp = np.array([sim.step(cycle[t % len(cycle)], ACTION_MAP.period)[:, K.O_DISPLACEMENT].copy()
+                     for t in range(periods)])
     return steady_velocity_of(disp, average)
 
 

@@ -14,6 +14,7 @@ from agents.baselines import cma_optimize  # noqa: E402
 from agents.evaluate import AVERAGE_PERIODS, EVAL_PERIODS, Policy, open_loop_velocity, policy_rollout  # noqa: E402
 from agents.train import train  # noqa: E402
 from mdr_drive_env.core import DriveParams, DriveSimulator, Waveform  # noqa: E402
+from mdr_drive_env.gym_envs.spaces import ActionMap  # noqa: E402
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
@@ -64,6 +65,29 @@ def test_cma_es_on_a_tiny_budget_stays_in_the_box_and_beats_nothing_it_did_not_s
     assert r.velocity == pytest.approx(open_loop_velocity([(0.2, 0.1)], r.action)[0], rel=1e-12)
 
 
+def test_a_cycle_of_two_actions_alternates_the_waveforms_period_by_period():
+    from agents.evaluate import trapezoid_action
+
+    a = trapezoid_action()
+    b = np.array([-0.8, -0.9, 1.0, -0.9, 0.8])
+    points = [(0.1, 0.2), (0.3, 0.05)]
+    # a cycle of one action repeated is that fixed action
+    np.testing.assert_array_equal(open_loop_velocity(points, np.tile(a, (2, 2, 1))), open_loop_velocity(points, a))
+    # (a, b) in turn is the simulator run with a, b, a, b, ...
+    v = open_loop_velocity(points, np.stack([a, b])[None].repeat(2, axis=0))
+    amap = ActionMap()
+    for (k, m), vb in zip(points, v):
+        sim = DriveSimulator(DriveParams.paper(k=k, cargo_mass=m), "fast")
+        d = [sim.step(amap.to_waveform((a, b)[t % 2])).displacement for t in range(EVAL_PERIODS)]
+        assert vb == pytest.approx(np.mean(d[-AVERAGE_PERIODS:]) / 2e-3, rel=1e-12, abs=1e-15)
+
+
+def test_cma_es_over_two_action_cycles_stays_in_the_box():
+    r = cma_optimize(0.3, 0.08, budget=40, popsize=8, seed=1, cycle=2, x0=np.zeros((2, 5)))
+    assert r.action.shape == (2, 5) and np.all(np.abs(r.action) <= 1.0)
+    assert r.velocity == pytest.approx(open_loop_velocity([(0.3, 0.08)], r.action[None])[0], rel=1e-12)
+
+
 def test_policy_rollout_uses_each_points_own_load():
     class Constant:
         def __call__(self, obs):
@@ -90,9 +114,11 @@ def test_rl_zoo_trains_with_the_shipped_config(tmp_path):
 def test_cma_teacher_is_cloned_into_the_policy(tmp_path):
     from agents.teacher import build
 
-    data = build(n=3, periods=4, workers=1, budget=24)
-    assert data["obs"].shape == (12, 14) and data["targets"].shape == (12, 5)
-    assert np.all(np.abs(data["actions"]) <= 1.0)
+    data = build(n=3, periods=4, workers=1, budget=24, n_stall=2, cycle_budget=32)
+    assert data["obs"].shape == (20, 14) and data["targets"].shape == (20, 5)
+    assert data["actions"].shape == (5, 2, 5) and np.all(np.abs(data["actions"]) <= 1.0)
+    # the rollouts play each point's two actions in turn
+    np.testing.assert_array_equal(data["targets"][5:10], data["actions"][:, 1].astype(np.float32))
     np.savez(tmp_path / "teacher.npz", **data)
     out = tmp_path / "ppo_bc"
     record = train("ppo", steps=64, seed=0, out=out, n_envs=4, eval_freq=10_000, progress_bar=False,
