@@ -39,7 +39,7 @@ def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize:
     """
     import cma
 
-    start = np.tile(trapezoid_action(), (cycle, 1)) if x0 is None else np.asarray(x0, dtype=np.float64).reshape(cycle, 5)
+    start = np.tile(trapezoid_action(), (cycle, 1)) if x0 is None else np.reshape(np.asarray(x0, float), (cycle, 5))
     es = cma.CMAEvolutionStrategy(np.clip(start, -0.95, 0.95).ravel().tolist(), sigma0, {
         "bounds": [-1.0, 1.0], "popsize": popsize, "maxfevals": budget, "seed": seed + 1, "verbose": -9})
     point = [(k, cargo_mass)]

@@ -12,6 +12,8 @@ import shutil
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from .evaluate import AVERAGE_PERIODS, EVAL_PERIODS, Policy, open_loop_velocity, policy_velocity, trapezoid_action
 
 CARD_KS = (0.0, 0.2, 0.4, 0.6)
@@ -35,9 +37,17 @@ def teacher_note(run: dict) -> str:
     warm = run["hyperparameters"].get("warm_start", "none")
     if not warm.startswith("cma:"):
         return f"`{warm}`"
-    return (f"behaviour cloning of the CMA-ES teacher `{warm[4:]}` (built by `python -m agents.teacher "
-            f"--points 160 --out {warm[4:]}`: 160 (k, load) points x 480 CMA-ES evaluations, about 2 minutes "
-            f"on 2 cores), fit MSE {run['hyperparameters'].get('warm_start_mse', float('nan')):.4f}, then PPO")
+    mse = run["hyperparameters"].get("warm_start_mse", float("nan"))
+    about = ""
+    if Path(warm[4:]).exists():  # describe the teacher from its own file
+        data = np.load(warm[4:])
+        acts = data["actions"]
+        cycles = int(np.sum(np.abs(acts[:, 0] - acts[:, 1]).max(axis=1) > 0)) if acts.ndim == 3 else 0
+        about = (f": {len(data['points'])} (k, load) points, {cycles} of them best driven by a two-action cycle, "
+                 f"built in {float(data['wall_time_s']):.0f} s on 2 cores")
+    return (f"behaviour cloning of the CMA-ES teacher `{warm[4:]}` (`python -m agents.teacher --points 160 "
+            f"--stall-points 96`, the `make train` recipe{about}), fit MSE {mse:.4f}, exploration noise "
+            f"log std {run['hyperparameters'].get('cloned_log_std', 'unchanged')} after cloning, then PPO")
 
 
 def ship(src: str | Path, dst: str | Path) -> Path:

@@ -1,12 +1,16 @@
 """A CMA-ES teacher for warm-starting policies: per-point optimal fixed waveforms, cloned into the policy.
 
-    python -m agents.teacher --points 160 --out runs/teacher.npz     # about 3 minutes on 2 cores
+    python -m agents.teacher --points 160 --stall-points 96 --out runs/teacher.npz
 
-CMA-ES finds the best fixed action at sampled (k, load) points of the training distribution
-(a third of them without load, where the best waveform is far from the trapezoid). Each action is
+CMA-ES finds the best open-loop drive at sampled (k, load) points: points of the training
+distribution (a third of them without load, where the best waveform is far from the trapezoid)
+and points near the trapezoid's stall load (0.85-1.5 times its critical load). At loaded points it
+searches both fixed actions and cycles of two actions played in turn (a "push" period and a
+"clamp" period, which carry loads no fixed waveform moves) and keeps the better. Each drive is
 rolled out in the batched env to record the observations it visits; ``clone_into`` then fits the
-policy's mean action to the teacher's action on those observations (behaviour cloning), and PPO
-starts from there (``warm_start: cma`` in the config).
+policy's mean action to the teacher's action on those observations (behaviour cloning; the
+observation holds the previous action, so a policy can alternate), and PPO starts from there
+(``warm_start: cma`` in the config).
 """
 
 from __future__ import annotations
@@ -23,55 +27,90 @@ from tqdm import tqdm
 import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
 
 from .baselines import CMA_BUDGET, cma_optimize
+from .evaluate import open_loop_velocity, trapezoid_action
 
 ENV_ID = "MDRDrive-v0"
+
+
+#: Start of the two-action search: a slow full forward stroke pressed early ("push"), then a
+#: period with almost no x stroke at full depth ("clamp").
+PUSH_CLAMP = np.array([[1.0, 0.8, 1.0, 0.0, 1.0], [-0.87, -0.9, 1.0, -0.9, 0.8]])
+#: CMA-ES evaluations of the two-action search per loaded point.
+CYCLE_BUDGET = 1500
+
+
+def _reference_mass(k: float) -> float:
+    """mu F_ref / g (kg) at k: the load scale of the env's ``load_ratio``."""
+    env = gym.make(ENV_ID).unwrapped
+    p0 = env.params_for(k, 0.0)
+    return p0.contact.friction_coefficient * env.reference_force(p0) / p0.drive.gravity
 
 
 def sample_points(n: int, k_range=(0.0, 0.6), ratio_range=(0.0, 0.6), no_load_share: float = 1 / 3, seed: int = 0):
     """(k, cargo mass) points: k uniform, load uniform as a fraction of mu F_ref, a share without load."""
     rng = np.random.default_rng(seed)
-    env = gym.make(ENV_ID).unwrapped
     points = []
     for i in range(n):
         k = float(rng.uniform(*k_range))
         ratio = 0.0 if i < int(no_load_share * n) else float(rng.uniform(*ratio_range))
-        p0 = env.params_for(k, 0.0)
-        points.append((k, ratio * p0.contact.friction_coefficient * env.reference_force(p0) / p0.drive.gravity))
+        points.append((k, ratio * _reference_mass(k)))
     return points
 
 
+def sample_stall_points(n: int, k_range=(0.0, 0.6), factor_range=(0.85, 1.5), seed: int = 1):
+    """(k, cargo mass) points near stall: k uniform, load a uniform factor times the trapezoid's critical load."""
+    from .benchmark import critical_loads_grid
+
+    rng = np.random.default_rng(seed)
+    ks = rng.uniform(*k_range, n)
+    crit = critical_loads_grid(list(ks), lambda pts: open_loop_velocity(pts, trapezoid_action()))
+    return [(float(k), float(rng.uniform(*factor_range) * crit[k])) for k in ks]
+
+
 def _optimize(args):
-    (k, m), budget = args
-    return cma_optimize(k, m, budget).action
+    """Best open-loop drive at one point as a two-action cycle (a fixed action is repeated)."""
+    (k, m), budget, cycle_budget = args
+    fixed = cma_optimize(k, m, budget)
+    best, velocity = np.tile(fixed.action, (2, 1)), fixed.velocity
+    if m > 0.0 and cycle_budget > 0:
+        cyc = cma_optimize(k, m, cycle_budget, popsize=16, sigma0=0.4, cycle=2, x0=PUSH_CLAMP)
+        if cyc.velocity > velocity:
+            best, velocity = cyc.action, cyc.velocity
+    return best, velocity
 
 
 def build(n: int = 160, periods: int = 50, seed: int = 0, workers: int | None = None, env_kwargs=None,
-          budget: int = CMA_BUDGET) -> dict:
-    """Teacher dataset: points, actions, and the (observation, action) pairs of their rollouts."""
-    points = sample_points(n, seed=seed)
+          budget: int = CMA_BUDGET, n_stall: int = 96, cycle_budget: int = CYCLE_BUDGET) -> dict:
+    """Teacher dataset: points, their drives (n, 2, 5) and steady velocities, and the (observation,
+    action) pairs of their rollouts."""
+    points = sample_points(n, seed=seed) + (sample_stall_points(n_stall, seed=seed + 1) if n_stall else [])
     workers = workers or len(os.sched_getaffinity(0))
-    jobs = [(p, budget) for p in points]
+    jobs = [(p, budget, cycle_budget) for p in points]
     if workers > 1:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            actions = np.array(list(tqdm(pool.map(_optimize, jobs), total=n, desc="CMA-ES teacher", unit="point")))
+            found = list(tqdm(pool.map(_optimize, jobs), total=len(jobs), desc="CMA-ES teacher", unit="point"))
     else:
-        actions = np.array([_optimize(j) for j in jobs])
+        found = [_optimize(j) for j in tqdm(jobs, desc="CMA-ES teacher", unit="point")]
+    cycles = np.array([f[0] for f in found])
     kw = {key: v for key, v in (env_kwargs or {}).items() if key not in ("k", "cargo_mass", "load_ratio")}
     kw["max_periods"] = periods
-    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    venv = gym.make_vec(ENV_ID, num_envs=len(points), vectorization_mode="vector_entry_point", **kw)
     obs, _ = venv.reset(seed=seed, options={"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]})
-    all_obs = []
-    for _ in range(periods):
+    all_obs, targets = [], []
+    for t in range(periods):
         all_obs.append(obs.copy())
-        obs, *_ = venv.step(actions.astype(np.float32))
-    obs = np.concatenate(all_obs)
-    return {"points": np.array(points), "actions": actions, "obs": obs,
-            "targets": np.tile(actions, (periods, 1)).astype(np.float32)}
+        targets.append(cycles[:, t % 2])
+        obs, *_ = venv.step(cycles[:, t % 2].astype(np.float32))
+    return {"points": np.array(points), "actions": cycles, "velocities": np.array([f[1] for f in found]),
+            "obs": np.concatenate(all_obs), "targets": np.concatenate(targets).astype(np.float32)}
 
 
-def clone_into(model, data: dict, venv, epochs: int = 60, batch: int = 512, lr: float = 1e-3, seed: int = 0) -> float:
+def clone_into(model, data: dict, venv, epochs: int = 60, batch: int = 512, lr: float = 1e-3, seed: int = 0,
+               min_steps: int = 1500, log_std: float | None = None) -> float:
     """Fit the policy's mean action to the teacher (MSE); set VecNormalize's observation statistics
-    from the teacher's observations first. Returns the final mean squared error."""
+    from the teacher's observations first, and the policy's log standard deviation to ``log_std``
+    after (if given: PPO then explores near the cloned drive instead of blurring it; the two-action
+    cycles near stall only pay when played accurately). Returns the final mean squared error."""
     import torch
 
     obs = data["obs"].astype(np.float64)
@@ -89,7 +128,8 @@ def clone_into(model, data: dict, venv, epochs: int = 60, batch: int = 512, lr: 
     opt = torch.optim.Adam(params, lr=lr)
     gen = torch.Generator().manual_seed(seed)
     loss = torch.tensor(0.0)
-    for _ in range(epochs):
+    per_epoch = -(-len(x) // batch)
+    for _ in range(max(epochs, -(-min_steps // per_epoch))):  # small data sets: still min_steps updates
         perm = torch.randperm(len(x), generator=gen)
         for i in range(0, len(x), batch):
             idx = perm[i:i + batch]
@@ -99,19 +139,23 @@ def clone_into(model, data: dict, venv, epochs: int = 60, batch: int = 512, lr: 
             loss.backward()
             opt.step()
     with torch.no_grad():
+        if log_std is not None:
+            policy.log_std.fill_(log_std)
         return float(torch.mean((policy.get_distribution(x).distribution.mean - y) ** 2))
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--points", type=int, default=160, help="(k, load) points (-)")
+    ap.add_argument("--stall-points", type=int, default=96,
+                    help="extra points at 0.85-1.5 times the trapezoid's critical load (-)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the point sample (-)")
     ap.add_argument("--out", default="runs/teacher.npz", help="output .npz")
     a = ap.parse_args(argv)
     import time
 
     t0 = time.perf_counter()
-    data = build(a.points, seed=a.seed)
+    data = build(a.points, seed=a.seed, n_stall=a.stall_points)
     data["wall_time_s"] = np.array(time.perf_counter() - t0)
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(a.out, **data)

@@ -31,13 +31,14 @@ HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0
 
 
 def load_config(algo: str, path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start``
-    (not an RL Zoo key) is returned among the hyperparameters."""
+    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start`` and
+    ``cloned_log_std`` (not RL Zoo keys) are returned among the hyperparameters."""
     path = Path(path) if path else CONFIG_DIR / f"{algo}.yaml"
     data = yaml.safe_load(path.read_text())
     if ENV_ID not in data:
         raise ValueError(f"{path}: no '{ENV_ID}' section")
-    return {**data[ENV_ID], "warm_start": data.get("warm_start", "none")}, dict(data.get("env_kwargs", {}))
+    extra = {"warm_start": data.get("warm_start", "none"), "cloned_log_std": data.get("cloned_log_std")}
+    return {**data[ENV_ID], **extra}, dict(data.get("env_kwargs", {}))
 
 
 def _range(values: list[float] | None, default):
@@ -141,8 +142,8 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs)
     eval_env = make_eval_env(env_kwargs)
     if resume:
-        hyper.pop("warm_start", None)
-        hyper.pop("warm_start_mse", None)
+        for key in ("warm_start", "warm_start_mse", "cloned_log_std"):
+            hyper.pop(key, None)
         venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
         model = algos[algo].load(out / "model.zip", env=venv, device="cpu")
     else:
@@ -150,9 +151,12 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=hyper.get("gamma", 0.99))
         warm = warm_start or hyper.pop("warm_start", "trapezoid")
         hyper.pop("warm_start", None)
+        cloned_log_std = hyper.pop("cloned_log_std", None)
         model = algos[algo]("MlpPolicy", venv, seed=seed, device="cpu", tensorboard_log=str(out / "tb"),
                             verbose=verbose, **hyper)
         hyper["warm_start"] = warm
+        if cloned_log_std is not None:
+            hyper["cloned_log_std"] = cloned_log_std
         if warm == "trapezoid":
             warm_start_at(model, trapezoid_action())
         elif warm.startswith("cma:"):  # behaviour cloning of a CMA-ES teacher (agents/teacher.py)
@@ -160,7 +164,8 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
 
             if algo != "ppo":
                 raise ValueError("warm_start='cma:...' is implemented for PPO's Gaussian policy only")
-            hyper["warm_start_mse"] = clone_into(model, dict(np.load(warm[4:])), model.get_env(), seed=seed)
+            hyper["warm_start_mse"] = clone_into(model, dict(np.load(warm[4:])), model.get_env(), seed=seed,
+                                                   log_std=cloned_log_std)
         elif warm != "none":
             raise ValueError(f"warm_start={warm!r} is not one of ['none', 'trapezoid', 'cma:<teacher.npz>']")
     if normalize or resume:
