@@ -114,7 +114,7 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
         disp, acts = policy_rollout(pol, points)
         v = steady_velocity_of(disp)
         learned.append(v)
-        waveforms[path] = acts[-1].tolist()
+        waveforms[path] = acts[-2:].transpose(1, 0, 2).tolist()  # periods 29 and 30 of each point
         rows += [("learned", path, k, m, x) for (k, m), x in zip(points, v)]
     with open(out / "velocities.csv", "w", newline="") as f:
         w = csv.writer(f)
@@ -132,7 +132,7 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
         "points": points, "trapezoid": trap.tolist(), "cma_es": cma_v, "cma_actions": cma_actions,
         "learned_mean": learned.mean(axis=0).tolist() if len(learned) else [],
         "learned_std": learned.std(axis=0).tolist() if len(learned) else [],
-        "learned_last_actions": waveforms, "policies": policies,
+        "learned_last_two_actions": waveforms, "policies": policies,
         "critical_load_kg": {name: {f"{k:g}": v for k, v in c.items()} for name, c in crit.items()},
     })
     res["summary"] = summarize(res, ks)

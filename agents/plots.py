@@ -84,21 +84,23 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
         plt.close(fig)
 
         first = res["policies"][0]
-        acts = res["learned_last_actions"][first]
-        picks = [i for i in range(len(res["points"]))][:: max(1, len(res["points"]) // 4)][:4]
-        fig, axes = plt.subplots(1, len(picks), figsize=(3.2 * len(picks), 3.2), squeeze=False)
-        tt = _waveform(trapezoid_action())
+        acts = res["learned_last_two_actions"][first]
+        wanted = [(0.0, 0.0), (0.1, 0.3), (0.2, 0.2), (0.4, 0.0)]  # fast mode, heavy load, near stall
+        points = [tuple(p) for p in res["points"]]
+        picks = [points.index(p) for p in wanted if p in points] or list(range(min(4, len(points))))
+        fig, axes = plt.subplots(1, len(picks), figsize=(3.4 * len(picks), 3.2), squeeze=False)
+        tt = [_waveform(trapezoid_action())] * 2
         for ax, i in zip(axes[0], picks):
             k, m = res["points"][i]
-            lw = _waveform(acts[i])
-            ax.plot(tt[0], tt[1], color="0.6", label="trapezoid x")
-            ax.plot(tt[2], np.array(tt[3]) * 5, color="0.6", ls="--", label="trapezoid z (x5)")
-            ax.plot(lw[0], lw[1], color="C3", label="learned x")
-            ax.plot(lw[2], np.array(lw[3]) * 5, color="C3", ls="--", label="learned z (x5)")
+            for two, color, name in ((tt, "0.6", "trapezoid"), ([_waveform(a) for a in acts[i]], "C3", "learned")):
+                t_x = np.concatenate([two[0][0], two[1][0] + ACTION_MAP.period * 1e3])
+                t_z = np.concatenate([two[0][2], two[1][2] + ACTION_MAP.period * 1e3])
+                ax.plot(t_x, np.concatenate([two[0][1], two[1][1]]), color=color, label=f"{name} x")
+                ax.plot(t_z, np.concatenate([two[0][3], two[1][3]]) * 5, color=color, ls="--", label=f"{name} z (x5)")
             ax.set(title=f"k = {k:g}, m = {m:g} kg", xlabel="t (ms)", ylabel="um")
             ax.grid(alpha=0.3)
         axes[0][0].legend(fontsize=6)
-        fig.suptitle("waveform of the 30th period (first policy) vs the trapezoid", fontsize=9)
+        fig.suptitle("periods 29 and 30 of the first policy vs the trapezoid", fontsize=9)
         fig.tight_layout()
         fig.savefig(out / "learned_waveforms.png", dpi=120)
         plt.close(fig)

@@ -149,13 +149,15 @@ def main(argv=None) -> int:
     ap.add_argument("--points", type=int, default=160, help="(k, load) points (-)")
     ap.add_argument("--stall-points", type=int, default=96,
                     help="extra points at 0.85-1.5 times the trapezoid's critical load (-)")
+    ap.add_argument("--cycle-budget", type=int, default=CYCLE_BUDGET,
+                    help="CMA-ES evaluations of the two-action search per loaded point (-)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the point sample (-)")
     ap.add_argument("--out", default="runs/teacher.npz", help="output .npz")
     a = ap.parse_args(argv)
     import time
 
     t0 = time.perf_counter()
-    data = build(a.points, seed=a.seed, n_stall=a.stall_points)
+    data = build(a.points, seed=a.seed, n_stall=a.stall_points, cycle_budget=a.cycle_budget)
     data["wall_time_s"] = np.array(time.perf_counter() - t0)
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(a.out, **data)

@@ -11,7 +11,14 @@ pytest.importorskip("stable_baselines3")
 pytest.importorskip("cma")
 
 from agents.baselines import cma_optimize  # noqa: E402
-from agents.evaluate import AVERAGE_PERIODS, EVAL_PERIODS, Policy, open_loop_velocity, policy_rollout  # noqa: E402
+from agents.evaluate import (  # noqa: E402
+    AVERAGE_PERIODS,
+    EVAL_PERIODS,
+    Policy,
+    open_loop_velocity,
+    policy_rollout,
+    trapezoid_action,
+)
 from agents.train import train  # noqa: E402
 from mdr_drive_env.core import DriveParams, DriveSimulator, Waveform  # noqa: E402
 from mdr_drive_env.gym_envs.spaces import ActionMap  # noqa: E402
@@ -48,8 +55,6 @@ def test_evaluate_cli_prints_finite_velocities(tmp_path):
 
 
 def test_trapezoid_baseline_equals_the_simulator_with_the_paper_waveform():
-    from agents.evaluate import trapezoid_action
-
     points = [(0.0, 0.1), (0.2, 0.1), (0.5, 0.0)]
     v = open_loop_velocity(points, trapezoid_action())
     for (k, m), vb in zip(points, v):
@@ -66,8 +71,6 @@ def test_cma_es_on_a_tiny_budget_stays_in_the_box_and_beats_nothing_it_did_not_s
 
 
 def test_a_cycle_of_two_actions_alternates_the_waveforms_period_by_period():
-    from agents.evaluate import trapezoid_action
-
     a = trapezoid_action()
     b = np.array([-0.8, -0.9, 1.0, -0.9, 0.8])
     points = [(0.1, 0.2), (0.3, 0.05)]
@@ -127,3 +130,22 @@ def test_cma_teacher_is_cloned_into_the_policy(tmp_path):
     with pytest.raises(ValueError, match="PPO"):
         train("sac", steps=64, seed=0, out=tmp_path / "sac_bc", n_envs=2, progress_bar=False,
               warm_start=f"cma:{tmp_path / 'teacher.npz'}")
+
+
+def test_quick_benchmark_writes_tables_plots_and_a_consistent_summary(tmp_path):
+    from agents.benchmark import QUICK_KS, QUICK_MASSES, run
+
+    policy = tmp_path / "ppo"
+    train("ppo", steps=64, seed=0, out=policy, n_envs=4, eval_freq=10_000, progress_bar=False)
+    res = run([str(policy)], out=tmp_path / "bench", quick=True, cma_budget=24)
+    for name in ("velocities.csv", "benchmark.json", "benchmark.md", "velocity_vs_k.png", "velocity_vs_load.png",
+                 "critical_load_vs_k.png", "heatmap_learned_minus_trapezoid.png", "learned_waveforms.png"):
+        assert (tmp_path / "bench" / name).stat().st_size > 0, name
+    points = [(k, m) for k in QUICK_KS for m in QUICK_MASSES]
+    assert res["points"] == points
+    np.testing.assert_allclose(res["trapezoid"], open_loop_velocity(points, trapezoid_action()), rtol=1e-12)
+    assert all(c >= t for c, t in zip(res["cma_es"], res["trapezoid"]))  # CMA-ES never reports worse
+    assert np.asarray(res["learned_last_two_actions"][str(policy)]).shape == (len(points), 2, 5)
+    crit = res["critical_load_kg"]
+    assert set(crit) == {"trapezoid", "cma-es", str(policy)}
+    assert all(v >= 0.0 for c in crit.values() for v in c.values())
