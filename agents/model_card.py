@@ -46,7 +46,7 @@ def teacher_note(run: dict) -> str:
         about = (f": {len(data['points'])} (k, load) points, {cycles} of them best driven by a two-action cycle, "
                  f"built in {float(data['wall_time_s']):.0f} s on 2 cores")
     return (f"behaviour cloning of the CMA-ES teacher `{warm[4:]}` (`python -m agents.teacher --points 160 "
-            f"--stall-points 96`, the `make train` recipe{about}), fit MSE {mse:.4f}, exploration noise "
+            f"--stall-points 192 --cycle-budget 2500`, the `make train` recipe{about}), fit MSE {mse:.4f}, exploration noise "
             f"log std {run['hyperparameters'].get('cloned_log_std', 'unchanged')} after cloning, then PPO")
 
 

@@ -1,6 +1,6 @@
-"""A CMA-ES teacher for warm-starting policies: per-point optimal fixed waveforms, cloned into the policy.
+"""A CMA-ES teacher for warm-starting policies: per-point optimal open-loop drives, cloned into the policy.
 
-    python -m agents.teacher --points 160 --stall-points 96 --out runs/teacher.npz
+    python -m agents.teacher --points 160 --stall-points 192 --cycle-budget 2500 --out runs/teacher.npz   # 14 min
 
 CMA-ES finds the best open-loop drive at sampled (k, load) points: points of the training
 distribution (a third of them without load, where the best waveform is far from the trapezoid)
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -32,11 +33,11 @@ from .evaluate import open_loop_velocity, trapezoid_action
 ENV_ID = "MDRDrive-v0"
 
 
-#: Start of the two-action search: a slow full forward stroke pressed early ("push"), then a
-#: period with almost no x stroke at full depth ("clamp").
+#: Start of the two-action search: a slow full forward stroke pressed to full depth at mid-period
+#: ("push"), then a period with almost no x stroke and a fast full-depth press ("clamp").
 PUSH_CLAMP = np.array([[1.0, 0.8, 1.0, 0.0, 1.0], [-0.87, -0.9, 1.0, -0.9, 0.8]])
 #: CMA-ES evaluations of the two-action search per loaded point.
-CYCLE_BUDGET = 1500
+CYCLE_BUDGET = 2500
 
 
 def _reference_mass(k: float) -> float:
@@ -80,7 +81,7 @@ def _optimize(args):
 
 
 def build(n: int = 160, periods: int = 50, seed: int = 0, workers: int | None = None, env_kwargs=None,
-          budget: int = CMA_BUDGET, n_stall: int = 96, cycle_budget: int = CYCLE_BUDGET) -> dict:
+          budget: int = CMA_BUDGET, n_stall: int = 192, cycle_budget: int = CYCLE_BUDGET) -> dict:
     """Teacher dataset: points, their drives (n, 2, 5) and steady velocities, and the (observation,
     action) pairs of their rollouts."""
     points = sample_points(n, seed=seed) + (sample_stall_points(n_stall, seed=seed + 1) if n_stall else [])
@@ -147,7 +148,7 @@ def clone_into(model, data: dict, venv, epochs: int = 60, batch: int = 512, lr: 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--points", type=int, default=160, help="(k, load) points (-)")
-    ap.add_argument("--stall-points", type=int, default=96,
+    ap.add_argument("--stall-points", type=int, default=192,
                     help="extra points at 0.85-1.5 times the trapezoid's critical load (-)")
     ap.add_argument("--cycle-budget", type=int, default=CYCLE_BUDGET,
                     help="CMA-ES evaluations of the two-action search per loaded point (-)")
@@ -159,6 +160,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     data = build(a.points, seed=a.seed, n_stall=a.stall_points, cycle_budget=a.cycle_budget)
     data["wall_time_s"] = np.array(time.perf_counter() - t0)
+    data["command"] = np.array(" ".join(["python -m agents.teacher", *(argv if argv is not None else sys.argv[1:])]))
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(a.out, **data)
     print(f"wrote {a.out}: {len(data['points'])} points, {len(data['obs'])} observation-action pairs")
