@@ -40,9 +40,8 @@ PUSH_CLAMP = np.array([[1.0, 0.8, 1.0, 0.0, 1.0], [-0.87, -0.9, 1.0, -0.9, 0.8]]
 CYCLE_BUDGET = 2500
 
 
-def _reference_mass(k: float) -> float:
-    """mu F_ref / g (kg) at k: the load scale of the env's ``load_ratio``."""
-    env = gym.make(ENV_ID).unwrapped
+def _reference_mass(env, k: float) -> float:
+    """mu F_ref / g (kg) at k: the load scale of the env's ``load_ratio`` (``env``: an unwrapped MDRDrive)."""
     p0 = env.params_for(k, 0.0)
     return p0.contact.friction_coefficient * env.reference_force(p0) / p0.drive.gravity
 
@@ -50,11 +49,12 @@ def _reference_mass(k: float) -> float:
 def sample_points(n: int, k_range=(0.0, 0.6), ratio_range=(0.0, 0.6), no_load_share: float = 1 / 3, seed: int = 0):
     """(k, cargo mass) points: k uniform, load uniform as a fraction of mu F_ref, a share without load."""
     rng = np.random.default_rng(seed)
+    env = gym.make(ENV_ID).unwrapped
     points = []
     for i in range(n):
         k = float(rng.uniform(*k_range))
         ratio = 0.0 if i < int(no_load_share * n) else float(rng.uniform(*ratio_range))
-        points.append((k, ratio * _reference_mass(k)))
+        points.append((k, ratio * _reference_mass(env, k)))
     return points
 
 
