@@ -1,16 +1,19 @@
 """A CMA-ES teacher for warm-starting policies: per-point optimal open-loop drives, cloned into the policy.
 
-    python -m agents.teacher --points 160 --stall-points 192 --cycle-budget 2500 --out runs/teacher.npz   # 14 min
+    python -m agents.teacher --points 160 --stall-points 192 --transition-points 64 --cycle-budget 2500 \
+        --out runs/teacher.npz      # about 18 minutes on 2 cores
 
 CMA-ES finds the best open-loop drive at sampled (k, load) points: points of the training
-distribution (a third of them without load, where the best waveform is far from the trapezoid)
-and points near the trapezoid's stall load (0.85-1.5 times its critical load). At loaded points it
-searches both fixed actions and cycles of two actions played in turn (a "push" period and a
-"clamp" period, which carry loads no fixed waveform moves) and keeps the better. Each drive is
-rolled out in the batched env to record the observations it visits; ``clone_into`` then fits the
-policy's mean action to the teacher's action on those observations (behaviour cloning; the
+distribution (a third of them without load, where the best waveform is far from the trapezoid),
+points near the trapezoid's stall load (0.85-1.5 times its critical load) and, optionally, points
+below it (0.6-0.9 times), where the best drive turns from a fixed waveform into a cycle. At loaded
+points it searches both fixed actions and cycles of two actions played in turn (a "push" period
+and a "clamp" period, which carry loads no fixed waveform moves) and keeps the better. Each drive
+is rolled out in the batched env to record the observations it visits; ``clone_into`` then fits
+the policy's mean action to the teacher's action on those observations (behaviour cloning; the
 observation holds the previous action, so a policy can alternate), and PPO starts from there
-(``warm_start: cma`` in the config).
+(``warm_start: cma`` in the config). ``teacher_regulariser`` keeps pulling the policy towards the
+teacher during PPO (``teacher_steps_per_rollout`` in the config).
 """
 
 from __future__ import annotations
@@ -38,6 +41,9 @@ ENV_ID = "MDRDrive-v0"
 PUSH_CLAMP = np.array([[1.0, 0.8, 1.0, 0.0, 1.0], [-0.87, -0.9, 1.0, -0.9, 0.8]])
 #: CMA-ES evaluations of the two-action search per loaded point.
 CYCLE_BUDGET = 2500
+#: Loads of the stall points and of the transition points, as multiples of the trapezoid's critical load.
+STALL_RANGE = (0.85, 1.5)
+TRANSITION_RANGE = (0.6, 0.9)
 
 
 def _reference_mass(env, k: float) -> float:
@@ -58,7 +64,7 @@ def sample_points(n: int, k_range=(0.0, 0.6), ratio_range=(0.0, 0.6), no_load_sh
     return points
 
 
-def sample_stall_points(n: int, k_range=(0.0, 0.6), factor_range=(0.85, 1.5), seed: int = 1):
+def sample_stall_points(n: int, k_range=(0.0, 0.6), factor_range=STALL_RANGE, seed: int = 1):
     """(k, cargo mass) points near stall: k uniform, load a uniform factor times the trapezoid's critical load."""
     from .benchmark import critical_loads_grid
 
@@ -81,10 +87,17 @@ def _optimize(args):
 
 
 def build(n: int = 160, periods: int = 50, seed: int = 0, workers: int | None = None, env_kwargs=None,
-          budget: int = CMA_BUDGET, n_stall: int = 192, cycle_budget: int = CYCLE_BUDGET) -> dict:
+          budget: int = CMA_BUDGET, n_stall: int = 192, cycle_budget: int = CYCLE_BUDGET,
+          n_transition: int = 0) -> dict:
     """Teacher dataset: points, their drives (n, 2, 5) and steady velocities, and the (observation,
-    action) pairs of their rollouts."""
+    action) pairs of their rollouts.
+
+    Points: ``n`` of the training distribution, ``n_stall`` near the trapezoid's stall
+    (``STALL_RANGE``) and ``n_transition`` below it (``TRANSITION_RANGE``: where the best drive
+    changes from a fixed waveform to a cycle, so the policy learns where to switch)."""
     points = sample_points(n, seed=seed) + (sample_stall_points(n_stall, seed=seed + 1) if n_stall else [])
+    if n_transition:
+        points += sample_stall_points(n_transition, factor_range=TRANSITION_RANGE, seed=seed + 2)
     workers = workers or len(os.sched_getaffinity(0))
     jobs = [(p, budget, cycle_budget) for p in points]
     if workers > 1:
@@ -145,11 +158,54 @@ def clone_into(model, data: dict, venv, epochs: int = 60, batch: int = 512, lr: 
         return float(torch.mean((policy.get_distribution(x).distribution.mean - y) ** 2))
 
 
+def teacher_regulariser(data: dict, steps_per_rollout: int = 10, batch: int = 512, weight: float = 1.0,
+                        seed: int = 0):
+    """Callback for PPO: after every rollout, ``steps_per_rollout`` supervised steps that pull the
+    policy's mean action towards the teacher's on the teacher's observations (normalised with the
+    current VecNormalize statistics), with PPO's own optimiser; a demo-augmented policy gradient
+    (DAPG, Rajeswaran et al. 2018) in its simplest form.
+
+    PPO alone lets the drives near stall drift: their rewards are tiny next to the unloaded drives',
+    so the return hardly notices a clamp period that is 0.1 off its optimum, but the critical load
+    does. The mean is clipped to the action box before the squared error, so a teacher action on
+    the box's edge does not hold PPO's mean at the edge."""
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    obs = data["obs"].astype(np.float64)
+    y = torch.as_tensor(data["targets"], dtype=torch.float32)
+    gen = torch.Generator().manual_seed(seed)
+
+    class TeacherRegulariser(BaseCallback):
+        def _on_rollout_end(self) -> None:
+            env = self.model.get_env()
+            x = torch.as_tensor(env.normalize_obs(obs) if hasattr(env, "normalize_obs") else obs,
+                                dtype=torch.float32)
+            policy = self.model.policy
+            policy.set_training_mode(True)
+            for _ in range(steps_per_rollout):
+                idx = torch.randint(len(x), (batch,), generator=gen)
+                mean = torch.clamp(policy.get_distribution(x[idx]).distribution.mean, -1.0, 1.0)
+                loss = weight * torch.mean((mean - y[idx]) ** 2)
+                policy.optimizer.zero_grad()
+                loss.backward()
+                policy.optimizer.step()
+            self.logger.record("train/teacher_mse", float(loss.detach()) / weight)
+
+        def _on_step(self) -> bool:
+            return True
+
+    return TeacherRegulariser()
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--points", type=int, default=160, help="(k, load) points (-)")
     ap.add_argument("--stall-points", type=int, default=192,
                     help="extra points at 0.85-1.5 times the trapezoid's critical load (-)")
+    ap.add_argument("--transition-points", type=int, default=0,
+                    help="extra points at 0.6-0.9 times the trapezoid's critical load, where the best drive "
+                         "turns from a fixed waveform into a cycle (-)")
     ap.add_argument("--cycle-budget", type=int, default=CYCLE_BUDGET,
                     help="CMA-ES evaluations of the two-action search per loaded point (-)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the point sample (-)")
@@ -158,7 +214,8 @@ def main(argv=None) -> int:
     import time
 
     t0 = time.perf_counter()
-    data = build(a.points, seed=a.seed, n_stall=a.stall_points, cycle_budget=a.cycle_budget)
+    data = build(a.points, seed=a.seed, n_stall=a.stall_points, cycle_budget=a.cycle_budget,
+                 n_transition=a.transition_points)
     data["wall_time_s"] = np.array(time.perf_counter() - t0)
     data["command"] = np.array(" ".join(["python -m agents.teacher", *(argv if argv is not None else sys.argv[1:])]))
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)

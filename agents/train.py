@@ -26,18 +26,22 @@ from .evaluate import trapezoid_action
 
 CONFIG_DIR = Path(__file__).parent / "configs"
 ENV_ID = "MDRDrive-v0"
+#: Config keys of agents/train.py itself (not SB3 arguments): recorded in run.json, not passed to SB3.
+NOT_SB3_KEYS = ("warm_start", "warm_start_mse", "cloned_log_std", "teacher_steps_per_rollout")
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
 HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0.25))
 
 
 def load_config(algo: str, path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start`` and
-    ``cloned_log_std`` (not RL Zoo keys) are returned among the hyperparameters."""
+    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start``,
+    ``cloned_log_std`` and ``teacher_steps_per_rollout`` (not RL Zoo keys) are returned among the
+    hyperparameters."""
     path = Path(path) if path else CONFIG_DIR / f"{algo}.yaml"
     data = yaml.safe_load(path.read_text())
     if ENV_ID not in data:
         raise ValueError(f"{path}: no '{ENV_ID}' section")
-    extra = {"warm_start": data.get("warm_start", "none"), "cloned_log_std": data.get("cloned_log_std")}
+    extra = {key: data.get(key) for key in ("cloned_log_std", "teacher_steps_per_rollout")}
+    extra["warm_start"] = data.get("warm_start", "none")
     return {**data[ENV_ID], **extra}, dict(data.get("env_kwargs", {}))
 
 
@@ -139,24 +143,28 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     torch.set_num_threads(threads)
     out.mkdir(parents=True, exist_ok=True)
 
+    teacher_steps = hyper.get("teacher_steps_per_rollout")
     venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs)
     eval_env = make_eval_env(env_kwargs)
     if resume:
-        for key in ("warm_start", "warm_start_mse", "cloned_log_std"):
-            hyper.pop(key, None)
+        # not SB3 arguments: kept in the record, not passed to the model
+        kept = {key: hyper.pop(key) for key in NOT_SB3_KEYS if key in hyper}
         venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
         model = algos[algo].load(out / "model.zip", env=venv, device="cpu")
+        hyper.update(kept)
     else:
         if normalize:
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=hyper.get("gamma", 0.99))
-        warm = warm_start or hyper.pop("warm_start", "trapezoid")
-        hyper.pop("warm_start", None)
-        cloned_log_std = hyper.pop("cloned_log_std", None)
+        warm = warm_start or hyper.get("warm_start") or "trapezoid"
+        cloned_log_std = hyper.get("cloned_log_std")
+        for key in NOT_SB3_KEYS:
+            hyper.pop(key, None)
         model = algos[algo]("MlpPolicy", venv, seed=seed, device="cpu", tensorboard_log=str(out / "tb"),
                             verbose=verbose, **hyper)
         hyper["warm_start"] = warm
-        if cloned_log_std is not None:
-            hyper["cloned_log_std"] = cloned_log_std
+        for key, value in (("cloned_log_std", cloned_log_std), ("teacher_steps_per_rollout", teacher_steps)):
+            if value is not None:
+                hyper[key] = value
         if warm == "trapezoid":
             warm_start_at(model, trapezoid_action())
         elif warm.startswith("cma:"):  # behaviour cloning of a CMA-ES teacher (agents/teacher.py)
@@ -176,6 +184,11 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         EvalCallback(eval_env, n_eval_episodes=len(HELD_OUT_POINTS), eval_freq=max(eval_freq // n, 1),
                      best_model_save_path=str(out / "best"), log_path=str(out), deterministic=True),
     ]
+    warm = hyper.get("warm_start", "")
+    if teacher_steps and warm.startswith("cma:"):  # keep pulling towards the teacher of the warm start
+        from .teacher import teacher_regulariser
+
+        callbacks.append(teacher_regulariser(dict(np.load(warm[4:])), int(teacher_steps), seed=seed))
     start_steps = model.num_timesteps
     t0 = time.perf_counter()
     model.learn(total, callback=callbacks, progress_bar=progress_bar, reset_num_timesteps=not resume,
