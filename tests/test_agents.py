@@ -3,6 +3,7 @@
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -103,7 +104,6 @@ def test_policy_rollout_uses_each_points_own_load():
 
 def test_rl_zoo_trains_with_the_shipped_config(tmp_path):
     pytest.importorskip("rl_zoo3")
-    from pathlib import Path
 
     conf = Path(__file__).parents[1] / "agents" / "configs" / "ppo.yaml"
     res = subprocess.run([sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "MDRDrive-v0",
@@ -127,9 +127,50 @@ def test_cma_teacher_is_cloned_into_the_policy(tmp_path):
     record = train("ppo", steps=64, seed=0, out=out, n_envs=4, eval_freq=10_000, progress_bar=False,
                    warm_start=f"cma:{tmp_path / 'teacher.npz'}")
     assert record["hyperparameters"]["warm_start_mse"] < 0.02  # the policy's mean reproduces the teacher
+    assert record["hyperparameters"]["teacher_steps_per_rollout"] == 10  # the shipped config's regulariser
+    resumed = train(resume=out, steps=64, n_envs=4, eval_freq=10_000, progress_bar=False)
+    assert resumed["hyperparameters"]["teacher_steps_per_rollout"] == 10  # a resumed run keeps its recipe
+    assert resumed["hyperparameters"]["warm_start"] == record["hyperparameters"]["warm_start"]
     with pytest.raises(ValueError, match="PPO"):
         train("sac", steps=64, seed=0, out=tmp_path / "sac_bc", n_envs=2, progress_bar=False,
               warm_start=f"cma:{tmp_path / 'teacher.npz'}")
+
+
+def test_teacher_regulariser_pulls_the_policy_mean_towards_the_teacher():
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from agents.teacher import teacher_regulariser
+    from agents.train import make_train_env
+
+    venv = VecNormalize(make_train_env(4, 0, {"k": (0.0, 0.6), "load_ratio": (0.0, 0.3)}))
+    venv.reset()
+    obs = np.repeat(venv.get_original_obs(), 16, axis=0)
+    target = np.array([0.5, -0.5, 1.0, -0.9, 0.2], dtype=np.float32)
+    data = {"obs": obs, "targets": np.tile(target, (len(obs), 1))}
+    model = PPO("MlpPolicy", venv, n_steps=8, batch_size=32, seed=0, device="cpu")
+    model.set_logger(configure(None, []))
+
+    def error() -> float:
+        mean, _ = model.predict(venv.normalize_obs(obs), deterministic=True)
+        return float(np.mean((np.clip(mean, -1, 1) - target) ** 2))
+
+    callback = teacher_regulariser(data, steps_per_rollout=300, batch=32)
+    callback.init_callback(model)
+    before = error()
+    callback.on_rollout_end()
+    assert error() < 0.5 * before
+
+
+def test_stall_and_transition_points_lie_at_their_multiples_of_the_trapezoids_critical_load():
+    from agents.benchmark import critical_loads_grid
+    from agents.teacher import STALL_RANGE, TRANSITION_RANGE, sample_stall_points
+
+    for factors in (STALL_RANGE, TRANSITION_RANGE):
+        points = sample_stall_points(3, factor_range=factors, seed=5)
+        crit = critical_loads_grid([k for k, _ in points], lambda p: open_loop_velocity(p, trapezoid_action()))
+        assert all(factors[0] <= m / crit[k] <= factors[1] for k, m in points)
 
 
 def test_quick_benchmark_writes_tables_plots_and_a_consistent_summary(tmp_path):
@@ -149,3 +190,42 @@ def test_quick_benchmark_writes_tables_plots_and_a_consistent_summary(tmp_path):
     crit = res["critical_load_kg"]
     assert set(crit) == {"trapezoid", "cma-es", str(policy)}
     assert all(v >= 0.0 for c in crit.values() for v in c.values())
+
+
+def _script(name: str):
+    import importlib.util
+
+    path = Path(__file__).parents[1] / "scripts" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_seed_selection_picks_the_policy_with_the_largest_smallest_critical_load_ratio(tmp_path):
+    from agents.benchmark import critical_loads_grid
+
+    select = _script("select_seed")
+    policies = []
+    for seed in (0, 1):
+        out = tmp_path / f"ppo_s{seed}"
+        train("ppo", steps=64, seed=seed, out=out, n_envs=4, eval_freq=10_000, progress_bar=False)
+        policies.append(str(out))
+    ks = (0.0, 0.3)
+    trap = critical_loads_grid(ks, lambda pts: open_loop_velocity(pts, trapezoid_action()))
+    worst = {p: min(select.critical_load_ratios(Policy(p), ks, trap)) for p in policies}
+    report = tmp_path / "selection.md"
+    assert select.main([*policies, "--ks", *map(str, ks), "--out", str(report)]) == 0
+    text = report.read_text()
+    assert f"selected: {max(policies, key=worst.get)}" in text and text.count("(selected)") == 1
+    assert f"{min(worst.values()):.2f}" in text
+
+
+def test_cycle_limit_reports_a_critical_load_and_the_sensitivity_of_every_action_component(tmp_path):
+    cycle_limit = _script("cycle_limit")
+    assert cycle_limit.main(["--ks", "0.3", "--iterations", "1", "--out", str(tmp_path)]) == 0
+    (row,) = json.loads((tmp_path / "cycle_limit.json").read_text())
+    ratio = row["cycle_critical_kg"] / row["trapezoid_critical_kg"]
+    assert np.isclose(ratio, 1.0) or np.isclose(ratio, 1.4)  # one bisection step in [1.0, 1.8]
+    assert np.asarray(row["cycle"]).shape == (2, 5) and np.all(np.abs(row["cycle"]) <= 1.0)
+    assert len(row["sensitivity_at_1.25_mm_s"]) == 10 and "clamp z_phase" in row["sensitivity_at_1.25_mm_s"]
