@@ -33,21 +33,29 @@ def evaluation_table(policy_dir: str | Path) -> str:
     return "\n".join(lines)
 
 
+#: The teacher command of teachers built before they recorded their own.
+OLD_TEACHER_COMMAND = "python -m agents.teacher --points 160 --stall-points 192 --cycle-budget 2500"
+
+
 def teacher_note(run: dict) -> str:
-    warm = run["hyperparameters"].get("warm_start", "none")
+    hyper = run["hyperparameters"]
+    warm = hyper.get("warm_start", "none")
     if not warm.startswith("cma:"):
         return f"`{warm}`"
-    mse = run["hyperparameters"].get("warm_start_mse", float("nan"))
-    about = ""
+    mse = hyper.get("warm_start_mse", float("nan"))
+    about, command = "", OLD_TEACHER_COMMAND
     if Path(warm[4:]).exists():  # describe the teacher from its own file
         data = np.load(warm[4:])
         acts = data["actions"]
         cycles = int(np.sum(np.abs(acts[:, 0] - acts[:, 1]).max(axis=1) > 0)) if acts.ndim == 3 else 0
+        command = str(data["command"]) if "command" in data else command
         about = (f": {len(data['points'])} (k, load) points, {cycles} of them best driven by a two-action cycle, "
                  f"built in {float(data['wall_time_s']):.0f} s on 2 cores")
-    return (f"behaviour cloning of the CMA-ES teacher `{warm[4:]}` (`python -m agents.teacher --points 160 "
-            f"--stall-points 192 --cycle-budget 2500`, the `make train` recipe{about}), fit MSE {mse:.4f}, exploration noise "
-            f"log std {run['hyperparameters'].get('cloned_log_std', 'unchanged')} after cloning, then PPO")
+    steps = hyper.get("teacher_steps_per_rollout")
+    regulariser = f", with {steps} supervised steps towards the teacher after every rollout" if steps else ""
+    return (f"behaviour cloning of the CMA-ES teacher `{warm[4:]}` (`{command}`{about}), fit MSE {mse:.4f}, "
+            f"exploration noise log std {hyper.get('cloned_log_std', 'unchanged')} after cloning, then PPO"
+            f"{regulariser}")
 
 
 def ship(src: str | Path, dst: str | Path) -> Path:
