@@ -57,4 +57,13 @@ def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize:
     return CMAResult(best_x[0] if cycle == 1 else best_x, best_v, evals)
 
 
-__all__ = ["ACTION_MAP", "CMAResult", "cma_optimize", "trapezoid_action"]
+def best_cma_run(k: float, cargo_mass: float, starts, budget: int, popsize: int, sigma0: float, cycle: int = 1,
+                 seed: int = 0) -> CMAResult:
+    """The best of CMA-ES runs from each of ``starts`` (an action, a (cycle, 5) cycle, or None for the
+    trapezoid), run i seeded ``seed + i``."""
+    runs = [cma_optimize(k, cargo_mass, budget, popsize=popsize, seed=seed + i, sigma0=sigma0, cycle=cycle, x0=x0)
+            for i, x0 in enumerate(starts)]
+    return max(runs, key=lambda r: r.velocity)
+
+
+__all__ = ["ACTION_MAP", "CMAResult", "best_cma_run", "cma_optimize", "trapezoid_action"]

@@ -183,6 +183,17 @@ def markdown(res: dict, ks, masses) -> str:
     return "\n".join(lines) + "\n"
 
 
+def write_report(out: str | Path, stem: str, lines: list[str], rows, t0: float) -> str:
+    """Write ``stem``.md (``lines`` and the wall time since ``t0``, s) and ``stem``.json (``rows``)
+    into ``out``, as the scripts under scripts/ do; returns the markdown text."""
+    text = "\n".join(lines) + f"\n\nwall time {time.perf_counter() - t0:.0f} s\n"
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{stem}.md").write_text(text)
+    (out / f"{stem}.json").write_text(json.dumps(rows, indent=1))
+    return text
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--policies", nargs="*", default=[], help="policy folders (one per training seed)")
     p.add_argument("--out", default="results/benchmark", help="output folder")

@@ -19,15 +19,13 @@ results/benchmark/cycle_limit.{md,json}.
 """
 
 import argparse
-import json
 import time
-from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from agents.baselines import cma_optimize
-from agents.benchmark import GRID_KS, critical_loads_grid
+from agents.baselines import best_cma_run
+from agents.benchmark import GRID_KS, critical_loads_grid, write_report
 from agents.evaluate import ACTION_MAP, open_loop_velocity, trapezoid_action
 from agents.teacher import PUSH_CLAMP
 
@@ -37,8 +35,7 @@ DELTA = 0.05
 
 
 def best_cycle(k: float, m: float, starts) -> tuple[float, np.ndarray]:
-    runs = [cma_optimize(k, m, BUDGET, popsize=16, seed=i, sigma0=0.3, cycle=2, x0=x0) for i, x0 in enumerate(starts)]
-    best = max(runs, key=lambda r: r.velocity)
+    best = best_cma_run(k, m, starts, BUDGET, popsize=16, sigma0=0.3, cycle=2)
     return best.velocity, best.action
 
 
@@ -103,12 +100,7 @@ def main(argv=None) -> int:
     for r in rows:
         cells = (f"{lo:+.3f} / {hi:+.3f}" for lo, hi in r["sensitivity_at_1.25_mm_s"].values())
         lines.append(f"| {r['k']:g} | " + " | ".join(cells) + " |")
-    text = "\n".join(lines) + f"\n\nwall time {time.perf_counter() - t0:.0f} s\n"
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "cycle_limit.md").write_text(text)
-    (out / "cycle_limit.json").write_text(json.dumps(rows, indent=1))
-    print(text)
+    print(write_report(a.out, "cycle_limit", lines, rows, t0))
     return 0
 
 

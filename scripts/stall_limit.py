@@ -17,15 +17,13 @@ results/benchmark/stall_limit.{md,json}.
 """
 
 import argparse
-import json
 import time
-from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from agents.baselines import cma_optimize
-from agents.benchmark import GRID_KS, critical_loads_grid
+from agents.baselines import best_cma_run
+from agents.benchmark import GRID_KS, critical_loads_grid, write_report
 from agents.evaluate import open_loop_velocity, trapezoid_action
 from agents.teacher import PUSH_CLAMP
 
@@ -33,9 +31,7 @@ from agents.teacher import PUSH_CLAMP
 def best_drive(k: float, m: float, cycle: int, starts: list, budget: int, popsize: int, seed: int = 0):
     """Best (velocity m/s, (cycle, 5) actions) over CMA-ES runs from ``starts`` (None = the trapezoid);
     each run counts the trapezoid as a candidate."""
-    runs = [cma_optimize(k, m, budget, popsize=popsize, seed=seed + i, sigma0=0.6 if cycle == 1 else 0.4,
-                         cycle=cycle, x0=x0) for i, x0 in enumerate(starts)]
-    best = max(runs, key=lambda r: r.velocity)
+    best = best_cma_run(k, m, starts, budget, popsize, sigma0=0.6 if cycle == 1 else 0.4, cycle=cycle, seed=seed)
     return best.velocity, np.reshape(best.action, (cycle, 5))
 
 
@@ -62,12 +58,7 @@ def main(argv=None) -> int:
              "(mm/s) | best two-waveform cycle (mm/s) |", "|---|---|---|---|---|---|"]
     lines += [f"| {r['k']:g} | {r['factor']:g} | {r['cargo_mass_kg']:.4f} | {r['trapezoid_mm_s']:.2f} | "
               f"{r['best_fixed_mm_s']:.2f} | {r['best_pair_mm_s']:.2f} |" for r in rows]
-    text = "\n".join(lines) + f"\n\nwall time {time.perf_counter() - t0:.0f} s\n"
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "stall_limit.md").write_text(text)
-    (out / "stall_limit.json").write_text(json.dumps(rows, indent=1))
-    print(text)
+    print(write_report(a.out, "stall_limit", lines, rows, t0))
     return 0
 
 
