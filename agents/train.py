@@ -26,7 +26,7 @@ from .evaluate import trapezoid_action
 
 CONFIG_DIR = Path(__file__).parent / "configs"
 ENV_ID = "MDRDrive-v0"
-#: Config keys of agents/train.py itself (not SB3 arguments): recorded in run.json, not passed to SB3.
+#: Config keys of agents/train.py itself: recorded in run.json, not passed to SB3.
 NOT_SB3_KEYS = ("warm_start", "warm_start_mse", "cloned_log_std", "teacher_steps_per_rollout")
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
 HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0.25))
@@ -40,7 +40,7 @@ def load_config(algo: str, path: str | Path | None = None) -> tuple[dict[str, An
     data = yaml.safe_load(path.read_text())
     if ENV_ID not in data:
         raise ValueError(f"{path}: no '{ENV_ID}' section")
-    extra = {key: data.get(key) for key in ("cloned_log_std", "teacher_steps_per_rollout")}
+    extra = {key: data[key] for key in ("cloned_log_std", "teacher_steps_per_rollout") if key in data}
     extra["warm_start"] = data.get("warm_start", "none")
     return {**data[ENV_ID], **extra}, dict(data.get("env_kwargs", {}))
 
@@ -143,28 +143,17 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     torch.set_num_threads(threads)
     out.mkdir(parents=True, exist_ok=True)
 
-    teacher_steps = hyper.get("teacher_steps_per_rollout")
     venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs)
     eval_env = make_eval_env(env_kwargs)
     if resume:
-        # not SB3 arguments: kept in the record, not passed to the model
-        kept = {key: hyper.pop(key) for key in NOT_SB3_KEYS if key in hyper}
         venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
         model = algos[algo].load(out / "model.zip", env=venv, device="cpu")
-        hyper.update(kept)
     else:
         if normalize:
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=hyper.get("gamma", 0.99))
-        warm = warm_start or hyper.get("warm_start") or "trapezoid"
-        cloned_log_std = hyper.get("cloned_log_std")
-        for key in NOT_SB3_KEYS:
-            hyper.pop(key, None)
+        warm = hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
         model = algos[algo]("MlpPolicy", venv, seed=seed, device="cpu", tensorboard_log=str(out / "tb"),
-                            verbose=verbose, **hyper)
-        hyper["warm_start"] = warm
-        for key, value in (("cloned_log_std", cloned_log_std), ("teacher_steps_per_rollout", teacher_steps)):
-            if value is not None:
-                hyper[key] = value
+                            verbose=verbose, **{key: v for key, v in hyper.items() if key not in NOT_SB3_KEYS})
         if warm == "trapezoid":
             warm_start_at(model, trapezoid_action())
         elif warm.startswith("cma:"):  # behaviour cloning of a CMA-ES teacher (agents/teacher.py)
@@ -173,7 +162,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
             if algo != "ppo":
                 raise ValueError("warm_start='cma:...' is implemented for PPO's Gaussian policy only")
             hyper["warm_start_mse"] = clone_into(model, dict(np.load(warm[4:])), model.get_env(), seed=seed,
-                                                   log_std=cloned_log_std)
+                                                   log_std=hyper.get("cloned_log_std"))
         elif warm != "none":
             raise ValueError(f"warm_start={warm!r} is not one of ['none', 'trapezoid', 'cma:<teacher.npz>']")
     if normalize or resume:
@@ -184,7 +173,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         EvalCallback(eval_env, n_eval_episodes=len(HELD_OUT_POINTS), eval_freq=max(eval_freq // n, 1),
                      best_model_save_path=str(out / "best"), log_path=str(out), deterministic=True),
     ]
-    warm = hyper.get("warm_start", "")
+    warm, teacher_steps = hyper.get("warm_start", ""), hyper.get("teacher_steps_per_rollout")
     if teacher_steps and warm.startswith("cma:"):  # keep pulling towards the teacher of the warm start
         from .teacher import teacher_regulariser
 
