@@ -206,3 +206,11 @@ def main(args: argparse.Namespace) -> int:
     print((Path(args.out) / "benchmark.md").read_text())
     print(f"wall time {res['wall_time_s']} s; figures and tables in {args.out}/")
     return 0
+
+
+if __name__ == "__main__":  # python -m agents.benchmark ... is mdr-drive benchmark ...
+    import sys
+
+    from mdr_drive_env.cli import main as cli_main
+
+    raise SystemExit(cli_main(["benchmark", *sys.argv[1:]]))

@@ -79,3 +79,11 @@ def main(args: argparse.Namespace) -> int:
                header="k,cargo_mass_kg,learned_m_s,trapezoid_m_s", comments="")
     print(f"\nplots and CSV in {out}/ ; done in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+if __name__ == "__main__":  # python -m agents.demo ... is mdr-drive demo ...
+    import sys
+
+    from mdr_drive_env.cli import main as cli_main
+
+    raise SystemExit(cli_main(["demo", *sys.argv[1:]]))

@@ -130,3 +130,11 @@ def main(args: argparse.Namespace) -> int:
               f"trapezoid {trapezoid * 1e3:.3f} mm/s")
         print("learned waveform (last period):", {k: f"{v:.4g}" for k, v in last.items()})
     return 0
+
+
+if __name__ == "__main__":  # python -m agents.evaluate ... is mdr-drive evaluate ...
+    import sys
+
+    from mdr_drive_env.cli import main as cli_main
+
+    raise SystemExit(cli_main(["evaluate", *sys.argv[1:]]))

@@ -232,3 +232,11 @@ def main(args: argparse.Namespace) -> int:
     print(json.dumps({key: record[key] for key in ("algo", "seed", "total_timesteps", "wall_time_s",
                                                     "steps_per_s_this_run")}, indent=2))
     return 0
+
+
+if __name__ == "__main__":  # python -m agents.train ... is mdr-drive train ...
+    import sys
+
+    from mdr_drive_env.cli import main as cli_main
+
+    raise SystemExit(cli_main(["train", *sys.argv[1:]]))

@@ -51,6 +51,15 @@ def test_console_script_help_runs():
     assert "--cargo-mass" in out and "(kg)" in out
 
 
+@pytest.mark.parametrize("command", ["train", "evaluate", "benchmark", "demo"])
+def test_agents_modules_run_as_scripts(command):
+    """``python -m agents.<command>`` is ``mdr-drive <command>`` (it used to import and do nothing)."""
+    pytest.importorskip("stable_baselines3")
+    out = subprocess.run([sys.executable, "-m", f"agents.{command}", "--help"], capture_output=True,
+                         text=True, check=True).stdout
+    assert out.startswith(f"usage: mdr-drive {command}")
+
+
 def test_quick_reproduction_writes_figures_and_csvs(tmp_path):
     from mdr_drive_env.reproduce import reproduce
 
