@@ -119,12 +119,60 @@ def build(n: int = 160, periods: int = 50, seed: int = 0, workers: int | None = 
             "obs": np.concatenate(all_obs), "targets": np.concatenate(targets).astype(np.float32)}
 
 
+#: SAC's action is tanh of a Gaussian sample: teacher actions on the box's edge are fitted this far inside.
+SQUASH_LIMIT = 0.999
+
+
+def _squashed(policy) -> bool:
+    return hasattr(policy, "actor")  # SAC; PPO's ActorCriticPolicy has no actor
+
+
+def policy_mean(policy, obs):
+    """The deterministic action of an SB3 policy on (normalised) observations, as a torch tensor:
+    PPO's Gaussian mean (SB3 clips it to the box when acting), SAC's tanh-squashed mean."""
+    import torch
+
+    if _squashed(policy):
+        return torch.tanh(policy.actor.get_action_dist_params(obs)[0])
+    return policy.get_distribution(obs).distribution.mean
+
+
+def _targets(policy, data: dict):
+    """The teacher's actions; for SAC clipped to +-``SQUASH_LIMIT``, which its tanh can reach.
+    (Fitting SAC's mean before the tanh to atanh of the actions instead, so the gradient does not
+    vanish at the box's edges, fitted worse and trained worse: docs/results.md, SAC.)"""
+    import torch
+
+    y = torch.as_tensor(data["targets"], dtype=torch.float32)
+    return torch.clamp(y, -SQUASH_LIMIT, SQUASH_LIMIT) if _squashed(policy) else y
+
+
+def _mean_parameters(policy) -> list:
+    """The parameters the mean action depends on (not the log std, not a critic)."""
+    if _squashed(policy):
+        a = policy.actor
+        return [*a.features_extractor.parameters(), *a.latent_pi.parameters(), *a.mu.parameters()]
+    params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
+    return params + ([*policy.features_extractor.parameters()] if hasattr(policy, "features_extractor") else [])
+
+
+def _set_log_std(policy, log_std: float) -> None:
+    """PPO: the state-independent log std. SAC: the log std head's output (before the tanh), made
+    nearly state-independent."""
+    if _squashed(policy):
+        policy.actor.log_std.weight.mul_(0.01)
+        policy.actor.log_std.bias.fill_(log_std)
+    else:
+        policy.log_std.fill_(log_std)
+
+
 def clone_into(model, data: dict, venv, epochs: int = 60, batch: int = 512, lr: float = 1e-3, seed: int = 0,
                min_steps: int = 1500, log_std: float | None = None) -> float:
-    """Fit the policy's mean action to the teacher (MSE); set VecNormalize's observation statistics
-    from the teacher's observations first, and the policy's log standard deviation to ``log_std``
-    after (if given: PPO then explores near the cloned drive instead of blurring it; the two-action
-    cycles near stall only pay when played accurately). Returns the final mean squared error."""
+    """Fit the policy's mean action (PPO or SAC) to the teacher (MSE); set VecNormalize's observation
+    statistics from the teacher's observations first, and the policy's log standard deviation to
+    ``log_std`` after (if given: the RL algorithm then explores near the cloned drive instead of
+    blurring it; the two-action cycles near stall only pay when played accurately). Returns the
+    final mean squared error."""
     import torch
 
     obs = data["obs"].astype(np.float64)
@@ -134,62 +182,63 @@ def clone_into(model, data: dict, venv, epochs: int = 60, batch: int = 512, lr: 
         venv.obs_rms.count = float(len(obs))
         obs = venv.normalize_obs(obs)
     x = torch.as_tensor(obs, dtype=torch.float32)
-    y = torch.as_tensor(data["targets"], dtype=torch.float32)
     policy = model.policy
-    params = list(policy.mlp_extractor.policy_net.parameters()) + list(policy.action_net.parameters())
-    if hasattr(policy, "features_extractor"):
-        params += list(policy.features_extractor.parameters())
-    opt = torch.optim.Adam(params, lr=lr)
+    y = _targets(policy, data)
+    opt = torch.optim.Adam(_mean_parameters(policy), lr=lr)
     gen = torch.Generator().manual_seed(seed)
-    loss = torch.tensor(0.0)
     per_epoch = -(-len(x) // batch)
     for _ in range(max(epochs, -(-min_steps // per_epoch))):  # small data sets: still min_steps updates
         perm = torch.randperm(len(x), generator=gen)
         for i in range(0, len(x), batch):
             idx = perm[i:i + batch]
-            dist = policy.get_distribution(x[idx])
-            loss = torch.mean((dist.distribution.mean - y[idx]) ** 2)
+            loss = torch.mean((policy_mean(policy, x[idx]) - y[idx]) ** 2)
             opt.zero_grad()
             loss.backward()
             opt.step()
     with torch.no_grad():
         if log_std is not None:
-            policy.log_std.fill_(log_std)
-        return float(torch.mean((policy.get_distribution(x).distribution.mean - y) ** 2))
+            _set_log_std(policy, log_std)
+        return float(torch.mean((policy_mean(policy, x) - y) ** 2))
 
 
 def teacher_regulariser(data: dict, steps_per_rollout: int = 10, batch: int = 512, weight: float = 1.0,
                         seed: int = 0):
-    """Callback for PPO: after every rollout, ``steps_per_rollout`` supervised steps that pull the
-    policy's mean action towards the teacher's on the teacher's observations (normalised with the
-    current VecNormalize statistics), with PPO's own optimiser; a demo-augmented policy gradient
-    (DAPG, Rajeswaran et al. 2018) in its simplest form.
+    """Callback for PPO or SAC: after every rollout, ``steps_per_rollout`` supervised steps that pull
+    the policy's mean action towards the teacher's on the teacher's observations (normalised with the
+    current VecNormalize statistics), with the algorithm's own policy (actor) optimiser; a
+    demo-augmented policy gradient (DAPG, Rajeswaran et al. 2018) in its simplest form. SAC's
+    rollout is one env step per env (``train_freq: 1``), so it wants fewer steps per rollout than PPO.
 
     PPO alone lets the drives near stall drift: their rewards are tiny next to the unloaded drives',
     so the return hardly notices a clamp period that is 0.1 off its optimum, but the critical load
     does. The mean is clipped to the action box before the squared error, so a teacher action on
-    the box's edge does not hold PPO's mean at the edge."""
+    the box's edge does not hold PPO's mean at the edge. Logs the last step's squared error as
+    ``train/teacher_mse``."""
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
 
     obs = data["obs"].astype(np.float64)
-    y = torch.as_tensor(data["targets"], dtype=torch.float32)
     gen = torch.Generator().manual_seed(seed)
 
     class TeacherRegulariser(BaseCallback):
+        def _init_callback(self) -> None:
+            self.targets = _targets(self.model.policy, data)
+
         def _on_rollout_end(self) -> None:
             env = self.model.get_env()
-            x = torch.as_tensor(env.normalize_obs(obs) if hasattr(env, "normalize_obs") else obs,
-                                dtype=torch.float32)
+            normalise = env.normalize_obs if hasattr(env, "normalize_obs") else (lambda o: o)
             policy = self.model.policy
+            optimizer = policy.actor.optimizer if hasattr(policy, "actor") else policy.optimizer
+            y = self.targets
             policy.set_training_mode(True)
             for _ in range(steps_per_rollout):
-                idx = torch.randint(len(x), (batch,), generator=gen)
-                mean = torch.clamp(policy.get_distribution(x[idx]).distribution.mean, -1.0, 1.0)
+                idx = torch.randint(len(obs), (batch,), generator=gen)
+                x = torch.as_tensor(normalise(obs[idx.numpy()]), dtype=torch.float32)
+                mean = torch.clamp(policy_mean(policy, x), -1.0, 1.0)
                 loss = weight * torch.mean((mean - y[idx]) ** 2)
-                policy.optimizer.zero_grad()
+                optimizer.zero_grad()
                 loss.backward()
-                policy.optimizer.step()
+                optimizer.step()
             self.logger.record("train/teacher_mse", float(loss.detach()) / weight)
 
         def _on_step(self) -> bool:

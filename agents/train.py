@@ -159,8 +159,6 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         elif warm.startswith("cma:"):  # behaviour cloning of a CMA-ES teacher (agents/teacher.py)
             from .teacher import clone_into
 
-            if algo != "ppo":
-                raise ValueError("warm_start='cma:...' is implemented for PPO's Gaussian policy only")
             hyper["warm_start_mse"] = clone_into(model, dict(np.load(warm[4:])), model.get_env(), seed=seed,
                                                    log_std=hyper.get("cloned_log_std"))
         elif warm != "none":

@@ -131,13 +131,14 @@ def test_cma_teacher_is_cloned_into_the_policy(tmp_path):
     resumed = train(resume=out, steps=64, n_envs=4, eval_freq=10_000, progress_bar=False)
     assert resumed["hyperparameters"]["teacher_steps_per_rollout"] == 10  # a resumed run keeps its recipe
     assert resumed["hyperparameters"]["warm_start"] == record["hyperparameters"]["warm_start"]
-    with pytest.raises(ValueError, match="PPO"):
-        train("sac", steps=64, seed=0, out=tmp_path / "sac_bc", n_envs=2, progress_bar=False,
-              warm_start=f"cma:{tmp_path / 'teacher.npz'}")
+    sac = train("sac", steps=64, seed=0, out=tmp_path / "sac_bc", n_envs=2, eval_freq=10_000, progress_bar=False,
+                warm_start=f"cma:{tmp_path / 'teacher.npz'}")
+    assert sac["hyperparameters"]["warm_start_mse"] < 0.02  # SAC's tanh-squashed mean reproduces it too
 
 
-def test_teacher_regulariser_pulls_the_policy_mean_towards_the_teacher():
-    from stable_baselines3 import PPO
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_teacher_regulariser_pulls_the_policy_mean_towards_the_teacher(algo):
+    from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -149,7 +150,10 @@ def test_teacher_regulariser_pulls_the_policy_mean_towards_the_teacher():
     obs = np.repeat(venv.get_original_obs(), 16, axis=0)
     target = np.array([0.5, -0.5, 1.0, -0.9, 0.2], dtype=np.float32)
     data = {"obs": obs, "targets": np.tile(target, (len(obs), 1))}
-    model = PPO("MlpPolicy", venv, n_steps=8, batch_size=32, seed=0, device="cpu")
+    if algo == "ppo":
+        model = PPO("MlpPolicy", venv, n_steps=8, batch_size=32, seed=0, device="cpu")
+    else:
+        model = SAC("MlpPolicy", venv, batch_size=32, seed=0, device="cpu")
     model.set_logger(configure(None, []))
 
     def error() -> float:
