@@ -27,20 +27,22 @@ from .evaluate import trapezoid_action
 CONFIG_DIR = Path(__file__).parent / "configs"
 ENV_ID = "MDRDrive-v0"
 #: Config keys of agents/train.py itself: recorded in run.json, not passed to SB3.
-NOT_SB3_KEYS = ("warm_start", "warm_start_mse", "cloned_log_std", "teacher_steps_per_rollout")
+NOT_SB3_KEYS = ("warm_start", "warm_start_mse", "cloned_log_std", "teacher_steps_per_rollout",
+                "teacher_velocity_floor")
+#: Keys of the YAML file's top level that train.py reads (with ``warm_start``); see load_config.
+RECIPE_KEYS = ("cloned_log_std", "teacher_steps_per_rollout", "teacher_velocity_floor")
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
 HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0.25))
 
 
 def load_config(algo: str, path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start``,
-    ``cloned_log_std`` and ``teacher_steps_per_rollout`` (not RL Zoo keys) are returned among the
-    hyperparameters."""
+    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start`` and
+    ``RECIPE_KEYS`` (not RL Zoo keys) are returned among the hyperparameters."""
     path = Path(path) if path else CONFIG_DIR / f"{algo}.yaml"
     data = yaml.safe_load(path.read_text())
     if ENV_ID not in data:
         raise ValueError(f"{path}: no '{ENV_ID}' section")
-    extra = {key: data[key] for key in ("cloned_log_std", "teacher_steps_per_rollout") if key in data}
+    extra = {key: data[key] for key in RECIPE_KEYS if key in data}
     extra["warm_start"] = data.get("warm_start", "none")
     return {**data[ENV_ID], **extra}, dict(data.get("env_kwargs", {}))
 
@@ -53,12 +55,21 @@ def _range(values: list[float] | None, default):
     return float(values[0]) if len(values) == 1 else (float(values[0]), float(values[1]))
 
 
-def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any]):
+def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any], teacher: dict | None = None,
+                   velocity_floor: float | None = None):
+    """The batched training env with a monitor; with a teacher and a velocity floor (m/s), rewards
+    are scaled per episode (``agents.reward_scale``), so the agent and ``rollout/ep_rew_mean`` see
+    the scaled rewards (the evaluation env's are not scaled)."""
     from stable_baselines3.common.vec_env import VecMonitor
 
     from .vec_env import BatchedVecEnv
 
-    return VecMonitor(BatchedVecEnv(n_envs, seed=seed, **env_kwargs))
+    factor = None
+    if teacher is not None and velocity_floor:
+        from .reward_scale import TeacherRewardFactor
+
+        factor = TeacherRewardFactor(teacher, float(velocity_floor))
+    return VecMonitor(BatchedVecEnv(n_envs, seed=seed, episode_reward_factor=factor, **env_kwargs))
 
 
 def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS):
@@ -143,7 +154,12 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     torch.set_num_threads(threads)
     out.mkdir(parents=True, exist_ok=True)
 
-    venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs)
+    if not resume:
+        hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
+    warm = hyper.get("warm_start", "none")
+    teacher = dict(np.load(warm[4:])) if warm.startswith("cma:") else None
+    venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs, teacher,
+                          hyper.get("teacher_velocity_floor"))
     eval_env = make_eval_env(env_kwargs)
     if resume:
         venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
@@ -151,7 +167,6 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     else:
         if normalize:
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=hyper.get("gamma", 0.99))
-        warm = hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
         model = algos[algo]("MlpPolicy", venv, seed=seed, device="cpu", tensorboard_log=str(out / "tb"),
                             verbose=verbose, **{key: v for key, v in hyper.items() if key not in NOT_SB3_KEYS})
         if warm == "trapezoid":
@@ -159,7 +174,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         elif warm.startswith("cma:"):  # behaviour cloning of a CMA-ES teacher (agents/teacher.py)
             from .teacher import clone_into
 
-            hyper["warm_start_mse"] = clone_into(model, dict(np.load(warm[4:])), model.get_env(), seed=seed,
+            hyper["warm_start_mse"] = clone_into(model, teacher, model.get_env(), seed=seed,
                                                    log_std=hyper.get("cloned_log_std"))
         elif warm != "none":
             raise ValueError(f"warm_start={warm!r} is not one of ['none', 'trapezoid', 'cma:<teacher.npz>']")
@@ -171,11 +186,11 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         EvalCallback(eval_env, n_eval_episodes=len(HELD_OUT_POINTS), eval_freq=max(eval_freq // n, 1),
                      best_model_save_path=str(out / "best"), log_path=str(out), deterministic=True),
     ]
-    warm, teacher_steps = hyper.get("warm_start", ""), hyper.get("teacher_steps_per_rollout")
-    if teacher_steps and warm.startswith("cma:"):  # keep pulling towards the teacher of the warm start
+    teacher_steps = hyper.get("teacher_steps_per_rollout")
+    if teacher_steps and teacher is not None:  # keep pulling towards the teacher of the warm start
         from .teacher import teacher_regulariser
 
-        callbacks.append(teacher_regulariser(dict(np.load(warm[4:])), int(teacher_steps), seed=seed))
+        callbacks.append(teacher_regulariser(teacher, int(teacher_steps), seed=seed))
     start_steps = model.num_timesteps
     t0 = time.perf_counter()
     model.learn(total, callback=callbacks, progress_bar=progress_bar, reset_num_timesteps=not resume,

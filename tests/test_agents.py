@@ -131,6 +131,14 @@ def test_cma_teacher_is_cloned_into_the_policy(tmp_path):
     resumed = train(resume=out, steps=64, n_envs=4, eval_freq=10_000, progress_bar=False)
     assert resumed["hyperparameters"]["teacher_steps_per_rollout"] == 10  # a resumed run keeps its recipe
     assert resumed["hyperparameters"]["warm_start"] == record["hyperparameters"]["warm_start"]
+    config = tmp_path / "ppo_scaled.yaml"  # the optional per-episode reward scale trains and resumes too
+    config.write_text((Path(__file__).parents[1] / "agents/configs/ppo.yaml").read_text()
+                      + "teacher_velocity_floor: 2.5e-4\n")
+    scaled = train("ppo", steps=64, seed=0, out=tmp_path / "ppo_scaled", n_envs=4, eval_freq=10_000, config=config,
+                   progress_bar=False, warm_start=f"cma:{tmp_path / 'teacher.npz'}")
+    assert scaled["hyperparameters"]["teacher_velocity_floor"] == 2.5e-4
+    resumed = train(resume=tmp_path / "ppo_scaled", steps=64, n_envs=4, eval_freq=10_000, progress_bar=False)
+    assert resumed["hyperparameters"]["teacher_velocity_floor"] == 2.5e-4
     sac = train("sac", steps=64, seed=0, out=tmp_path / "sac_bc", n_envs=2, eval_freq=10_000, progress_bar=False,
                 warm_start=f"cma:{tmp_path / 'teacher.npz'}")
     assert sac["hyperparameters"]["warm_start_mse"] < 0.02  # SAC's tanh-squashed mean reproduces it too
@@ -233,3 +241,45 @@ def test_cycle_limit_reports_a_critical_load_and_the_sensitivity_of_every_action
     assert np.isclose(ratio, 1.0) or np.isclose(ratio, 1.4)  # one bisection step in [1.0, 1.8]
     assert np.asarray(row["cycle"]).shape == (2, 5) and np.all(np.abs(row["cycle"]) <= 1.0)
     assert len(row["sensitivity_at_1.25_mm_s"]) == 10 and "clamp z_phase" in row["sensitivity_at_1.25_mm_s"]
+
+
+def _teacher_stub(ks, ratios, velocities) -> dict:
+    obs = np.zeros((len(ks), 14), dtype=np.float32)
+    obs[:, 10], obs[:, 11] = ks, ratios
+    return {"points": np.c_[ks, ratios], "obs": obs, "velocities": np.asarray(velocities, dtype=float)}
+
+
+def test_teacher_velocity_interpolates_between_the_teachers_points():
+    from agents.reward_scale import TeacherVelocity
+
+    # a negative teacher velocity (the drive goes back) counts as 0
+    teacher = TeacherVelocity(_teacher_stub([0.0, 0.0, 0.6], [0.0, 0.2, 0.3], [30e-3, 5e-3, -1e-3]), neighbours=2)
+    np.testing.assert_allclose(teacher([0.0, 0.0, 0.6], [0.0, 0.2, 0.3]), [30e-3, 5e-3, 0.0], atol=1e-12)
+    between = teacher(0.0, 0.1)[0]
+    assert 5e-3 < between < 30e-3
+
+
+def test_teacher_reward_factor_scales_each_episode_by_its_own_factor():
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from agents.reward_scale import REFERENCE_VELOCITY, TeacherRewardFactor
+    from agents.vec_env import BatchedVecEnv
+
+    kw = {"k": (0.0, 0.6), "load_ratio": (0.0, 0.5), "max_periods": 3, "reward_floor": -2.0}
+    raw = VecMonitor(BatchedVecEnv(4, seed=3, **kw))
+    # the teacher is fast at low loads and stalls at high ones, so the factor depends on the episode
+    factor_of = TeacherRewardFactor(_teacher_stub([0.0, 0.6, 0.0, 0.6], [0.0, 0.0, 0.5, 0.5],
+                                                  [30e-3, 30e-3, 0.0, 0.0]), floor=1e-3)
+    scaled = VecMonitor(BatchedVecEnv(4, seed=3, episode_reward_factor=factor_of, **kw))
+    raw.reset()
+    factors = [factor_of(scaled.reset())]
+    assert np.all((factors[0] >= REFERENCE_VELOCITY / 30e-3) & (factors[0] <= REFERENCE_VELOCITY / 1e-3))
+    action = np.tile(trapezoid_action(), (4, 1)).astype(np.float32)
+    for t in range(5):  # across the auto-reset after period 3
+        r_raw = raw.step(action)[1]
+        obs, r, dones, _ = scaled.step(action)
+        np.testing.assert_allclose(r, np.maximum(r_raw * factors[-1], -2.0), rtol=1e-6)
+        if dones.any():
+            assert t == 2
+            factors.append(factor_of(obs))
+    assert not np.allclose(factors[0], factors[1])  # the new episodes drew new loads
