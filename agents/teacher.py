@@ -228,7 +228,7 @@ def teacher_regulariser(data: dict, steps_per_rollout: int = 10, batch: int = 51
             env = self.model.get_env()
             normalise = env.normalize_obs if hasattr(env, "normalize_obs") else (lambda o: o)
             policy = self.model.policy
-            optimizer = policy.actor.optimizer if hasattr(policy, "actor") else policy.optimizer
+            optimizer = policy.actor.optimizer if _squashed(policy) else policy.optimizer
             y = self.targets
             policy.set_training_mode(True)
             for _ in range(steps_per_rollout):

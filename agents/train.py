@@ -26,11 +26,10 @@ from .evaluate import trapezoid_action
 
 CONFIG_DIR = Path(__file__).parent / "configs"
 ENV_ID = "MDRDrive-v0"
-#: Config keys of agents/train.py itself: recorded in run.json, not passed to SB3.
-NOT_SB3_KEYS = ("warm_start", "warm_start_mse", "cloned_log_std", "teacher_steps_per_rollout",
-                "teacher_velocity_floor")
 #: Keys of the YAML file's top level that train.py reads (with ``warm_start``); see load_config.
 RECIPE_KEYS = ("cloned_log_std", "teacher_steps_per_rollout", "teacher_velocity_floor")
+#: Config keys of agents/train.py itself: recorded in run.json, not passed to SB3.
+NOT_SB3_KEYS = ("warm_start", "warm_start_mse", *RECIPE_KEYS)
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
 HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0.25))
 
