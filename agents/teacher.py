@@ -2,18 +2,22 @@
 
     python -m agents.teacher --points 160 --stall-points 192 --transition-points 64 --cycle-budget 2500 \
         --out runs/teacher.npz      # about 18 minutes on 2 cores
+    python -m agents.teacher --refine runs/teacher4.npz --neighbours 8 --out runs/teacher6.npz  # exchange only
 
 CMA-ES finds the best open-loop drive at sampled (k, load) points: points of the training
 distribution (a third of them without load, where the best waveform is far from the trapezoid),
 points near the trapezoid's stall load (0.85-1.5 times its critical load) and, optionally, points
 below it (0.6-0.9 times), where the best drive turns from a fixed waveform into a cycle. At loaded
 points it searches both fixed actions and cycles of two actions played in turn (a "push" period
-and a "clamp" period, which carry loads no fixed waveform moves) and keeps the better. Each drive
-is rolled out in the batched env to record the observations it visits; ``clone_into`` then fits
-the policy's mean action to the teacher's action on those observations (behaviour cloning; the
-observation holds the previous action, so a policy can alternate), and PPO starts from there
-(``warm_start: cma`` in the config). ``teacher_regulariser`` keeps pulling the policy towards the
-teacher during PPO (``teacher_steps_per_rollout`` in the config).
+and a "clamp" period, which carry loads no fixed waveform moves) and keeps the better. Optionally
+(``--neighbours``; off by default, as it made the trained policies worse, docs/results.md) every
+point then tries its nearest points' drives and keeps the best (``exchange_with_neighbours``).
+Each drive is rolled out in the batched env to record the observations it visits; ``clone_into``
+then fits the policy's mean action (PPO's Gaussian mean or SAC's tanh-squashed one) to the
+teacher's action on those observations (behaviour cloning; the observation holds the previous
+action, so a policy can alternate), and the RL algorithm starts from there (``warm_start:
+cma:<teacher.npz>`` in the config). ``teacher_regulariser`` keeps pulling the policy towards the
+teacher during training (``teacher_steps_per_rollout`` in the config).
 """
 
 from __future__ import annotations
@@ -106,6 +110,14 @@ def build(n: int = 160, periods: int = 50, seed: int = 0, workers: int | None = 
     else:
         found = [_optimize(j) for j in tqdm(jobs, desc="CMA-ES teacher", unit="point")]
     cycles = np.array([f[0] for f in found])
+    data = {"points": np.array(points), "actions": cycles, "velocities": np.array([f[1] for f in found])}
+    return record_rollouts(data, periods=periods, seed=seed, env_kwargs=env_kwargs)
+
+
+def record_rollouts(data: dict, periods: int = 50, seed: int = 0, env_kwargs=None) -> dict:
+    """``data`` with the observations its drives visit in the batched env and the teacher's action at
+    each ("obs", "targets"; period t of point i is row t n + i)."""
+    points, cycles = data["points"], data["actions"]
     kw = {key: v for key, v in (env_kwargs or {}).items() if key not in ("k", "cargo_mass", "load_ratio")}
     kw["max_periods"] = periods
     venv = gym.make_vec(ENV_ID, num_envs=len(points), vectorization_mode="vector_entry_point", **kw)
@@ -115,8 +127,68 @@ def build(n: int = 160, periods: int = 50, seed: int = 0, workers: int | None = 
         all_obs.append(obs.copy())
         targets.append(cycles[:, t % 2])
         obs, *_ = venv.step(cycles[:, t % 2].astype(np.float32))
-    return {"points": np.array(points), "actions": cycles, "velocities": np.array([f[1] for f in found]),
-            "obs": np.concatenate(all_obs), "targets": np.concatenate(targets).astype(np.float32)}
+    return {**data, "obs": np.concatenate(all_obs), "targets": np.concatenate(targets).astype(np.float32)}
+
+
+#: Stalled points (the trapezoid does not move the load) judge a drive also at this multiple of their load.
+LOAD_MARGIN = 1.15
+
+
+def _scores(points, drives, stalled, load_margin):
+    """Score of each drive at its point (m/s): the steady velocity, and at stalled points the smaller of
+    it and the velocity at ``load_margin`` times the load. Returns (scores, velocities)."""
+    v = open_loop_velocity([tuple(p) for p in points], drives)
+    if not load_margin or not stalled.any():
+        return v, v
+    heavier = [(k, m * load_margin) for k, m in points[stalled]]
+    scores = v.copy()
+    scores[stalled] = np.minimum(v[stalled], open_loop_velocity(heavier, drives[stalled]))
+    return scores, v
+
+
+def exchange_with_neighbours(data: dict, neighbours: int = 8, load_margin: float | None = LOAD_MARGIN,
+                             max_rounds: int = 20) -> tuple[dict, dict]:
+    """Give every point the best drive among its own and its ``neighbours`` nearest points' (in the
+    (k, load ratio) metric of ``agents.reward_scale``), judged at the point; repeated until no point
+    improves (``max_rounds`` at most).
+
+    The per-point CMA-ES runs are independent and a run may stall in a poor local optimum (a clamp
+    period that barely moves the load) next to points whose drive does far better there; the
+    policy is then cloned towards a teacher that is worse than itself. Where the trapezoid does not
+    move the load, a drive is judged by the smaller of its velocity at the point's load and at
+    ``load_margin`` times it: a drive that is fast at this load but stalls just above it (a fast
+    clamp period) would spread over the points just above the trapezoid's stall and leave the
+    policy to switch to the load-carrying cycle at a load of its own guessing, which is where its
+    critical load is decided. Returns the new data (observations recorded again) and a summary."""
+    from .reward_scale import K_ENTRY, K_SCALE, LOAD_ENTRY, LOAD_SCALE
+
+    points, actions = np.asarray(data["points"], dtype=np.float64), np.array(data["actions"], dtype=np.float64)
+    n = len(points)
+    stalled = open_loop_velocity([tuple(p) for p in points], trapezoid_action()) <= 0.0
+    scores, velocities = _scores(points, actions, stalled, load_margin)
+    first = np.asarray(data["obs"])[:n]  # each rollout's first observation
+    xy = np.c_[first[:, K_ENTRY] / K_SCALE, first[:, LOAD_ENTRY] / LOAD_SCALE]
+    near = np.argsort(np.linalg.norm(xy[:, None] - xy[None], axis=2), axis=1)[:, 1:neighbours + 1]
+    before, rounds, improved = velocities.copy(), 0, np.zeros(n, bool)
+    for rounds in range(1, max_rounds + 1):
+        i_of, j_of = np.repeat(np.arange(n), neighbours), near.ravel()
+        s, v = _scores(points[i_of], actions[j_of], stalled[i_of], load_margin)
+        new_a, new_s, new_v = actions.copy(), scores.copy(), velocities.copy()
+        for i, j, sij, vij in zip(i_of, j_of, s, v):
+            if sij > new_s[i]:
+                new_a[i], new_s[i], new_v[i] = actions[j], sij, vij
+        changed = new_s > scores
+        actions, scores, velocities = new_a, new_s, new_v
+        improved |= changed
+        if not changed.any():
+            break
+    gain = (velocities - before)[improved] * 1e3
+    summary = {"neighbours": neighbours, "load_margin": load_margin, "rounds": rounds,
+               "points_improved": int(improved.sum()), "stalled_points_improved": int((improved & stalled).sum()),
+               "median_velocity_gain_mm_s": float(np.median(gain)) if gain.size else 0.0}
+    refined = {key: data[key] for key in data if key not in ("obs", "targets")}
+    refined.update(actions=actions, velocities=velocities)
+    return record_rollouts(refined, periods=len(data["obs"]) // n), summary
 
 
 #: SAC's action is tanh of a Gaussian sample: teacher actions on the box's edge are fitted this far inside.
@@ -166,6 +238,16 @@ def _set_log_std(policy, log_std: float) -> None:
         policy.log_std.fill_(log_std)
 
 
+def box_error(mean, target):
+    """``mean - target``, except zero where the mean lies beyond an edge of the action box that the
+    target sits on (the clipped action is then exact). Unlike the error of the clipped mean, it
+    keeps the gradient where the mean has left the box and the target is inside it."""
+    import torch
+
+    beyond = ((target >= 1.0) & (mean > 1.0)) | ((target <= -1.0) & (mean < -1.0))
+    return torch.where(beyond, torch.zeros_like(mean), mean - target)
+
+
 def clone_into(model, data: dict, venv, epochs: int = 60, batch: int = 512, lr: float = 1e-3, seed: int = 0,
                min_steps: int = 1500, log_std: float | None = None) -> float:
     """Fit the policy's mean action (PPO or SAC) to the teacher (MSE); set VecNormalize's observation
@@ -211,8 +293,9 @@ def teacher_regulariser(data: dict, steps_per_rollout: int = 10, batch: int = 51
 
     PPO alone lets the drives near stall drift: their rewards are tiny next to the unloaded drives',
     so the return hardly notices a clamp period that is 0.1 off its optimum, but the critical load
-    does. The mean is clipped to the action box before the squared error, so a teacher action on
-    the box's edge does not hold PPO's mean at the edge. Logs the last step's squared error as
+    does. The error is ``box_error``: a teacher action on the box's edge does not hold PPO's mean
+    at the edge, and a mean that has left the box is pulled back to an action inside it (the
+    squared error of the clipped mean, used before, has no gradient there). Logs the last step's squared error as
     ``train/teacher_mse``."""
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
@@ -234,8 +317,7 @@ def teacher_regulariser(data: dict, steps_per_rollout: int = 10, batch: int = 51
             for _ in range(steps_per_rollout):
                 idx = torch.randint(len(obs), (batch,), generator=gen)
                 x = torch.as_tensor(normalise(obs[idx.numpy()]), dtype=torch.float32)
-                mean = torch.clamp(policy_mean(policy, x), -1.0, 1.0)
-                loss = weight * torch.mean((mean - y[idx]) ** 2)
+                loss = weight * torch.mean(box_error(policy_mean(policy, x), y[idx]) ** 2)
                 optimizer.zero_grad()
                 loss.backward()
                 optimizer.step()
@@ -258,15 +340,39 @@ def main(argv=None) -> int:
     ap.add_argument("--cycle-budget", type=int, default=CYCLE_BUDGET,
                     help="CMA-ES evaluations of the two-action search per loaded point (-)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the point sample (-)")
+    ap.add_argument("--neighbours", type=int, default=0,
+                    help="after CMA-ES, each point also tries its nearest points' drives and keeps the best, "
+                         "until none improves (0: off, the default) (-)")
+    ap.add_argument("--load-margin", type=float, default=LOAD_MARGIN,
+                    help="in the exchange, points the trapezoid does not move judge a drive by its velocity at "
+                         "the load and at this multiple of it, whichever is smaller (0: the load only) (-)")
+    ap.add_argument("--refine", default=None, metavar="TEACHER.npz",
+                    help="skip CMA-ES: apply the --neighbours exchange to an existing teacher")
     ap.add_argument("--out", default="runs/teacher.npz", help="output .npz")
     a = ap.parse_args(argv)
+    if a.refine and a.neighbours <= 0:
+        ap.error("--refine applies the exchange: give --neighbours N with N > 0")
+    import json
     import time
 
     t0 = time.perf_counter()
-    data = build(a.points, seed=a.seed, n_stall=a.stall_points, cycle_budget=a.cycle_budget,
-                 n_transition=a.transition_points)
-    data["wall_time_s"] = np.array(time.perf_counter() - t0)
-    data["command"] = np.array(" ".join(["python -m agents.teacher", *(argv if argv is not None else sys.argv[1:])]))
+    command = " ".join(["python -m agents.teacher", *(argv if argv is not None else sys.argv[1:])])
+    if a.refine:
+        data = {key: v for key, v in np.load(a.refine).items()}
+        command = f"{data.pop('command', '')} ; {command}"
+        earlier = float(data.pop("wall_time_s", 0.0))
+    else:
+        data = build(a.points, seed=a.seed, n_stall=a.stall_points, cycle_budget=a.cycle_budget,
+                     n_transition=a.transition_points)
+        earlier = 0.0
+    if a.neighbours > 0:
+        t1 = time.perf_counter()
+        data, summary = exchange_with_neighbours(data, a.neighbours, a.load_margin or None)
+        summary["wall_time_s"] = time.perf_counter() - t1
+        data["exchange"] = np.array(json.dumps(summary))
+        print("neighbour exchange:", json.dumps(summary))
+    data["wall_time_s"] = np.array(earlier + time.perf_counter() - t0)
+    data["command"] = np.array(command)
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(a.out, **data)
     print(f"wrote {a.out}: {len(data['points'])} points, {len(data['obs'])} observation-action pairs")

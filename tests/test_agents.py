@@ -283,3 +283,51 @@ def test_teacher_reward_factor_scales_each_episode_by_its_own_factor():
             assert t == 2
             factors.append(factor_of(obs))
     assert not np.allclose(factors[0], factors[1])  # the new episodes drew new loads
+
+
+def test_box_error_ignores_overshoot_past_an_edge_the_target_sits_on_and_keeps_the_gradient_otherwise():
+    import torch
+
+    from agents.teacher import box_error
+
+    target = torch.tensor([1.0, 0.9, -1.0, -1.0, 0.0])
+    mean = torch.tensor([1.3, 1.3, -2.0, -0.5, 0.2], requires_grad=True)
+    error = box_error(mean, target)
+    np.testing.assert_allclose(error.detach().numpy(), [0.0, 0.4, 0.0, 0.5, 0.2], atol=1e-6)
+    (error ** 2).sum().backward()
+    # the clipped mean of entry 1 would be 1.0 with no gradient; here it is pulled back into the box
+    np.testing.assert_allclose(mean.grad.numpy(), [0.0, 0.8, 0.0, 1.0, 0.4], atol=1e-6)
+
+
+def test_neighbour_exchange_gives_a_point_its_neighbours_better_drive_and_never_a_worse_one():
+    from agents.teacher import exchange_with_neighbours, record_rollouts
+
+    points = np.array([[0.2, 0.0], [0.21, 0.0], [0.22, 0.0], [0.6, 0.002]])
+    poor = -np.ones(5)  # the shortest x stroke: barely moves
+    single = np.array([trapezoid_action(), trapezoid_action(), poor, poor])
+    actions = np.repeat(single[:, None], 2, axis=1)
+    velocities = open_loop_velocity([tuple(p) for p in points], actions)
+    data = record_rollouts({"points": points, "actions": actions, "velocities": velocities}, periods=4)
+    new, summary = exchange_with_neighbours(data, neighbours=2)
+    assert np.all(new["velocities"] >= velocities)
+    assert new["velocities"][2] > velocities[2] and summary["points_improved"] >= 1
+    for a in new["actions"]:  # every drive is one the teacher already had
+        assert any(np.array_equal(a, b) for b in actions)
+    np.testing.assert_allclose(new["velocities"], open_loop_velocity([tuple(p) for p in points], new["actions"]))
+    assert new["obs"].shape == data["obs"].shape and np.array_equal(new["points"], points)
+    np.testing.assert_array_equal(new["targets"][4:8], new["actions"][:, 1].astype(np.float32))
+
+
+def test_teacher_lookup_replays_each_teachers_drive_at_its_own_observations(tmp_path):
+    from agents.teacher import PUSH_CLAMP, record_rollouts
+
+    points = np.array([[0.1, 0.0], [0.5, 0.006]])
+    actions = np.array([np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP])
+    data = record_rollouts({"points": points, "actions": actions, "velocities": np.zeros(2)}, periods=6)
+    lookup = _script("teacher_lookup").TeacherLookup(data)
+    np.testing.assert_allclose(lookup(data["obs"]), data["targets"], atol=1e-6)  # push, clamp, push, ...
+    np.savez(tmp_path / "teacher.npz", **data)
+    assert _script("teacher_lookup").main([str(tmp_path / "teacher.npz"), "--ks", "0.5", "--profile-ks",
+                                           "--out", str(tmp_path)]) == 0
+    (row,) = json.loads((tmp_path / "teacher_lookup.json").read_text())
+    assert row["ratio"]["0.5"] >= 0.0
