@@ -76,8 +76,22 @@ class Policy:
                 vn = pickle.load(f)
             self.obs_rms, self.clip_obs, self.epsilon = vn.obs_rms, vn.clip_obs, vn.epsilon
         self.run = run
+        self.lookup = None  # a residual policy on the teacher's lookup (agents/residual.py)
+        if run.get("hyperparameters", {}).get("residual_scale"):
+            from .residual import LOOKUP_FILE, TeacherLookup
+
+            self.lookup = TeacherLookup.load(path / LOOKUP_FILE)
+            self.residual_scale = float(run["hyperparameters"]["residual_scale"])
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
+        if self.lookup is not None:
+            from .residual import augment, env_action
+
+            obs, base = augment(np.atleast_2d(obs), self.lookup)
+            return env_action(base, self._act(obs), self.residual_scale)
+        return self._act(obs)
+
+    def _act(self, obs: np.ndarray) -> np.ndarray:
         if self.obs_rms is not None:
             obs = np.clip((obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
                           -self.clip_obs, self.clip_obs).astype(np.float32)

@@ -61,10 +61,13 @@ def teacher_note(run: dict) -> str:
 def ship(src: str | Path, dst: str | Path) -> Path:
     src, dst = Path(src), Path(dst)
     dst.mkdir(parents=True, exist_ok=True)
-    for name in FILES:
+    files = FILES + (("teacher_lookup.npz",) if (src / "teacher_lookup.npz").exists() else ())
+    for name in files:
         shutil.copy2(src / name, dst / name)
     run = json.loads((dst / "run.json").read_text())
-    size_kb = sum((dst / n).stat().st_size for n in FILES) / 1024
+    size_kb = sum((dst / n).stat().st_size for n in files) / 1024
+    lookup_note = (", `teacher_lookup.npz` (the teacher's drives: the policy plays a residual on them, "
+                   "`agents/residual.py`)" if len(files) > len(FILES) else "")
     card = f"""# {dst.name}: a generalist PPO waveform policy for MDRDrive-v0
 
 One policy for every grading exponent and load in its training range: it observes k and the load
@@ -80,7 +83,7 @@ One policy for every grading exponent and load in its training range: it observe
   policy `{json.dumps(run['hyperparameters'].get('policy_kwargs', {}))}`
 * Versions: `{json.dumps(run['versions'])}`
 * Files: `model.zip` (SB3), `vecnormalize.pkl` (observation normalisation, needed to run it),
-  `run.json`; {size_kb:.0f} KiB in all.
+  `run.json`{lookup_note}; {size_kb:.0f} KiB in all.
 
 Use: `mdr-drive evaluate --policy {dst.as_posix()} --k 0.2 --cargo-mass 0.1 --json`, or in Python
 `agents.evaluate.Policy("{dst.as_posix()}")(obs)`.

@@ -27,7 +27,7 @@ from .evaluate import trapezoid_action
 CONFIG_DIR = Path(__file__).parent / "configs"
 ENV_ID = "MDRDrive-v0"
 #: Keys of the YAML file's top level that train.py reads (with ``warm_start``); see load_config.
-RECIPE_KEYS = ("cloned_log_std", "teacher_steps_per_rollout", "teacher_velocity_floor")
+RECIPE_KEYS = ("cloned_log_std", "teacher_steps_per_rollout", "teacher_velocity_floor", "residual_scale")
 #: Config keys of agents/train.py itself: recorded in run.json, not passed to SB3.
 NOT_SB3_KEYS = ("warm_start", "warm_start_mse", *RECIPE_KEYS)
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
@@ -54,11 +54,21 @@ def _range(values: list[float] | None, default):
     return float(values[0]) if len(values) == 1 else (float(values[0]), float(values[1]))
 
 
+def _residual(venv, residual):
+    """``venv`` wrapped by ``agents.residual.TeacherResidual`` if ``residual`` is (lookup, scale)."""
+    if residual is None:
+        return venv
+    from .residual import TeacherResidual
+
+    return TeacherResidual(venv, *residual)
+
+
 def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any], teacher: dict | None = None,
-                   velocity_floor: float | None = None):
+                   velocity_floor: float | None = None, residual=None):
     """The batched training env with a monitor; with a teacher and a velocity floor (m/s), rewards
     are scaled per episode (``agents.reward_scale``), so the agent and ``rollout/ep_rew_mean`` see
-    the scaled rewards (the evaluation env's are not scaled)."""
+    the scaled rewards (the evaluation env's are not scaled). ``residual``: (lookup, scale) of a
+    residual policy (``agents.residual``)."""
     from stable_baselines3.common.vec_env import VecMonitor
 
     from .vec_env import BatchedVecEnv
@@ -68,10 +78,11 @@ def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any], teacher: 
         from .reward_scale import TeacherRewardFactor
 
         factor = TeacherRewardFactor(teacher, float(velocity_floor))
-    return VecMonitor(BatchedVecEnv(n_envs, seed=seed, episode_reward_factor=factor, **env_kwargs))
+    return VecMonitor(_residual(BatchedVecEnv(n_envs, seed=seed, episode_reward_factor=factor, **env_kwargs),
+                                residual))
 
 
-def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS):
+def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS, residual=None):
     """One single env per held-out (k, cargo mass) point (fixed per env)."""
     import gymnasium as gym
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
@@ -80,7 +91,8 @@ def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS):
 
     kw = {key: v for key, v in env_kwargs.items() if key not in ("k", "cargo_mass", "load_ratio")}
     # the same wrapper stack as the training env, so VecNormalize statistics can be synchronised
-    return VecMonitor(DummyVecEnv([lambda k=k, m=m: gym.make(ENV_ID, k=k, cargo_mass=m, **kw) for k, m in points]))
+    return VecMonitor(_residual(DummyVecEnv([lambda k=k, m=m: gym.make(ENV_ID, k=k, cargo_mass=m, **kw)
+                                             for k, m in points]), residual))
 
 
 def warm_start_at(model, action: np.ndarray) -> None:
@@ -157,9 +169,18 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
     warm = hyper.get("warm_start", "none")
     teacher = dict(np.load(warm[4:])) if warm.startswith("cma:") else None
+    residual, policy_teacher = None, teacher
+    if hyper.get("residual_scale"):  # a residual policy on the teacher's lookup (agents/residual.py)
+        from .residual import LOOKUP_FILE, TeacherLookup, residual_data
+
+        if teacher is None:
+            raise ValueError("residual_scale needs a CMA-ES teacher: warm_start cma:<teacher.npz>")
+        residual = (TeacherLookup.from_teacher(teacher), float(hyper["residual_scale"]))
+        residual[0].save(out / LOOKUP_FILE)
+        policy_teacher = residual_data(teacher, *residual)
     venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs, teacher,
-                          hyper.get("teacher_velocity_floor"))
-    eval_env = make_eval_env(env_kwargs)
+                          hyper.get("teacher_velocity_floor"), residual)
+    eval_env = make_eval_env(env_kwargs, residual=residual)
     if resume:
         venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
         model = algos[algo].load(out / "model.zip", env=venv, device="cpu")
@@ -173,7 +194,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         elif warm.startswith("cma:"):  # behaviour cloning of a CMA-ES teacher (agents/teacher.py)
             from .teacher import clone_into
 
-            hyper["warm_start_mse"] = clone_into(model, teacher, model.get_env(), seed=seed,
+            hyper["warm_start_mse"] = clone_into(model, policy_teacher, model.get_env(), seed=seed,
                                                    log_std=hyper.get("cloned_log_std"))
         elif warm != "none":
             raise ValueError(f"warm_start={warm!r} is not one of ['none', 'trapezoid', 'cma:<teacher.npz>']")
@@ -189,7 +210,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     if teacher_steps and teacher is not None:  # keep pulling towards the teacher of the warm start
         from .teacher import teacher_regulariser
 
-        callbacks.append(teacher_regulariser(teacher, int(teacher_steps), seed=seed))
+        callbacks.append(teacher_regulariser(policy_teacher, int(teacher_steps), seed=seed))
     start_steps = model.num_timesteps
     t0 = time.perf_counter()
     model.learn(total, callback=callbacks, progress_bar=progress_bar, reset_num_timesteps=not resume,

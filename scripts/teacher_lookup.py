@@ -1,9 +1,10 @@
 #!/usr/bin/env python
 """The CMA-ES teacher played as a policy: how much of the critical-load target a lookup table meets.
 
-The lookup plays, at every period, the drive of the teacher's point nearest to the drive's (k,
-load ratio) (the metric of ``agents.reward_scale``), in the phase that follows the previous action:
-after a period close to the drive's first action it plays the second, else the first. It is what a
+The lookup (``agents.residual.TeacherLookup``) plays, at every period, the drive of the teacher's
+point nearest to the drive's (k, load ratio) (the metric of ``agents.reward_scale``), in the phase
+that follows the previous action: after a period close to the drive's first action it plays the
+second, else the first. It is what a
 policy cloned perfectly from the teacher would do, without any interpolation between points.
 Reported: its critical load / the trapezoid's (the benchmark's load grid and refinement) at each
 k, and its steady velocity along the load at the k values of ``--profile-ks``. Writes
@@ -19,27 +20,7 @@ import numpy as np
 
 from agents.benchmark import GRID_KS, critical_loads_grid, write_report
 from agents.evaluate import open_loop_velocity, policy_velocity, trapezoid_action
-from agents.reward_scale import K_ENTRY, K_SCALE, LOAD_ENTRY, LOAD_SCALE
-
-PREV_ACTION = slice(5, 10)  # observation entries of the previous action
-
-
-class TeacherLookup:
-    """``obs (n, 14) -> actions (n, 5)``: the nearest teacher point's drive, phase from the previous action."""
-
-    def __init__(self, data: dict):
-        n = len(data["points"])
-        first = np.asarray(data["obs"])[:n]
-        self.xy = np.c_[first[:, K_ENTRY] / K_SCALE, first[:, LOAD_ENTRY] / LOAD_SCALE]
-        self.drives = np.asarray(data["actions"], dtype=np.float64)  # (n, 2, 5)
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        q = np.c_[obs[:, K_ENTRY] / K_SCALE, obs[:, LOAD_ENTRY] / LOAD_SCALE]
-        drive = self.drives[np.argmin(np.linalg.norm(q[:, None] - self.xy[None], axis=2), axis=1)]
-        prev = obs[:, PREV_ACTION]
-        after_first = np.abs(prev - drive[:, 0]).sum(1) < np.abs(prev - drive[:, 1]).sum(1)
-        after_first &= np.abs(prev).sum(1) > 0  # the first period (no previous action) plays the first
-        return np.where(after_first[:, None], drive[:, 1], drive[:, 0]).astype(np.float32)
+from agents.residual import TeacherLookup
 
 
 def main(argv=None) -> int:
@@ -55,7 +36,7 @@ def main(argv=None) -> int:
     fractions = np.round(np.arange(0.0, 1.61, 0.1), 2)
     rows = []
     for path in a.teachers:
-        lookup = TeacherLookup(dict(np.load(path)))
+        lookup = TeacherLookup.from_teacher(dict(np.load(path)))
         crit = critical_loads_grid(a.ks, lambda pts: policy_velocity(lookup, pts))
         profile = {k: (policy_velocity(lookup, [(k, f * trap[k]) for f in fractions]) * 1e3).tolist()
                    for k in a.profile_ks}

@@ -304,16 +304,70 @@ def test_neighbour_exchange_gives_a_point_its_neighbours_better_drive_and_never_
     np.testing.assert_array_equal(new["targets"][4:8], new["actions"][:, 1].astype(np.float32))
 
 
-def test_teacher_lookup_replays_each_teachers_drive_at_its_own_observations(tmp_path):
+def _small_teacher():
     from agents.teacher import PUSH_CLAMP, record_rollouts
 
     points = np.array([[0.1, 0.0], [0.5, 0.006]])
     actions = np.array([np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP])
-    data = record_rollouts({"points": points, "actions": actions, "velocities": np.zeros(2)}, periods=6)
-    lookup = _script("teacher_lookup").TeacherLookup(data)
+    return record_rollouts({"points": points, "actions": actions, "velocities": np.zeros(2)}, periods=6)
+
+
+def test_teacher_lookup_replays_each_teachers_drive_at_its_own_observations(tmp_path):
+    from agents.residual import TeacherLookup
+
+    data = _small_teacher()
+    lookup = TeacherLookup.from_teacher(data)
     np.testing.assert_allclose(lookup(data["obs"]), data["targets"], atol=1e-6)  # push, clamp, push, ...
+    lookup.save(tmp_path / "lookup.npz")
+    np.testing.assert_array_equal(TeacherLookup.load(tmp_path / "lookup.npz")(data["obs"]), lookup(data["obs"]))
     np.savez(tmp_path / "teacher.npz", **data)
     assert _script("teacher_lookup").main([str(tmp_path / "teacher.npz"), "--ks", "0.5", "--profile-ks",
                                            "--out", str(tmp_path)]) == 0
     (row,) = json.loads((tmp_path / "teacher_lookup.json").read_text())
     assert row["ratio"]["0.5"] >= 0.0
+
+
+def test_a_zero_residual_plays_the_teachers_lookup_and_observes_it():
+    from agents.residual import TeacherLookup, TeacherResidual
+    from agents.vec_env import BatchedVecEnv
+
+    lookup = TeacherLookup.from_teacher(_small_teacher())
+    kw = {"k": (0.0, 0.6), "load_ratio": (0.0, 0.3), "max_periods": 3}
+    wrapped = TeacherResidual(BatchedVecEnv(4, seed=3, **kw), lookup, scale=0.5)
+    plain = BatchedVecEnv(4, seed=3, **kw)
+    obs, raw = wrapped.reset(), plain.reset()
+    terminal = 0
+    assert wrapped.observation_space.shape == (19,) and wrapped.observation_space.contains(obs[0])
+    for _ in range(4):  # past the truncation at 3 periods: terminal observations are augmented too
+        np.testing.assert_array_equal(obs[:, :14], raw)
+        np.testing.assert_array_equal(obs[:, 14:], lookup(raw))
+        wrapped.step_async(np.zeros((4, 5), np.float32))
+        plain.step_async(lookup(raw))
+        (obs, r1, d1, i1), (raw, r2, d2, i2) = wrapped.step_wait(), plain.step_wait()
+        np.testing.assert_array_equal(r1, r2)
+        np.testing.assert_array_equal(d1, d2)
+        for a, b in zip(i1, i2):
+            if "terminal_observation" in b:
+                np.testing.assert_array_equal(a["terminal_observation"][:14], b["terminal_observation"])
+                assert a["terminal_observation"].shape == (19,)
+                terminal += 1
+    assert terminal == 4  # every drive was truncated once
+
+
+def test_residual_policy_trains_resumes_and_evaluates_on_the_lookup(tmp_path):
+    data = _small_teacher()
+    np.savez(tmp_path / "teacher.npz", **data)
+    config = tmp_path / "ppo_residual.yaml"
+    config.write_text((Path(__file__).parents[1] / "agents/configs/ppo.yaml").read_text() + "residual_scale: 0.5\n")
+    out = tmp_path / "res"
+    record = train("ppo", steps=64, seed=0, out=out, n_envs=4, eval_freq=32, config=config, progress_bar=False,
+                   warm_start=f"cma:{tmp_path / 'teacher.npz'}")
+    assert record["hyperparameters"]["residual_scale"] == 0.5 and (out / "teacher_lookup.npz").exists()
+    assert record["hyperparameters"]["warm_start_mse"] < 1e-3  # the residual starts at zero
+    resumed = train(resume=out, steps=64, n_envs=4, eval_freq=10_000, progress_bar=False)
+    assert resumed["total_timesteps"] > record["total_timesteps"]  # the step counter continues
+    policy = Policy(out)
+    obs = data["obs"][:2]
+    action = policy(obs)
+    assert action.shape == (2, 5) and np.all(np.abs(action) <= 1.0)
+    assert np.all(np.abs(action - policy.lookup(obs)) <= 0.5 + 1e-6)  # within the residual's reach
