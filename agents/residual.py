@@ -1,11 +1,10 @@
 """Residual policies on top of the CMA-ES teacher: the policy corrects the teacher's drive instead of replacing it.
 
 The teacher, played as a lookup (the drive of the teacher's point nearest to the episode's (k,
-load), in the phase that follows the previous action), carries 1.30-1.52 times the trapezoid's
-critical load at every k >= 0.1 of the benchmark grid (``scripts/teacher_lookup.py``), more than
-the policies cloned from it, which blur the two-waveform cycles near stall. It fails where its
-nearest point is the wrong mode (at k = 0 and a tenth of the trapezoid's critical load the nearest
-drive is an unloaded glide that goes backwards under load). A residual policy gets the lookup's
+load), in the phase that follows the previous action), carries 1.29-1.52 times the trapezoid's
+critical load at every k of the benchmark grid (``scripts/teacher_lookup.py``), more than the
+policies cloned from it at k >= 0.3, which blur the two-waveform cycles near stall; it still has
+windows where neighbouring points' drives differ. A residual policy gets the lookup's
 action as 5 extra observations and plays ``clip(lookup + residual_scale * a, -1, 1)``: it starts
 as the lookup (mean a = 0) and PPO repairs what the lookup gets wrong (residual reinforcement
 learning, Johannink et al. 2019; Silver et al. 2018). ``residual_scale`` in the training config
@@ -20,7 +19,7 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvWrapper
 
-from .reward_scale import K_ENTRY, K_SCALE, LOAD_ENTRY, LOAD_SCALE
+from .reward_scale import coordinates, teacher_coordinates
 
 PREV_ACTION = slice(5, 10)  # observation entries of the previous action
 LOOKUP_FILE = "teacher_lookup.npz"
@@ -29,7 +28,7 @@ LOOKUP_FILE = "teacher_lookup.npz"
 class TeacherLookup:
     """``obs (n, 14) -> actions (n, 5)``: the nearest teacher point's drive, phase from the previous action.
 
-    Nearest in (k / K_SCALE, load ratio / LOAD_SCALE), among the teacher's loaded points for a
+    Nearest in ``agents.reward_scale.coordinates``, among the teacher's loaded points for a
     loaded drive and among its unloaded points without load: the best unloaded drive glides (the
     base friction scales with the contact force, not the slider's weight) and goes backwards under
     even a tenth of the trapezoid's critical load. After a period close to the drive's first action
@@ -37,14 +36,12 @@ class TeacherLookup:
     observation has no previous action)."""
 
     def __init__(self, xy: np.ndarray, drives: np.ndarray):
-        self.xy = np.asarray(xy, dtype=np.float64)  # (n, 2): k / K_SCALE, load ratio / LOAD_SCALE
+        self.xy = np.asarray(xy, dtype=np.float64)  # (n, 2) coordinates of the teacher's points
         self.drives = np.asarray(drives, dtype=np.float64)  # (n, 2, 5)
 
     @classmethod
     def from_teacher(cls, data: dict) -> "TeacherLookup":
-        n = len(data["points"])
-        first = np.asarray(data["obs"])[:n]  # each rollout's first observation
-        return cls(np.c_[first[:, K_ENTRY] / K_SCALE, first[:, LOAD_ENTRY] / LOAD_SCALE], data["actions"])
+        return cls(teacher_coordinates(data), data["actions"])
 
     def save(self, path: str | Path) -> None:
         np.savez_compressed(path, xy=self.xy, drives=self.drives)
@@ -56,7 +53,7 @@ class TeacherLookup:
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs)
-        q = np.c_[obs[:, K_ENTRY] / K_SCALE, obs[:, LOAD_ENTRY] / LOAD_SCALE]
+        q = coordinates(obs)
         d = np.linalg.norm(q[:, None] - self.xy[None], axis=2)
         loaded = self.xy[:, 1] > 0.0
         if loaded.any() and (~loaded).any():  # a drive found without load is not used with one, and vice versa

@@ -27,14 +27,25 @@ K_ENTRY, LOAD_ENTRY = 10, 11
 K_SCALE, LOAD_SCALE = 0.05, 0.02
 
 
+def coordinates(obs: np.ndarray) -> np.ndarray:
+    """(n, 2) coordinates (k / K_SCALE, load ratio / LOAD_SCALE) of observations (n, 14): the metric in
+    which the teacher's points are neighbours (here, in the teacher's exchange and in its lookup)."""
+    obs = np.asarray(obs)
+    return np.c_[obs[:, K_ENTRY] / K_SCALE, obs[:, LOAD_ENTRY] / LOAD_SCALE]
+
+
+def teacher_coordinates(data: dict) -> np.ndarray:
+    """``coordinates`` of the teacher's points, from its rollouts' first observations (rows 0 ... n - 1)."""
+    return coordinates(np.asarray(data["obs"])[:len(data["points"])])
+
+
 class TeacherVelocity:
     """The teacher's steady velocity (m/s, >= 0) at any (k, load ratio), by inverse-distance weighting
     of its ``neighbours`` nearest points in (k / K_SCALE, load ratio / LOAD_SCALE)."""
 
     def __init__(self, data: dict, neighbours: int = 4):
         n = len(data["points"])
-        first = np.asarray(data["obs"])[:n]  # the rollouts' first observations, one per point
-        self.xy = np.c_[first[:, K_ENTRY] / K_SCALE, first[:, LOAD_ENTRY] / LOAD_SCALE]
+        self.xy = teacher_coordinates(data)
         self.velocity = np.maximum(np.asarray(data["velocities"], dtype=np.float64), 0.0)
         self.neighbours = min(neighbours, n)
 

@@ -160,14 +160,13 @@ def exchange_with_neighbours(data: dict, neighbours: int = 8, load_margin: float
     clamp period) would spread over the points just above the trapezoid's stall and leave the
     policy to switch to the load-carrying cycle at a load of its own guessing, which is where its
     critical load is decided. Returns the new data (observations recorded again) and a summary."""
-    from .reward_scale import K_ENTRY, K_SCALE, LOAD_ENTRY, LOAD_SCALE
+    from .reward_scale import teacher_coordinates
 
     points, actions = np.asarray(data["points"], dtype=np.float64), np.array(data["actions"], dtype=np.float64)
     n = len(points)
     stalled = open_loop_velocity([tuple(p) for p in points], trapezoid_action()) <= 0.0
     scores, velocities = _scores(points, actions, stalled, load_margin)
-    first = np.asarray(data["obs"])[:n]  # each rollout's first observation
-    xy = np.c_[first[:, K_ENTRY] / K_SCALE, first[:, LOAD_ENTRY] / LOAD_SCALE]
+    xy = teacher_coordinates(data)
     near = np.argsort(np.linalg.norm(xy[:, None] - xy[None], axis=2), axis=1)[:, 1:neighbours + 1]
     before, rounds, improved = velocities.copy(), 0, np.zeros(n, bool)
     for rounds in range(1, max_rounds + 1):

@@ -4,8 +4,8 @@
 The lookup (``agents.residual.TeacherLookup``) plays, at every period, the drive of the teacher's
 point nearest to the drive's (k, load ratio) (the metric of ``agents.reward_scale``), in the phase
 that follows the previous action: after a period close to the drive's first action it plays the
-second, else the first. It is what a
-policy cloned perfectly from the teacher would do, without any interpolation between points.
+second, else the first. It is what a policy cloned perfectly from the teacher would do, without
+any interpolation between points.
 Reported: its critical load / the trapezoid's (the benchmark's load grid and refinement) at each
 k, and its steady velocity along the load at the k values of ``--profile-ks``. Writes
 ``teacher_lookup.{md,json}`` into ``--out``.
