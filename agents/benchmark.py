@@ -24,7 +24,7 @@ from .baselines import CMA_BUDGET, cma_optimize
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
-    Policy,
+    load_policy,
     open_loop_velocity,
     policy_rollout,
     policy_velocity,
@@ -107,7 +107,7 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
         cma_v.append(r.velocity)
         cma_actions.append(r.action.tolist())
     rows += [("cma-es", "", k, m, v) for (k, m), v in zip(points, cma_v)]
-    loaded = [Policy(p) for p in tqdm(policies, desc="load policies")]
+    loaded = [load_policy(p) for p in tqdm(policies, desc="load policies")]
     learned = []
     waveforms = {}
     for path, pol in zip(policies, loaded):
@@ -195,7 +195,9 @@ def write_report(out: str | Path, stem: str, lines: list[str], rows, t0: float) 
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--policies", nargs="*", default=[], help="policy folders (one per training seed)")
+    p.add_argument("--policies", nargs="*", default=[],
+                   help="policy folders (one per training seed), or CMA-ES teacher .npz files played as their "
+                        "lookup (agents.residual.TeacherLookup)")
     p.add_argument("--out", default="results/benchmark", help="output folder")
     p.add_argument("--quick", action="store_true", help="a CI-sized grid and CMA-ES budget")
     p.add_argument("--cma-budget", type=int, default=None, help=f"CMA-ES evaluations per point (default {CMA_BUDGET}) (-)")

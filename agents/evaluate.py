@@ -87,8 +87,10 @@ class Policy:
         if self.lookup is not None:
             from .residual import augment, env_action
 
-            obs, base = augment(np.atleast_2d(obs), self.lookup)
-            return env_action(base, self._act(obs), self.residual_scale)
+            obs = np.atleast_2d(obs)
+            weight = self.lookup.weight(obs)
+            obs, base = augment(obs, self.lookup)
+            return env_action(base, self._act(obs), self.residual_scale * weight)
         return self._act(obs)
 
     def _act(self, obs: np.ndarray) -> np.ndarray:
@@ -97,6 +99,16 @@ class Policy:
                           -self.clip_obs, self.clip_obs).astype(np.float32)
         action, _ = self.model.predict(obs, deterministic=True)
         return action
+
+
+def load_policy(path: str | Path):
+    """``obs -> action`` from a path: a trained policy's folder (``Policy``), or a CMA-ES teacher's
+    ``.npz`` (``python -m agents.teacher``), played as its lookup (``agents.residual.TeacherLookup``)."""
+    if str(path).endswith(".npz"):
+        from .residual import TeacherLookup
+
+        return TeacherLookup.from_teacher(dict(np.load(path)))
+    return Policy(path)
 
 
 def policy_rollout(policy, points, periods: int = EVAL_PERIODS):

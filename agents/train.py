@@ -27,7 +27,8 @@ from .evaluate import trapezoid_action
 CONFIG_DIR = Path(__file__).parent / "configs"
 ENV_ID = "MDRDrive-v0"
 #: Keys of the YAML file's top level that train.py reads (with ``warm_start``); see load_config.
-RECIPE_KEYS = ("cloned_log_std", "teacher_steps_per_rollout", "teacher_velocity_floor", "residual_scale")
+RECIPE_KEYS = ("cloned_log_std", "teacher_steps_per_rollout", "teacher_velocity_floor", "residual_scale",
+               "residual_gate_velocity")
 #: Config keys of agents/train.py itself: recorded in run.json, not passed to SB3.
 NOT_SB3_KEYS = ("warm_start", "warm_start_mse", *RECIPE_KEYS)
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
@@ -171,13 +172,14 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     teacher = dict(np.load(warm[4:])) if warm.startswith("cma:") else None
     residual, policy_teacher = None, teacher
     if hyper.get("residual_scale"):  # a residual policy on the teacher's lookup (agents/residual.py)
-        from .residual import LOOKUP_FILE, TeacherLookup, residual_data
+        from .residual import LOOKUP_FILE, TeacherLookup, moving_teacher, residual_data
 
         if teacher is None:
             raise ValueError("residual_scale needs a CMA-ES teacher: warm_start cma:<teacher.npz>")
-        residual = (TeacherLookup.from_teacher(teacher), float(hyper["residual_scale"]))
+        residual = (TeacherLookup.from_teacher(teacher, hyper.get("residual_gate_velocity")),
+                    float(hyper["residual_scale"]))
         residual[0].save(out / LOOKUP_FILE)
-        policy_teacher = residual_data(teacher, *residual)
+        policy_teacher = residual_data(moving_teacher(teacher), *residual)
     venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs, teacher,
                           hyper.get("teacher_velocity_floor"), residual)
     eval_env = make_eval_env(env_kwargs, residual=residual)

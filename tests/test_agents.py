@@ -230,7 +230,7 @@ def test_seed_selection_picks_the_policy_with_the_largest_smallest_critical_load
     assert select.main([*policies, "--ks", *map(str, ks), "--out", str(report)]) == 0
     text = report.read_text()
     assert f"selected: {max(policies, key=worst.get)}" in text and text.count("(selected)") == 1
-    assert f"{min(worst.values()):.2f}" in text
+    assert f"{min(worst.values()):.2f}" in text and "points below trapezoid" in text
 
 
 def test_cycle_limit_reports_a_critical_load_and_the_sensitivity_of_every_action_component(tmp_path):
@@ -309,7 +309,44 @@ def _small_teacher():
 
     points = np.array([[0.1, 0.0], [0.5, 0.006]])
     actions = np.array([np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP])
-    return record_rollouts({"points": points, "actions": actions, "velocities": np.zeros(2)}, periods=6)
+    velocities = np.array([12e-3, 0.1e-3])  # m/s; positive: both drives move their point's load
+    return record_rollouts({"points": points, "actions": actions, "velocities": velocities}, periods=6)
+
+
+def test_the_lookup_leaves_out_loaded_teacher_points_whose_drive_does_not_move_their_load():
+    from agents.residual import TeacherLookup, moving_teacher
+
+    data = _small_teacher()
+    stalled = {**data, "velocities": np.array([12e-3, -0.2e-3])}
+    kept = moving_teacher(stalled)
+    assert len(kept["points"]) == 1 and kept["obs"].shape == (6, 14)  # one point, its 6 periods
+    np.testing.assert_array_equal(kept["obs"], data["obs"][0::2])
+    lookup = TeacherLookup.from_teacher(stalled)
+    assert len(lookup.xy) == 1 and np.array_equal(lookup.drives[0], data["actions"][0])
+    assert moving_teacher(data) is data  # nothing to leave out
+
+
+def test_the_residual_gate_scales_the_residual_by_the_played_points_velocity(tmp_path):
+    from agents.residual import TeacherLookup, TeacherResidual, residual_data
+    from agents.vec_env import BatchedVecEnv
+
+    data = _small_teacher()
+    with pytest.raises(ValueError, match="gate_velocity"):
+        TeacherLookup.from_teacher(data, gate_velocity=0.0)
+    lookup = TeacherLookup.from_teacher(data, gate_velocity=1e-3)
+    np.testing.assert_allclose(lookup.weight(data["obs"][:2]), [[1.0], [0.1]])  # 12 and 0.1 mm/s
+    lookup.save(tmp_path / "lookup.npz")
+    loaded = TeacherLookup.load(tmp_path / "lookup.npz")
+    np.testing.assert_array_equal(loaded.weight(data["obs"]), lookup.weight(data["obs"]))
+    venv = TeacherResidual(BatchedVecEnv(2, seed=0, k=0.5, load_ratio=0.05, max_periods=3), lookup, scale=0.5)
+    obs = venv.reset()
+    base, weight = obs[:, 14:], lookup.weight(obs[:, :14])
+    played = []
+    venv.venv.step_async = played.append  # the action the wrapper sends to the env
+    venv.step_async(np.ones((2, 5), np.float32))
+    np.testing.assert_allclose(played[0], np.clip(base + 0.5 * weight, -1, 1), atol=1e-6)
+    res = residual_data(data, lookup, 0.5)  # the teacher's own drives: no residual needed
+    np.testing.assert_allclose(res["targets"], 0.0, atol=1e-6)
 
 
 def test_teacher_lookup_replays_each_teachers_drive_at_its_own_observations(tmp_path):
@@ -321,6 +358,9 @@ def test_teacher_lookup_replays_each_teachers_drive_at_its_own_observations(tmp_
     lookup.save(tmp_path / "lookup.npz")
     np.testing.assert_array_equal(TeacherLookup.load(tmp_path / "lookup.npz")(data["obs"]), lookup(data["obs"]))
     np.savez(tmp_path / "teacher.npz", **data)
+    from agents.evaluate import load_policy  # how the benchmark and the seed selection load a teacher
+
+    np.testing.assert_array_equal(load_policy(str(tmp_path / "teacher.npz"))(data["obs"]), lookup(data["obs"]))
     assert _script("teacher_lookup").main([str(tmp_path / "teacher.npz"), "--ks", "0.5", "--profile-ks",
                                            "--out", str(tmp_path)]) == 0
     (row,) = json.loads((tmp_path / "teacher_lookup.json").read_text())
@@ -371,3 +411,26 @@ def test_residual_policy_trains_resumes_and_evaluates_on_the_lookup(tmp_path):
     action = policy(obs)
     assert action.shape == (2, 5) and np.all(np.abs(action) <= 1.0)
     assert np.all(np.abs(action - policy.lookup(obs)) <= 0.5 + 1e-6)  # within the residual's reach
+
+
+def test_refinement_adds_a_teacher_point_where_the_lookup_is_slower_than_the_trapezoid():
+    from agents.lookup_refine import failures, refine
+    from agents.residual import TeacherLookup
+    from agents.teacher import record_rollouts
+
+    poor = np.tile(-np.ones(5), (2, 1))  # the shortest x stroke: slower than the trapezoid everywhere
+    points = np.array([[0.3, 0.0], [0.3, 0.01]])
+    data = record_rollouts({"points": points, "actions": np.array([poor, poor]),
+                            "velocities": np.array([1e-4, 1e-4])}, periods=4)
+    probes = [(0.1, 0.0), (0.2, 0.05)]
+    bad, v_lookup, v_trap = failures(TeacherLookup.from_teacher(data), probes, [0.0, 0.3])
+    assert bad.all() and np.all(v_lookup < v_trap)
+    new, summary = refine(data, probe_points=4, rounds=1, max_new=2, workers=1, budget=24, cycle_budget=32,
+                          sweeps=1)
+    (row,) = summary
+    assert row["searched"] >= 2 and row["added"] >= 1 and len(new["points"]) == 2 + row["added"]
+    assert new["obs"].shape == (4 * len(new["points"]), 14)  # rollouts recorded again, same layout
+    added = slice(2, None)
+    np.testing.assert_allclose(new["velocities"][added],
+                               open_loop_velocity([tuple(p) for p in new["points"][added]], new["actions"][added]))
+    assert np.all(np.abs(new["actions"]) <= 1.0)
