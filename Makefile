@@ -35,17 +35,20 @@ convergence: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/mdr-drive bench --out results/bench
 
-## make train: the shipped policy's recipe: CMA-ES teacher, PPO seeds 0-2, seed selection (about 30 minutes)
+## make train: the shipped policy's recipe: CMA-ES teacher, its refinement, residual PPO seeds 0-2, seed selection (about 30 minutes)
 train: $(STAMP)
 	$(PY) -m agents.teacher --points 160 --stall-points 192 --transition-points 64 --cycle-budget 2500 \
 	    --out runs/teacher.npz
-	for s in 0 1 2; do $(VENV)/bin/mdr-drive train --algo ppo --steps 1000000 --seed $$s \
-	    --warm-start cma:runs/teacher.npz --out runs/ppo_bc_s$$s || exit 1; done
-	$(PY) scripts/select_seed.py runs/ppo_bc_s0 runs/ppo_bc_s1 runs/ppo_bc_s2 --out runs/selection.md
+	$(PY) -m agents.lookup_refine runs/teacher.npz --probe-points 384 --rounds 3 --out runs/teacher_r1.npz
+	$(PY) -m agents.lookup_refine runs/teacher_r1.npz --probe-points 384 --sweeps 64 --rounds 2 --seed 200 \
+	    --out runs/teacher_r2.npz
+	for s in 0 1 2; do $(VENV)/bin/mdr-drive train --algo ppo --config agents/configs/ppo_residual.yaml --seed $$s \
+	    --warm-start cma:runs/teacher_r2.npz --out runs/ppo_res_s$$s || exit 1; done
+	$(PY) scripts/select_seed.py runs/ppo_res_s0 runs/ppo_res_s1 runs/ppo_res_s2 --out runs/selection.md
 
 ## make benchmark: learned (3 seeds) vs trapezoid vs CMA-ES (results/benchmark)
 benchmark: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --policies runs/ppo_bc_s0 runs/ppo_bc_s1 runs/ppo_bc_s2 --out results/benchmark
+	$(VENV)/bin/mdr-drive benchmark --policies runs/ppo_res_s0 runs/ppo_res_s1 runs/ppo_res_s2 --out results/benchmark
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info
