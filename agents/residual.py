@@ -4,11 +4,14 @@ The teacher, played as a lookup (the drive of the teacher's point nearest to the
 load), in the phase that follows the previous action), carries 1.29-1.52 times the trapezoid's
 critical load at every k of the benchmark grid (``scripts/teacher_lookup.py``), more than the
 policies cloned from it at k >= 0.3, which blur the two-waveform cycles near stall; it still has
-windows where neighbouring points' drives differ. A residual policy gets the lookup's
-action as 5 extra observations and plays ``clip(lookup + residual_scale * a, -1, 1)``: it starts
-as the lookup (mean a = 0) and PPO repairs what the lookup gets wrong (residual reinforcement
-learning, Johannink et al. 2019; Silver et al. 2018). ``residual_scale`` in the training config
-turns it on (with a ``cma:`` warm start); the lookup table is saved beside the model.
+windows where neighbouring points' drives differ (``agents.lookup_refine`` adds teacher points
+there). A residual policy gets the lookup's action as 5 extra observations and plays
+``clip(lookup + residual_scale * g * a, -1, 1)``: it starts as the lookup (mean a = 0) and PPO
+repairs what the lookup gets wrong (residual reinforcement learning, Johannink et al. 2019;
+Silver et al. 2018). ``g`` is 1, or with ``residual_gate_velocity`` the played teacher point's
+velocity over it, at most 1 (``TeacherLookup.weight``): near stall the teacher's drive is played
+as it is. ``residual_scale`` in the training config turns it on (with a ``cma:`` warm start;
+``agents/configs/ppo_residual.yaml``); the lookup table is saved beside the model.
 """
 
 from __future__ import annotations

@@ -4,6 +4,8 @@
         --out runs/teacher.npz      # about 18 minutes on 2 cores
     python -m agents.teacher --refine runs/teacher4.npz --neighbours 8 --out runs/teacher6.npz  # exchange only
 
+(The shipped recipe then adds points where the teacher's lookup fails: ``agents/lookup_refine.py``.)
+
 CMA-ES finds the best open-loop drive at sampled (k, load) points: points of the training
 distribution (a third of them without load, where the best waveform is far from the trapezoid),
 points near the trapezoid's stall load (0.85-1.5 times its critical load) and, optionally, points
