@@ -79,13 +79,26 @@ def _merge(data: dict, points, actions, velocities) -> dict:
     return record_rollouts(merged, periods=len(data["obs"]) // len(data["points"]))
 
 
+def sweep_ks(rng: np.random.Generator, n: int, sampling: str = "uniform") -> np.ndarray:
+    """k values of ``n`` critical-load sweeps in ``K_RANGE``: ``"uniform"``, or ``"chebyshev"``
+    (``lo + (hi - lo) (1 - cos(pi u)) / 2``, u uniform): denser at both ends of the range, where a
+    nearest-neighbour lookup has neighbours on one side only (18 % of the sweeps fall within 2 % of
+    the range of an end, against 4 % for uniform k)."""
+    u = rng.uniform(0.0, 1.0, n)
+    if sampling == "uniform":
+        return K_RANGE[0] + (K_RANGE[1] - K_RANGE[0]) * u
+    if sampling == "chebyshev":
+        return K_RANGE[0] + (K_RANGE[1] - K_RANGE[0]) * (1.0 - np.cos(np.pi * u)) / 2.0
+    raise ValueError(f"sampling={sampling!r} must be 'uniform' or 'chebyshev'")
+
+
 def refine(data: dict, probe_points: int = 384, rounds: int = 3, max_new: int = 128, seed: int = 100,
            workers: int | None = None, budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_BUDGET,
-           sweeps: int = 0):
+           sweeps: int = 0, sweep_sampling: str = "uniform"):
     """Rounds of probing the lookup and adding CMA-ES points where it fails. Returns (new data, summary
     per round). ``max_new``: most CMA-ES searches per round at probe points (the worst failures
     first); ``sweeps``: critical-load sweeps per round at random k (``sweep_failures``), searched
-    in addition."""
+    in addition, at k drawn by ``sweep_ks(..., sweep_sampling)``."""
     workers = workers or len(os.sched_getaffinity(0))
     rng = np.random.default_rng(seed)
     summary = []
@@ -101,8 +114,8 @@ def refine(data: dict, probe_points: int = 384, rounds: int = 3, max_new: int = 
         targets = [points[i] for i in idx]
         floor = list(np.maximum(v_lookup[idx], 0.0))
         if sweeps:
-            sweep_ks = rng.uniform(*K_RANGE, sweeps)
-            stalls = sweep_failures(lookup, sweep_ks, trapezoid_critical_load(sweep_ks))
+            ks_sweep = sweep_ks(rng, sweeps, sweep_sampling)
+            stalls = sweep_failures(lookup, ks_sweep, trapezoid_critical_load(ks_sweep))
             targets, floor = targets + stalls, floor + [0.0] * len(stalls)
         jobs = [(p, budget, cycle_budget) for p in targets]
         desc = f"refine round {r + 1}/{rounds}"
@@ -130,6 +143,8 @@ def main(argv=None) -> int:
     ap.add_argument("--sweeps", type=int, default=0,
                     help="critical-load sweeps of the lookup per round, at random k; the first load it does not "
                          "move is searched too (-)")
+    ap.add_argument("--sweep-sampling", choices=("uniform", "chebyshev"), default="uniform",
+                    help="k of the sweeps: uniform, or denser at both ends of the k range (chebyshev)")
     ap.add_argument("--seed", type=int, default=100, help="seed of the probe points (-)")
     ap.add_argument("--out", default="runs/teacher_refined.npz", help="output .npz")
     a = ap.parse_args(argv)
@@ -139,7 +154,8 @@ def main(argv=None) -> int:
     earlier = float(data.pop("wall_time_s", 0.0))
     extra = {key: data.pop(key) for key in list(data) if key not in ("points", "actions", "velocities", "obs",
                                                                         "targets")}
-    data, summary = refine(data, a.probe_points, a.rounds, a.max_new, a.seed, sweeps=a.sweeps)
+    data, summary = refine(data, a.probe_points, a.rounds, a.max_new, a.seed, sweeps=a.sweeps,
+                           sweep_sampling=a.sweep_sampling)
     data.update(extra, refine=np.array(json.dumps(summary)), command=np.array(command),
                 wall_time_s=np.array(earlier + time.perf_counter() - t0))
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)

@@ -434,3 +434,16 @@ def test_refinement_adds_a_teacher_point_where_the_lookup_is_slower_than_the_tra
     np.testing.assert_allclose(new["velocities"][added],
                                open_loop_velocity([tuple(p) for p in new["points"][added]], new["actions"][added]))
     assert np.all(np.abs(new["actions"]) <= 1.0)
+
+
+def test_sweep_k_sampling_covers_the_range_and_the_chebyshev_draws_crowd_its_ends():
+    from agents.lookup_refine import K_RANGE, sweep_ks
+
+    uniform = sweep_ks(np.random.default_rng(3), 4000)
+    np.testing.assert_array_equal(uniform, np.random.default_rng(3).uniform(*K_RANGE, 4000))  # earlier teachers
+    cheb = sweep_ks(np.random.default_rng(3), 4000, "chebyshev")
+    assert np.all((cheb >= K_RANGE[0]) & (cheb <= K_RANGE[1]))
+    near_ends = lambda k: np.mean((k < 0.012) | (k > 0.588))  # noqa: E731  within 2 % of the range of an end
+    assert near_ends(cheb) > 3 * near_ends(uniform)
+    with pytest.raises(ValueError, match="sampling"):
+        sweep_ks(np.random.default_rng(0), 3, "sobol")
