@@ -40,8 +40,8 @@ train: $(STAMP)
 	$(PY) -m agents.teacher --points 160 --stall-points 192 --transition-points 64 --cycle-budget 2500 \
 	    --out runs/teacher.npz
 	$(PY) -m agents.lookup_refine runs/teacher.npz --probe-points 384 --rounds 3 --out runs/teacher_r1.npz
-	$(PY) -m agents.lookup_refine runs/teacher_r1.npz --probe-points 384 --sweeps 64 --rounds 2 --seed 200 \
-	    --out runs/teacher_r2.npz
+	$(PY) -m agents.lookup_refine runs/teacher_r1.npz --probe-points 384 --sweeps 64 --sweep-sampling chebyshev \
+	    --rounds 2 --seed 200 --out runs/teacher_r2.npz
 	for s in 0 1 2; do $(VENV)/bin/mdr-drive train --algo ppo --config agents/configs/ppo_residual.yaml --seed $$s \
 	    --warm-start cma:runs/teacher_r2.npz --out runs/ppo_res_s$$s || exit 1; done
 	$(PY) scripts/select_seed.py runs/ppo_res_s0 runs/ppo_res_s1 runs/ppo_res_s2 --out runs/selection.md
