@@ -24,14 +24,13 @@ import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from .evaluate import open_loop_velocity, policy_velocity, trapezoid_action
 from .residual import TeacherLookup
-from .teacher import CMA_BUDGET, CYCLE_BUDGET, STALL_RANGE, _optimize, record_rollouts
+from .teacher import CMA_BUDGET, CYCLE_BUDGET, STALL_RANGE, _optimize, load_for_update, record_rollouts, save
 
 #: Probe loads, as multiples of the trapezoid's critical load at the probe's k.
 PROBE_RANGE = (0.0, 1.6)
@@ -149,18 +148,14 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="runs/teacher_refined.npz", help="output .npz")
     a = ap.parse_args(argv)
     t0 = time.perf_counter()
-    data = {key: v for key, v in np.load(a.teacher).items()}
-    command = f"{data.pop('command', '')} ; python -m agents.lookup_refine {' '.join(argv or sys.argv[1:])}"
-    earlier = float(data.pop("wall_time_s", 0.0))
+    data, command, earlier = load_for_update(
+        a.teacher, f"python -m agents.lookup_refine {' '.join(argv or sys.argv[1:])}")
     extra = {key: data.pop(key) for key in list(data) if key not in ("points", "actions", "velocities", "obs",
                                                                         "targets")}
     data, summary = refine(data, a.probe_points, a.rounds, a.max_new, a.seed, sweeps=a.sweeps,
                            sweep_sampling=a.sweep_sampling)
-    data.update(extra, refine=np.array(json.dumps(summary)), command=np.array(command),
-                wall_time_s=np.array(earlier + time.perf_counter() - t0))
-    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(a.out, **data)
-    print(f"wrote {a.out}: {len(data['points'])} points ({time.perf_counter() - t0:.0f} s)")
+    data.update(extra, refine=np.array(json.dumps(summary)))
+    save(a.out, data, command, earlier + time.perf_counter() - t0)
     return 0
 
 

@@ -322,6 +322,22 @@ def teacher_regulariser(data: dict, steps_per_rollout: int = 10, batch: int = 51
     return TeacherRegulariser()
 
 
+def load_for_update(path: str | Path, command: str) -> tuple[dict, str, float]:
+    """A teacher file to be changed by ``command``: (its data without "command" and "wall_time_s",
+    its command chain with ``command`` appended, the wall time (s) spent on it so far)."""
+    data = {key: v for key, v in np.load(path).items()}
+    return data, f"{data.pop('command', '')} ; {command}", float(data.pop("wall_time_s", 0.0))
+
+
+def save(path: str | Path, data: dict, command: str, wall_time_s: float) -> None:
+    """Write a teacher file with the command chain that made it and its total wall time (s)."""
+    data = {**data, "wall_time_s": np.array(wall_time_s), "command": np.array(command)}
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **data)
+    print(f"wrote {path}: {len(data['points'])} points, {len(data['obs'])} observation-action pairs, "
+          f"{wall_time_s:.0f} s in all")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--points", type=int, default=160, help="(k, load) points (-)")
@@ -351,9 +367,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     command = " ".join(["python -m agents.teacher", *(argv if argv is not None else sys.argv[1:])])
     if a.refine:
-        data = {key: v for key, v in np.load(a.refine).items()}
-        command = f"{data.pop('command', '')} ; {command}"
-        earlier = float(data.pop("wall_time_s", 0.0))
+        data, command, earlier = load_for_update(a.refine, command)
     else:
         data = build(a.points, seed=a.seed, n_stall=a.stall_points, cycle_budget=a.cycle_budget,
                      n_transition=a.transition_points)
@@ -364,11 +378,7 @@ def main(argv=None) -> int:
         summary["wall_time_s"] = time.perf_counter() - t1
         data["exchange"] = np.array(json.dumps(summary))
         print("neighbour exchange:", json.dumps(summary))
-    data["wall_time_s"] = np.array(earlier + time.perf_counter() - t0)
-    data["command"] = np.array(command)
-    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(a.out, **data)
-    print(f"wrote {a.out}: {len(data['points'])} points, {len(data['obs'])} observation-action pairs")
+    save(a.out, data, command, earlier + time.perf_counter() - t0)
     return 0
 
 
