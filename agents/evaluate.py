@@ -87,9 +87,7 @@ class Policy:
         if self.lookup is not None:
             from .residual import augment, env_action
 
-            obs = np.atleast_2d(obs)
-            weight = self.lookup.weight(obs)
-            obs, base = augment(obs, self.lookup)
+            obs, base, weight = augment(np.atleast_2d(obs), self.lookup)
             return env_action(base, self._act(obs), self.residual_scale * weight)
         return self._act(obs)
 

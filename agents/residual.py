@@ -90,13 +90,19 @@ class TeacherLookup:
             d[(q[:, 1] > 0.0)[:, None] != loaded[None, :]] = np.inf
         return np.argmin(d, axis=1)
 
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
+    def play(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(the lookup's actions (n, 5), ``weight``s (n, 1)), with one nearest-point search."""
         obs = np.asarray(obs)
-        drive = self.drives[self.nearest(obs)]
+        idx = self.nearest(obs)
+        drive = self.drives[idx]
         prev = obs[:, PREV_ACTION]
         after_first = np.abs(prev - drive[:, 0]).sum(1) < np.abs(prev - drive[:, 1]).sum(1)
         after_first &= np.abs(prev).sum(1) > 0
-        return np.where(after_first[:, None], drive[:, 1], drive[:, 0]).astype(np.float32)
+        action = np.where(after_first[:, None], drive[:, 1], drive[:, 0]).astype(np.float32)
+        return action, self._weight_of(idx)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return self.play(obs)[0]
 
     def weight(self, obs: np.ndarray) -> np.ndarray:
         """How much of the residual is played (n, 1): 1, or with a ``gate_velocity`` the played teacher
@@ -104,16 +110,19 @@ class TeacherLookup:
         of times slower than unloaded, the reward hardly tells a right drive from one 0.02 off, and
         PPO's residual drifts (it lost 1-2 % of the lookup's critical load at k >= 0.4); the gate
         keeps the teacher's drive there and lets PPO change the drives that move fast."""
-        n = len(obs)
+        return self.play(obs)[1]
+
+    def _weight_of(self, idx: np.ndarray) -> np.ndarray:
         if self.gate_velocity is None:
-            return np.ones((n, 1))
-        return np.clip(self.velocities[self.nearest(obs)] / self.gate_velocity, 0.0, 1.0)[:, None]
+            return np.ones((len(idx), 1))
+        return np.clip(self.velocities[idx] / self.gate_velocity, 0.0, 1.0)[:, None]
 
 
-def augment(obs: np.ndarray, lookup: TeacherLookup) -> tuple[np.ndarray, np.ndarray]:
-    """(observations with the lookup's action appended (n, 19), the lookup's action (n, 5))."""
-    base = lookup(obs)
-    return np.concatenate([obs, base], axis=1).astype(np.float32), base
+def augment(obs: np.ndarray, lookup: TeacherLookup) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(observations with the lookup's action appended (n, 19), the lookup's action (n, 5), the
+    residual's weight (n, 1), ``TeacherLookup.weight``)."""
+    base, weight = lookup.play(obs)
+    return np.concatenate([obs, base], axis=1).astype(np.float32), base, weight
 
 
 def env_action(base: np.ndarray, residual: np.ndarray, scale) -> np.ndarray:
@@ -126,8 +135,8 @@ def residual_data(data: dict, lookup: TeacherLookup, scale: float) -> dict:
     """The teacher's (observation, action) pairs in the residual policy's terms: augmented
     observations and the residual that turns the lookup's action into the teacher's (clipped; 0
     where the gate plays none of the residual)."""
-    obs, base = augment(np.asarray(data["obs"]), lookup)
-    w = scale * lookup.weight(data["obs"])
+    obs, base, weight = augment(np.asarray(data["obs"]), lookup)
+    w = scale * weight
     diff = np.asarray(data["targets"]) - base
     targets = np.where(w > 0.0, np.clip(diff / np.maximum(w, 1e-12), -1.0, 1.0), 0.0).astype(np.float32)
     return {**data, "obs": obs, "targets": targets}
@@ -146,8 +155,7 @@ class TeacherResidual(VecEnvWrapper):
         self._base = self._weight = None
 
     def _augment(self, obs: np.ndarray) -> np.ndarray:
-        self._weight = self.lookup.weight(obs)
-        obs, self._base = augment(obs, self.lookup)
+        obs, self._base, self._weight = augment(obs, self.lookup)
         return obs
 
     def reset(self) -> np.ndarray:
