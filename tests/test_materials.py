@@ -37,6 +37,34 @@ def test_homogeneous_limits(nu):
     assert h_tangential(0.0, nu) == pytest.approx(2.0 / ((1 + nu) * (2 - nu)), rel=1e-12)
 
 
+def jitcharoen_h_normal(k: float, nu: float, youngs_modulus: float = 2e11, radius: float = 2.5e-3) -> float:
+    """h_N implied by the graded Hertz contact of Jitcharoen et al. (1998), after Giannakopoulos
+    and Suresh (1997) (physics.md section 5): a rigid sphere of diameter D = 2R pressed with force P
+    into ``E(z) = E0 z^k`` (c0 = 1 m) has ``a^(3+k) = P D c1 G(1/2+k/2) G(3/2+k/2) / (pi 2^(2-k))
+    (1+k)(3+k)/2``; the MDR force ``P = 4 h_N E0 a^(3+k) / ((1-nu^2)(1+k)^2(3+k) R)`` must give the
+    same a for the same P. Independent of materials.py: only the gamma function is shared."""
+    g = math.gamma
+    q = math.sqrt((1 + k) * (1 - k * nu / (1 - nu)))
+    c1 = (2 * q * math.sin(math.pi * q / 2) * (1 - nu**2) * g((3 + k + q) / 2) * g((3 + k - q) / 2) * g((1 - k) / 2)
+          / (youngs_modulus * math.sqrt(math.pi) * (1 + k) * g(2 + k) * g(1 + k / 2)))
+    a_per_force = (2 * radius * c1 * g(0.5 + k / 2) * g(1.5 + k / 2) / (math.pi * 2 ** (2 - k))
+                   * (1 + k) * (3 + k) / 2)  # a^(3+k) / P
+    return (1 - nu**2) * (1 + k) ** 2 * (3 + k) * radius / (4 * youngs_modulus * a_per_force)
+
+
+@pytest.mark.parametrize("nu", [0.0, 0.15, 0.25, 0.3, 0.4, 0.49])
+@pytest.mark.parametrize("k", [0.0, 0.05, 0.2, 0.3, 0.45, 0.6, 0.75, 0.89])
+def test_h_normal_equals_the_graded_hertz_solution_of_jitcharoen(k, nu):
+    assert h_normal(k, nu) == pytest.approx(jitcharoen_h_normal(k, nu), rel=1e-6)
+
+
+def test_jitcharoen_check_is_hertz_at_k0_and_not_trivially_equal():
+    # k = 0: the rigid sphere on a half-space, a^3 = 3 P R (1 - nu^2) / (4 E0), i.e. h_N = 1
+    assert jitcharoen_h_normal(0.0, 0.3) == pytest.approx(1.0, rel=1e-12)
+    # the check has teeth: a wrong h_N (the as-published hypothesis, x2) fails it
+    assert abs(2 * h_normal(0.3, 0.3) / jitcharoen_h_normal(0.3, 0.3) - 1) > 0.5
+
+
 @pytest.mark.parametrize("nu", [0.0, 0.3, 0.5])
 def test_h_factors_continuous_at_k_zero(nu):
     for h in (h_normal, h_tangential):

@@ -1,4 +1,24 @@
-"""Steady-state mean velocity and critical load of the drive."""
+"""Steady-state mean velocity and critical load of the drive, and the state a run ended in.
+
+A run of a fixed waveform ends in one of three states (:data:`MOTION_STATES`):
+
+``"settled"``
+    periodic motion: every period velocity of the last ``window`` periods equals the one
+    ``window`` periods before to ``rtol |v| + atol`` (so a state that alternates between two
+    period velocities is settled with ``window = 2``, but a decaying alternation is not). Its velocity is a steady velocity (it may be negative: the load drags
+    the slider back at a steady rate).
+``"settling"``
+    still in its transient when the run ended: the number is not a steady velocity.
+``"runaway"``
+    the load accelerates the slider backwards without bound (possible because the model's moving
+    mass is the 50 g slider and its base friction ``mu1 F_z`` vanishes with the contact). The mean
+    velocity grows with the run length, so it is never reported as a velocity. Detected by
+    either of two sufficient conditions: the load exceeds ``(mu + mu1) max F_z``, the most the
+    contact and the base can ever push forward; or the slider moved backwards faster than the
+    indenter's fastest backward stroke in the last two periods and is still speeding up (then
+    the contact slips forward all period, the forces no longer depend on the slider, and the load
+    wins every period by the same amount).
+"""
 
 from __future__ import annotations
 
@@ -12,67 +32,114 @@ from .waveform import Waveform
 
 #: The paper's rule: skip 5 periods, average the slider velocity over the 6th.
 PAPER_SKIP_PERIODS = 5
+#: What a run of a fixed waveform can end in (module docstring).
+MOTION_STATES = ("settled", "settling", "runaway")
+
+
+def motion_state(period_velocities, indenter_min_velocity: float, load_margin: float = np.inf, window: int = 2,
+                 rtol: float = 1e-3, atol: float = 1e-6) -> str:
+    """The state a run ended in: ``"settled"``, ``"settling"`` or ``"runaway"`` (module docstring).
+
+    Args:
+        period_velocities: mean slider velocity (m/s) of each period of the run, in order.
+        indenter_min_velocity: the indenter's most negative x velocity (m/s) over a period
+            (``-A_x / t2`` for the triangle).
+        load_margin: ``(mu + mu1) max F_z - F_m`` (N) of the last period; negative means the load
+            beats every force that can push the slider forward.
+        window, rtol, atol: the settling test (periods, -, m/s).
+    """
+    v = np.asarray(period_velocities, dtype=float)
+    if v.ndim != 1 or v.size == 0:
+        raise ValueError("period_velocities must be a non-empty 1D sequence")
+    if load_margin < 0.0:
+        return "runaway"
+    if v.size >= 2 and v[-1] < indenter_min_velocity and v[-2] < indenter_min_velocity and v[-1] < v[-2]:
+        return "runaway"
+    if v.size >= 2 * window:
+        last, before = v[-window:], v[-2 * window:-window]
+        if np.max(np.abs(last - before)) <= rtol * abs(last.mean()) + atol:
+            return "settled"
+    return "settling"
 
 
 @dataclass(frozen=True)
 class SteadyVelocity:
-    """Mean slider velocity in the periodic state.
+    """Mean slider velocity of a run and the state the run ended in.
 
     Attributes:
-        velocity: mean velocity (m/s) over the averaging window.
+        velocity: mean velocity (m/s) over the averaging window (the 6th period for the paper
+            rule, the last ``window`` periods for the settled rule). A steady velocity only when
+            ``state == "settled"``; for ``"runaway"`` it grows with the run length.
         periods_run: periods simulated.
-        settled: whether the settling criterion was met (always True for the paper rule).
+        state: ``"settled"``, ``"settling"`` or ``"runaway"`` (:func:`motion_state`).
         period_velocities: per-period mean velocities (m/s) of the whole run.
     """
 
     velocity: float
     periods_run: int
-    settled: bool
+    state: str
     period_velocities: np.ndarray
+
+    @property
+    def settled(self) -> bool:
+        """True when the run ended in periodic motion."""
+        return self.state == "settled"
 
 
 def steady_velocity(
     params: DriveParams,
     waveform: Waveform | None = None,
-    numerics: Numerics | str = "default",
-    rule: str = "paper",
+    numerics: Numerics | str = "fast",
+    rule: str = "settled",
     window: int = 2,
     rtol: float = 1e-3,
     atol: float = 1e-6,
-    max_periods: int = 60,
+    max_periods: int = 100,
 ) -> SteadyVelocity:
-    """Steady-state mean slider velocity (m/s).
+    """Mean slider velocity (m/s) of a fixed waveform, and the state the run ended in.
 
     Rules:
-        ``"paper"``: skip 5 periods, average over the 6th (the paper's Fig. 5).
-        ``"settled"``: run until the mean velocities over two consecutive windows of ``window``
-            periods agree to ``rtol * |v| + atol`` (m/s); a window of 2 averages out the
-            period-doubled stick-slip states. Returns the last window's mean; ``settled=False``
-            if ``max_periods`` was reached first.
+        ``"settled"`` (default): run until the motion is periodic with period ``window`` (each of
+            the last ``window`` period velocities within ``rtol * |v| + atol`` (m/s) of the one
+            ``window`` periods earlier; a window of 2 admits alternating stick-slip states), or
+            until a runaway is detected, or ``max_periods`` (then ``state="settling"``). Returns
+            the last window's mean.
+        ``"paper"``: skip 5 periods, average over the 6th (the paper's Fig. 5). The state is what
+            those 6 periods show (the same tests on the 6 periods), so a transient sampled at
+            period 6 says ``"settling"``.
     """
     waveform = waveform or Waveform.paper()
-    sim = DriveSimulator(params, numerics, max_depth=max(waveform.max_depth, 1e-9))
-    if rule == "paper":
-        v = np.array([r.mean_velocity for r in sim.run(waveform, PAPER_SKIP_PERIODS + 1)])
-        return SteadyVelocity(float(v[-1]), v.size, True, v)
-    if rule != "settled":
+    if rule not in ("paper", "settled"):
         raise ValueError(f"rule={rule!r} is not one of ['paper', 'settled']")
-    if window < 1:
+    if not (isinstance(window, (int, np.integer)) and window >= 1):
         raise ValueError(f"window={window!r} is outside the allowed range [1, inf)")
+    sim = DriveSimulator(params, numerics, max_depth=max(waveform.max_depth, 1e-9))
+    friction = params.contact.friction_coefficient + params.contact.base_friction_coefficient
+    v_min = waveform.min_x_velocity
     v: list[float] = []
+
+    def state_now(result) -> str:
+        margin = friction * result.peak_normal_force - params.drive.load
+        return motion_state(v, v_min, margin, window, rtol, atol)
+
+    if rule == "paper":
+        results = sim.run(waveform, PAPER_SKIP_PERIODS + 1)
+        v = [r.mean_velocity for r in results]
+        return SteadyVelocity(v[-1], len(v), state_now(results[-1]), np.array(v))
+    state = "settling"
     while len(v) < max_periods:
-        v.append(sim.step(waveform).mean_velocity)
-        if len(v) >= max(2 * window, PAPER_SKIP_PERIODS + window):
-            last = float(np.mean(v[-window:]))
-            before = float(np.mean(v[-2 * window : -window]))
-            if abs(last - before) <= rtol * abs(last) + atol:
-                return SteadyVelocity(last, len(v), True, np.array(v))
-    return SteadyVelocity(float(np.mean(v[-window:])), len(v), False, np.array(v))
+        result = sim.step(waveform)
+        v.append(result.mean_velocity)
+        if len(v) >= PAPER_SKIP_PERIODS + window:
+            state = state_now(result)
+            if state != "settling":
+                break
+    return SteadyVelocity(float(np.mean(v[-window:])), len(v), state, np.array(v))
 
 
 @dataclass(frozen=True)
 class CriticalLoad:
-    """Largest cargo mass for which the steady mean velocity is still positive.
+    """Largest cargo mass for which the drive still moves the slider forward.
 
     Attributes:
         cargo_mass: the critical mass m_c (kg), within ``tolerance``.
@@ -90,15 +157,16 @@ class CriticalLoad:
 def critical_load(
     params: DriveParams,
     waveform: Waveform | None = None,
-    numerics: Numerics | str = "default",
-    rule: str = "paper",
+    numerics: Numerics | str = "fast",
+    rule: str = "settled",
     tolerance: float = 1e-3,
     upper_guess: float = 1.0,
     max_mass: float = 100.0,
 ) -> CriticalLoad:
-    """Critical cargo mass (kg) by bisection on the sign of the steady velocity.
+    """Critical cargo mass (kg) by bisection on the sign of the mean velocity.
 
-    Assumes the velocity decreases with the load (true for every case of the paper). The
+    A load moves the drive when its mean velocity (``rule``) is positive and the run did not run
+    away. Assumes the velocity decreases with the load (true for every case of the paper). The
     bracket starts at ``[0, upper_guess]`` and doubles the upper end until the drive stalls.
     Returns 0 if the drive does not move even without load.
     """
@@ -109,7 +177,8 @@ def critical_load(
     def moves(m: float) -> bool:
         nonlocal evaluations
         evaluations += 1
-        return steady_velocity(params.with_cargo_mass(m), waveform, numerics, rule).velocity > 0.0
+        sv = steady_velocity(params.with_cargo_mass(m), waveform, numerics, rule)
+        return sv.state != "runaway" and sv.velocity > 0.0
 
     if not moves(0.0):
         return CriticalLoad(0.0, 0.0, (0.0, 0.0), evaluations)

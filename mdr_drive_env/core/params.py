@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from . import materials
 
@@ -20,13 +23,30 @@ _INF = math.inf
 def check_range(
     name: str, value: float, low: float = -_INF, high: float = _INF, *, low_open: bool = False, high_open: bool = False
 ) -> None:
-    """Raise ``ValueError`` naming ``name`` unless ``value`` is a finite number in the range."""
+    """Raise ``ValueError`` naming ``name`` unless ``value`` is a finite number in the range.
+
+    Any real number passes the type check, NumPy scalars (``np.float32(0.2)``) included; bools do not.
+    """
     interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    ok = is_real_number(value) and math.isfinite(value)
     if ok:
         ok = (value > low if low_open else value >= low) and (value < high if high_open else value <= high)
     if not ok:
         raise ValueError(f"{name}={value!r} is outside the allowed range {interval}")
+
+
+def is_real_number(value) -> bool:
+    """True for a real number (Python or NumPy, int or float), False for bools and everything else."""
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def store_floats(obj, *names: str) -> None:
+    """Store the named fields of a frozen dataclass as Python floats (NumPy scalars included), so
+    that compiled kernels always see float64 arguments. Non-numbers are left for validation."""
+    for name in names:
+        value = getattr(obj, name)
+        if is_real_number(value):
+            object.__setattr__(obj, name, float(value))
 
 
 @dataclass(frozen=True)
@@ -50,6 +70,8 @@ class Material:
     h_tangential_override: float | None = None
 
     def __post_init__(self) -> None:
+        store_floats(self, "youngs_modulus", "poisson_ratio", "grading_exponent", "reference_depth",
+                     "h_normal_override", "h_tangential_override")
         if self.youngs_modulus != _INF:
             check_range("Material.youngs_modulus", self.youngs_modulus, 0.0, low_open=True)
         check_range("Material.poisson_ratio", self.poisson_ratio, -1.0, 0.5, low_open=True)
@@ -107,6 +129,7 @@ class Contact:
     base_friction_coefficient: float = 0.1
 
     def __post_init__(self) -> None:
+        store_floats(self, "indenter_radius", "friction_coefficient", "base_friction_coefficient")
         check_range("Contact.indenter_radius", self.indenter_radius, 0.0, low_open=True)
         check_range("Contact.friction_coefficient", self.friction_coefficient, 0.0, low_open=True)
         check_range("Contact.base_friction_coefficient", self.base_friction_coefficient, 0.0)
@@ -120,7 +143,7 @@ class Drive:
         slider_mass: M (kg).
         cargo_mass: m (kg); it sets the load ``F_m = m g`` against the motion.
         gravity: g (m/s^2).
-        load_force: F_m (N) if given, replacing ``m g``.
+        load_force: F_m (N), >= 0, if given, replacing ``m g``.
         cargo_inertia: if True the cargo also accelerates with the slider (moving mass M + m);
             the paper's choice is False (moving mass M).
     """
@@ -132,11 +155,14 @@ class Drive:
     cargo_inertia: bool = False
 
     def __post_init__(self) -> None:
+        store_floats(self, "slider_mass", "cargo_mass", "gravity", "load_force")
         check_range("Drive.slider_mass", self.slider_mass, 0.0, low_open=True)
         check_range("Drive.cargo_mass", self.cargo_mass, 0.0)
         check_range("Drive.gravity", self.gravity, 0.0)
         if self.load_force is not None:
-            check_range("Drive.load_force", self.load_force)
+            check_range("Drive.load_force", self.load_force, 0.0)
+        if isinstance(self.cargo_inertia, np.bool_):
+            object.__setattr__(self, "cargo_inertia", bool(self.cargo_inertia))
         if not isinstance(self.cargo_inertia, bool):
             raise ValueError(f"Drive.cargo_inertia={self.cargo_inertia!r} must be a bool")
 
@@ -151,21 +177,38 @@ class Drive:
         return self.slider_mass + (self.cargo_mass if self.cargo_inertia else 0.0)
 
 
+#: Model variants. ``as-specified`` is the model of docs/model.md (physics.md); ``as-published``
+#: is the hypothesis of physics.md section 5 about the paper's own code: h_N doubled, h_T as is.
+VARIANTS: tuple[str, ...] = ("as-specified", "as-published")
+#: Factor on h_N of each variant (h_T is never scaled).
+VARIANT_H_NORMAL_FACTOR = {"as-specified": 1.0, "as-published": 2.0}
+
+
 @dataclass(frozen=True)
 class DriveParams:
-    """The whole physical model: two bodies, the contact and the drive.
+    """The whole physical model: two bodies, the contact, the drive and the model variant.
 
     The bodies must share k and c0 unless one of them is rigid (physics.md 1). For a rigid
     indenter on a graded slider the normal-tangential coupling is neglected (it vanishes only at
     ``nu = 1/(2+k)``).
+
+    Attributes:
+        variant: ``"as-specified"`` (default), the model as derived; or ``"as-published"``, the
+            hypothesis that the paper's code doubled h_N and kept h_T (the slip the paper admits for
+            its predecessor). The factor applies to whatever h_N is in force, the closed form or
+            ``Material.h_normal_override``, of each elastic body, so it doubles ``C_N`` (and the
+            slip ratio) and leaves ``C_T``.
     """
 
     indenter: Material = field(default_factory=Material)
     slider: Material = field(default_factory=Material)
     contact: Contact = field(default_factory=Contact)
     drive: Drive = field(default_factory=Drive)
+    variant: str = "as-specified"
 
     def __post_init__(self) -> None:
+        if self.variant not in VARIANTS:
+            raise ValueError(f"DriveParams.variant={self.variant!r} is not one of {list(VARIANTS)}")
         if self.indenter.is_rigid and self.slider.is_rigid:
             raise ValueError("DriveParams: indenter and slider cannot both be rigid")
         if not (self.indenter.is_rigid or self.slider.is_rigid):
@@ -175,12 +218,13 @@ class DriveParams:
                     raise ValueError(f"DriveParams: indenter.{name}={a!r} and slider.{name}={b!r} must be equal")
 
     @classmethod
-    def paper(cls, k: float = 0.0, cargo_mass: float = 0.0) -> "DriveParams":
+    def paper(cls, k: float = 0.0, cargo_mass: float = 0.0, variant: str = "as-specified") -> "DriveParams":
         """The paper's parameter set (both bodies of the same graded steel-like material)."""
         return cls(
             indenter=Material(grading_exponent=k),
             slider=Material(grading_exponent=k),
             drive=Drive(cargo_mass=cargo_mass),
+            variant=variant,
         )
 
     @property
@@ -199,8 +243,9 @@ class DriveParams:
 
     @property
     def normal_stiffness_prefactor(self) -> float:
-        """C_N (Pa) in ``c_N(x) = C_N (|x|/c0)^k`` (paper Eq. 3)."""
-        return 1.0 / (self.indenter.normal_compliance() + self.slider.normal_compliance())
+        """C_N (Pa) in ``c_N(x) = C_N (|x|/c0)^k`` (paper Eq. 3), times the variant's h_N factor."""
+        factor = VARIANT_H_NORMAL_FACTOR[self.variant]
+        return factor / (self.indenter.normal_compliance() + self.slider.normal_compliance())
 
     @property
     def tangential_stiffness_prefactor(self) -> float:
@@ -252,6 +297,9 @@ class Numerics:
     node_power: float = 1.0
 
     def __post_init__(self) -> None:
+        store_floats(self, "time_step", "spring_spacing", "max_x_step", "max_z_step", "node_power")
+        if isinstance(self.nodes, numbers.Integral) and not isinstance(self.nodes, (bool, np.bool_)):
+            object.__setattr__(self, "nodes", int(self.nodes))
         check_range("Numerics.time_step", self.time_step, 0.0, 1e-4, low_open=True)
         check_range("Numerics.spring_spacing", self.spring_spacing, 0.0, 1e-5, low_open=True)
         if self.method not in ("grid", "nodes"):

@@ -76,14 +76,16 @@ class DriveSimulator:
 
     Args:
         params: the physical model (bodies, contact, drive).
-        numerics: a :class:`Numerics` or a preset name (``"paper"``, ``"default"``, ``"fast"``).
+        numerics: a :class:`Numerics` or a preset name: ``"fast"`` (the default: the node solver,
+            the most accurate and fastest preset), ``"default"`` or ``"paper"`` (the paper's grid
+            scheme at two resolutions).
         max_depth: largest indentation (m) any waveform will use; sizes the spring grid.
 
     The state (spring displacements, slider position and velocity, indenter position) persists
     across :meth:`step` calls; each call may use another waveform.
     """
 
-    def __init__(self, params: DriveParams, numerics: Numerics | str = "default", max_depth: float = 6e-6):
+    def __init__(self, params: DriveParams, numerics: Numerics | str = "fast", max_depth: float = 6e-6):
         if not (math.isfinite(max_depth) and max_depth > 0.0):
             raise ValueError(f"max_depth={max_depth!r} is outside the allowed range (0, inf)")
         self.params = params
@@ -271,8 +273,10 @@ class DriveSimulator:
                              num.time_step, *tail)
 
     def run(self, waveform: Waveform, n_periods: int, record_every: int = 0) -> list[PeriodResult]:
-        """Run ``n_periods`` periods with the same waveform; see :meth:`step`."""
-        return [self.step(waveform, record_every) for _ in range(n_periods)]
+        """Run ``n_periods`` (>= 1) periods with the same waveform; see :meth:`step`."""
+        if isinstance(n_periods, bool) or not isinstance(n_periods, (int, np.integer)) or n_periods < 1:
+            raise ValueError(f"n_periods={n_periods!r} is outside the allowed range [1, inf)")
+        return [self.step(waveform, record_every) for _ in range(int(n_periods))]
 
 
 def concat_traces(results: list[PeriodResult]) -> np.ndarray:

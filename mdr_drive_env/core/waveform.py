@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from .params import check_range
+from .params import check_range, store_floats
 
 
 @dataclass(frozen=True)
@@ -31,6 +31,7 @@ class AxisWaveform:
     fall_time: float
 
     def __post_init__(self) -> None:
+        store_floats(self, "amplitude", "rise_time", "fall_time")
         check_range("AxisWaveform.amplitude", self.amplitude, 0.0, 1e-3)
         check_range("AxisWaveform.rise_time", self.rise_time, 0.0, 1.0, low_open=True)
         check_range("AxisWaveform.fall_time", self.fall_time, 0.0, 1.0, low_open=True)
@@ -69,6 +70,7 @@ class Waveform:
     z_phase: float = 0.0
 
     def __post_init__(self) -> None:
+        store_floats(self, "z_phase")
         check_range("Waveform.z_phase", self.z_phase, 0.0, 1.0, high_open=True)
         if not math.isclose(self.x.period, self.z.period, rel_tol=1e-9, abs_tol=0.0):
             raise ValueError(
@@ -97,6 +99,11 @@ class Waveform:
     def z_at(self, t: np.ndarray | float) -> np.ndarray:
         """z(t) = d(t) (m), including the phase delay."""
         return self.z(np.asarray(t, dtype=float) - self.z_phase * self.period)
+
+    @property
+    def min_x_velocity(self) -> float:
+        """The indenter's most negative x velocity (m/s): ``-A_x / t2``, on the fast return stroke."""
+        return -self.x.amplitude / self.x.fall_time
 
     @property
     def max_depth(self) -> float:
