@@ -24,7 +24,9 @@ from .baselines import CMA_BUDGET, cma_optimize
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
+    format_velocity,
     load_policy,
+    policy_path,
     open_loop_velocity,
     policy_rollout,
     policy_velocity,
@@ -42,7 +44,7 @@ CRITICAL_GRID = 64
 
 def first_stall(masses: np.ndarray, velocity: np.ndarray) -> float:
     """Largest mass of the grid before the velocity first drops to <= 0 (0 if it never moves)."""
-    bad = np.flatnonzero(velocity <= 0.0)
+    bad = np.flatnonzero(~(np.asarray(velocity) > 0.0))  # NaN (a runaway) stalls too
     if bad.size == 0:
         return float(masses[-1])
     return float(masses[bad[0] - 1]) if bad[0] > 0 else 0.0
@@ -99,7 +101,7 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     rows, res = [], {"grid": {"k": list(ks), "cargo_mass": list(masses)}, "protocol": {
         "periods": EVAL_PERIODS, "averaged_over_last": AVERAGE_PERIODS}, "cma_budget_per_point": budget}
 
-    trap = open_loop_velocity(points, trapezoid_action())
+    trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
     rows += [("trapezoid", "", k, m, v) for (k, m), v in zip(points, trap)]
     cma_v, cma_actions = [], []
     for k, m in tqdm(points, desc="CMA-ES per point", unit="point"):
@@ -111,15 +113,16 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     learned = []
     waveforms = {}
     for path, pol in zip(policies, loaded):
-        disp, acts = policy_rollout(pol, points)
-        v = steady_velocity_of(disp)
+        disp, acts, runaway = policy_rollout(pol, points)
+        v = steady_velocity_of(disp, runaway=runaway)
         learned.append(v)
         waveforms[path] = acts[-2:].transpose(1, 0, 2).tolist()  # periods 29 and 30 of each point
         rows += [("learned", path, k, m, x) for (k, m), x in zip(points, v)]
     with open(out / "velocities.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["method", "policy", "k", "cargo_mass_kg", "steady_velocity_m_s"])
-        w.writerows(rows)
+        w.writerow(["method", "policy", "k", "cargo_mass_kg", "steady_velocity_m_s", "state"])
+        w.writerows([(*r[:4], "" if np.isnan(r[4]) else r[4], "runaway" if np.isnan(r[4]) else "steady")
+                     for r in rows])
 
     crit = {"trapezoid": critical_loads_grid(ks, lambda pts: open_loop_velocity(pts, trapezoid_action()))}
     for path, pol in tqdm(list(zip(policies, loaded)), desc="critical loads (policies)"):
@@ -137,10 +140,19 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     })
     res["summary"] = summarize(res, ks)
     res["wall_time_s"] = round(time.perf_counter() - t0, 1)
-    (out / "benchmark.json").write_text(json.dumps(res, indent=1))
+    (out / "benchmark.json").write_text(json.dumps(json_safe(res), indent=1))
     (out / "benchmark.md").write_text(markdown(res, ks, masses))
     plot_all(res, ks, masses, out)
     return res
+
+
+def json_safe(obj):
+    """``obj`` with every NaN (a runaway point: no steady velocity) as None, for standard JSON."""
+    if isinstance(obj, dict):
+        return {k: json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    return None if isinstance(obj, float) and np.isnan(obj) else obj
 
 
 def summarize(res: dict, ks) -> dict:
@@ -164,15 +176,16 @@ def summarize(res: dict, ks) -> dict:
 def markdown(res: dict, ks, masses) -> str:
     n = len(masses)
     lines = ["Steady velocity (mm/s): trapezoid / CMA-ES / learned (mean +- std over "
-             f"{len(res['policies'])} seeds)", "", "| k \\ m (kg) | " + " | ".join(f"{m:g}" for m in masses) + " |",
+             f"{len(res['policies'])} seeds); 'runaway': the load accelerates the slider backwards without "
+             "bound, so there is no steady velocity", "", "| k \\ m (kg) | " + " | ".join(f"{m:g}" for m in masses) + " |",
              "|---|" + "---|" * n]
     for i, k in enumerate(ks):
         cells = []
         for j in range(n):
             idx = i * n + j
-            c = f"{res['trapezoid'][idx] * 1e3:.2f} / {res['cma_es'][idx] * 1e3:.2f}"
+            c = f"{format_velocity(res['trapezoid'][idx])} / {format_velocity(res['cma_es'][idx])}"
             if res["learned_mean"]:
-                c += f" / {res['learned_mean'][idx] * 1e3:.2f} +- {res['learned_std'][idx] * 1e3:.2f}"
+                c += f" / {format_velocity(res['learned_mean'][idx])} +- {res['learned_std'][idx] * 1e3:.2f}"
             cells.append(c)
         lines.append(f"| {k:g} | " + " | ".join(cells) + " |")
     lines += ["", "Critical load (kg):", "", "| method | " + " | ".join(f"k = {k:g}" for k in ks) + " |",
@@ -195,12 +208,14 @@ def write_report(out: str | Path, stem: str, lines: list[str], rows, t0: float) 
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--policies", nargs="*", default=[],
+    from mdr_drive_env.cli_args import output_dir
+
+    p.add_argument("--policies", nargs="*", default=[], type=policy_path,
                    help="policy folders (one per training seed), or CMA-ES teacher .npz files played as their "
                         "lookup (agents.residual.TeacherLookup)")
-    p.add_argument("--out", default="results/benchmark", help="output folder")
+    p.add_argument("--out", default="results/benchmark", type=output_dir, help="output folder")
     p.add_argument("--quick", action="store_true", help="a CI-sized grid and CMA-ES budget")
-    p.add_argument("--cma-budget", type=int, default=None, help=f"CMA-ES evaluations per point (default {CMA_BUDGET}) (-)")
+    p.add_argument("--cma-budget", type=int, default=None, help=f"CMA-ES evaluations per point (-) (default: {CMA_BUDGET})")
 
 
 def main(args: argparse.Namespace) -> int:

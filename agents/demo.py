@@ -15,6 +15,7 @@ from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
     Policy,
+    format_velocity,
     open_loop_velocity,
     policy_rollout,
     steady_velocity_of,
@@ -24,11 +25,24 @@ from .evaluate import (
 PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
 DEMO_KS = (0.0, 0.1, 0.2, 0.3)
 DEMO_MASSES = (0.0, 0.1, 0.2, 0.4)
+#: Loads of the demo's plot (kg): fine enough to show where each drive stalls.
+PLOT_MASSES = tuple(np.round(np.linspace(0.0, 0.8, 41), 3))
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", default="results/demo", help="output folder")
-    p.add_argument("--policy", default=str(PRETRAINED), help="policy folder (default: the shipped one)")
+    from mdr_drive_env.cli_args import output_dir
+
+    from .evaluate import policy_path
+
+    p.add_argument("--out", default="results/demo", type=output_dir, help="output folder")
+    p.add_argument("--policy", default=str(PRETRAINED), type=policy_path,
+                   help="policy folder (default: the shipped one, agents/pretrained/ppo_generalist)")
+
+
+def policy_label(path: str | Path) -> str:
+    """How plots and tables name a policy: "shipped policy" for the shipped one, else its folder name."""
+    path = Path(path)
+    return "shipped policy" if path.resolve() == PRETRAINED.resolve() else f"policy {path.name}"
 
 
 def main(args: argparse.Namespace) -> int:
@@ -38,45 +52,66 @@ def main(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
 
     from mdr_drive_env.cli import plot_run
+    from mdr_drive_env.core import steady_velocity
+    from mdr_drive_env.files import save_figure, write_csv
 
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    sim = DriveSimulator(DriveParams.paper(k=0.2, cargo_mass=0.1), "fast")
+    params = DriveParams.paper(k=0.2, cargo_mass=0.1)
+    sim = DriveSimulator(params, "fast")
     results = sim.run(Waveform.paper(), 10, record_every=2)
-    plot_run(results, str(out / "paper_drive_k0.2_m0.1.png"), "paper waveform, k = 0.2, m = 0.1 kg (fast solver)")
-    print(f"1. the paper's drive, k = 0.2, m = 0.1 kg: <V> of the 6th period "
-          f"{results[5].mean_velocity * 1e3:.3f} mm/s; plot {out / 'paper_drive_k0.2_m0.1.png'}")
+    plot_run(results, str(out / "paper_drive_k0.2_m0.1.png"), "paper waveform, k = 0.2, m = 0.1 kg (fast numerics)")
+    settled = steady_velocity(params)
+    print(f"1. the paper's drive, k = 0.2, m = 0.1 kg (fast numerics): <V> of the 6th period "
+          f"{results[5].mean_velocity * 1e3:.3f} mm/s (the paper's rule; still settling), "
+          f"{settled.velocity * 1e3:.3f} mm/s once {settled.state} (period {settled.periods_run}); "
+          f"plot {out / 'paper_drive_k0.2_m0.1.png'}")
 
     policy = Policy(args.policy)
-    points = [(k, m) for k in DEMO_KS for m in DEMO_MASSES]
-    with tqdm(total=2, desc="2. shipped policy vs trapezoid", unit="method") as bar:
-        trap = open_loop_velocity(points, trapezoid_action())
+    name = policy_label(args.policy)
+    table_points = [(k, m) for k in DEMO_KS for m in DEMO_MASSES]
+    plot_points = [(k, m) for k in DEMO_KS for m in PLOT_MASSES]
+    points = table_points + plot_points
+    with tqdm(total=2, desc=f"2. {name} vs trapezoid", unit="method") as bar:
+        trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
         bar.update()
-        disp, acts = policy_rollout(policy, points)
-        learned = steady_velocity_of(disp)
+        disp, _, runaway = policy_rollout(policy, points)
+        learned = steady_velocity_of(disp, runaway=runaway)
         bar.update()
+    n_table = len(table_points)
     print(f"\nsteady velocity (mm/s, mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}): "
-          f"learned policy / paper trapezoid")
+          f"{name} / paper trapezoid ('runaway': the load accelerates the slider backwards without bound)")
     print("   k  " + "".join(f"{f'm = {m:g} kg':>20}" for m in DEMO_MASSES))
     n = len(DEMO_MASSES)
     for i, k in enumerate(DEMO_KS):
-        print(f"{k:5.2f} " + "".join(f"{learned[i * n + j] * 1e3:10.2f} /{trap[i * n + j] * 1e3:8.2f}"
+        print(f"{k:5.2f} " + "".join(f"{format_velocity(learned[i * n + j], 10)} /{format_velocity(trap[i * n + j], 8)}"
                                      for j in range(n)))
-    fig, ax = plt.subplots(figsize=(7, 4.2))
+
+    lp, tp = learned[n_table:].reshape(len(DEMO_KS), -1) * 1e3, trap[n_table:].reshape(len(DEMO_KS), -1) * 1e3
+    masses = np.array(PLOT_MASSES)
+    fig, ax = plt.subplots(figsize=(8, 4.8))
     for i, k in enumerate(DEMO_KS):
-        ax.plot(DEMO_MASSES, trap[i * n:(i + 1) * n] * 1e3, "-o", color=f"C{i}", ms=3, label=f"trapezoid, k = {k:g}")
-        ax.plot(DEMO_MASSES, learned[i * n:(i + 1) * n] * 1e3, ":^", color=f"C{i}", ms=4, label=f"learned, k = {k:g}")
+        ax.plot(masses, tp[i], "-", color=f"C{i}", lw=1.5, label=f"trapezoid, k = {k:g}")
+        ax.plot(masses, lp[i], ":", color=f"C{i}", lw=2, label=f"{name}, k = {k:g}")
+        for curve, marker in ((tp[i], "x"), (lp[i], "+")):
+            gone = np.isnan(curve)
+            if gone.any():
+                ax.plot(masses[gone], np.full(gone.sum(), -19.0 + 0.8 * i), marker, color=f"C{i}", ms=6)
+    finite = np.concatenate([lp[np.isfinite(lp)], tp[np.isfinite(tp)]])
     ax.axhline(0, color="k", lw=0.6)
-    ax.set(xlabel="cargo mass m (kg)", ylabel="steady velocity (mm/s)", ylim=(-20, 22),
-           title="shipped PPO policy vs the paper's trapezoid")
+    ax.set(xlabel="cargo mass m (kg)", ylabel="steady velocity (mm/s)", ylim=(-20, 1.08 * finite.max()),
+           title=f"{name} vs the paper's trapezoid (mean of periods 21-30)\n"
+                 "below -20 mm/s: dragged back; x (trapezoid), + (policy) at the bottom: the load runs away",
+           )
+    ax.title.set_fontsize(9)
     ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out / "policy_vs_trapezoid.png", dpi=120)
+    save_figure(fig, out / "policy_vs_trapezoid.png")
     plt.close(fig)
-    np.savetxt(out / "policy_vs_trapezoid.csv", np.column_stack([np.array(points), learned, trap]), delimiter=",",
-               header="k,cargo_mass_kg,learned_m_s,trapezoid_m_s", comments="")
+    write_csv(out / "policy_vs_trapezoid.csv", ["k", "cargo_mass_kg", "learned_m_s", "trapezoid_m_s"],
+              [(k, m, "runaway" if np.isnan(v) else v, "runaway" if np.isnan(t) else t)
+               for (k, m), v, t in zip(plot_points, learned[n_table:], trap[n_table:])])
     print(f"\nplots and CSV in {out}/ ; done in {time.perf_counter() - t0:.1f} s")
     return 0
 

@@ -45,9 +45,10 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
                 ax.errorbar(axis_vals, pick(lm, j), yerr=pick(ls, j), fmt=":^", color=col, ms=4,
                             label=f"learned, {lab}")
         ax.axhline(0, color="k", lw=0.6)
-        top = max(np.max(trap), np.max(cma), np.max(lm) if has_learned else 0.0)
+        top = max(np.nanmax(trap), np.nanmax(cma), np.nanmax(lm) if has_learned else 0.0)
         ax.set(xlabel=xlabel, ylabel="steady velocity (mm/s)", ylim=(-20, 1.1 * top),
-               title="steady velocity (mean of periods 21-30); below -20 mm/s: dragged back")
+               title="steady velocity (mean of periods 21-30); below -20 mm/s: dragged back;\n"
+                     "gaps: the load runs away with the slider (no steady velocity)")
         ax.legend(fontsize=6, ncol=3)
         ax.grid(alpha=0.3)
         fig.tight_layout()
@@ -67,7 +68,7 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
 
     if has_learned:
         fig, ax = plt.subplots(figsize=(6, 4.5))
-        diff = np.where((lm > 0) | (trap > 0), lm - trap, np.nan)  # blank where neither moves the load
+        diff = np.where((lm > 0) | (trap > 0), lm - trap, np.nan)  # blank where neither moves the load (or runs away)
         lim = max(1e-9, np.nanmax(np.abs(diff)) if np.isfinite(diff).any() else 1.0)
         ax.set_facecolor("0.85")
         im = ax.imshow(diff, cmap="RdBu", vmin=-lim, vmax=lim, origin="lower", aspect="auto")
@@ -97,7 +98,7 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
                 t_z = np.concatenate([two[0][2], two[1][2] + ACTION_MAP.period * 1e3])
                 ax.plot(t_x, np.concatenate([two[0][1], two[1][1]]), color=color, label=f"{name} x")
                 ax.plot(t_z, np.concatenate([two[0][3], two[1][3]]) * 5, color=color, ls="--", label=f"{name} z (x5)")
-            ax.set(title=f"k = {k:g}, m = {m:g} kg", xlabel="t (ms)", ylabel="um")
+            ax.set(title=f"k = {k:g}, m = {m:g} kg", xlabel="t (ms)", ylabel="µm")
             ax.grid(alpha=0.3)
         axes[0][0].legend(fontsize=6)
         fig.suptitle("periods 29 and 30 of the first policy vs the trapezoid", fontsize=9)

@@ -236,6 +236,15 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from mdr_drive_env.cli_args import folder_with, input_file, output_dir
+
+    def warm_start_type(text: str) -> str:
+        if text.startswith("cma:"):
+            input_file(text[4:])
+        elif text not in ("none", "trapezoid"):
+            raise argparse.ArgumentTypeError(f"{text!r} is not one of none, trapezoid, cma:FILE")
+        return text
+
     p.add_argument("--algo", choices=["ppo", "sac"], default="ppo", help="SB3 algorithm")
     p.add_argument("--k", type=float, nargs="+", default=None,
                    help="grading exponent k, one value or a low high range sampled per episode (-)")
@@ -247,12 +256,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--steps", type=int, default=None, help="environment steps (drive periods) to train (-)")
     p.add_argument("--seed", type=int, default=0, help="seed of the policy and the environments (-)")
     p.add_argument("--n-envs", type=int, default=None, help="drives stepped together in the batched env (-)")
-    p.add_argument("--config", default=None, help="RL-Zoo-style YAML (default: agents/configs/<algo>.yaml)")
-    p.add_argument("--out", default=None, help="output folder (default: runs/<algo>_s<seed>)")
-    p.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR (same step counter)")
+    p.add_argument("--config", default=None, type=input_file, help="RL-Zoo-style YAML (default: agents/configs/<algo>.yaml)")
+    p.add_argument("--out", default=None, type=output_dir, help="output folder (default: runs/<algo>_s<seed>)")
+    p.add_argument("--resume", default=None, metavar="DIR", type=folder_with("model.zip", "run.json"), help="continue the run in DIR (same step counter)")
     p.add_argument("--eval-freq", type=int, default=20_000, help="evaluate on held-out points every N steps (-)")
     p.add_argument("--checkpoint-freq", type=int, default=100_000, help="checkpoint every N steps (-)")
-    p.add_argument("--warm-start", default=None, metavar="none|trapezoid|cma:FILE",
+    p.add_argument("--warm-start", default=None, metavar="none|trapezoid|cma:FILE", type=warm_start_type,
                    help="initial policy: as is, mean at the trapezoid, or cloned from a CMA-ES teacher "
                         "(python -m agents.teacher); default from the config")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

@@ -9,8 +9,10 @@ import json
 import math
 import sys
 import time
+from pathlib import Path
 
 from . import __version__
+from .cli_args import Parser, int_range, output_dir, output_file, positive_int
 from .core import (
     NUMERICS_PRESETS,
     AxisWaveform,
@@ -25,45 +27,93 @@ from .core import (
     numerics_preset,
 )
 from .core import kernel as K
+from .core.simulator import check_numerics
+from .core.params import VARIANTS
+from .files import save_figure
 from .core.waveform import PAPER_X, PAPER_Z
 
-_F = argparse.ArgumentDefaultsHelpFormatter
+#: One home for what a model option is called on the command line: dataclass field -> option.
+FIELD_OPTIONS = {
+    "Material.youngs_modulus": "--youngs-modulus",
+    "Material.poisson_ratio": "--poisson-ratio",
+    "Material.grading_exponent": "--k",
+    "Material.reference_depth": "--reference-depth",
+    "Material.h_normal_override": "--h-normal",
+    "Material.h_tangential_override": "--h-tangential",
+    "Contact.indenter_radius": "--indenter-radius",
+    "Contact.friction_coefficient": "--mu",
+    "Contact.base_friction_coefficient": "--mu1",
+    "Drive.slider_mass": "--slider-mass",
+    "Drive.cargo_mass": "--cargo-mass",
+    "Drive.gravity": "--gravity",
+    "Drive.load_force": "--load-force",
+    "Numerics.time_step": "--dt",
+    "Numerics.spring_spacing": "--dx",
+}
+#: The waveform's fields, per axis.
+AXIS_OPTIONS = {"AxisWaveform.amplitude": "--{axis}-amplitude", "AxisWaveform.rise_time": "--{axis}-rise-time",
+                "AxisWaveform.fall_time": "--{axis}-fall-time", "Waveform.z_phase": "--z-phase"}
 
 
-def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} is outside the allowed range [1, inf)")
-    return value
+def with_option_name(error: ValueError, options: dict[str, str]) -> ValueError:
+    """``error`` with the command-line option of the field it names in front: ``--k: Material....``."""
+    text = str(error)
+    for field_name, option in options.items():
+        if text.startswith(field_name + "="):
+            return ValueError(f"{option}: {text}")
+    return error
 
 
-def add_model_arguments(p: argparse.ArgumentParser) -> None:
-    """Options for the physical model (DriveParams) and the numerics."""
+def add_model_arguments(p: argparse.ArgumentParser, numerics_default: str = "fast") -> None:
+    """Options for the physical model (DriveParams), its variant and the numerics."""
     m = p.add_argument_group("material (both bodies, unless --rigid-indenter)")
     m.add_argument("--k", type=float, default=0.0, help="grading exponent k of E(z) = E0 (z/c0)^k, in [0, 1) (-)")
     m.add_argument("--youngs-modulus", type=float, default=2e11, help="E0 (Pa)")
     m.add_argument("--poisson-ratio", type=float, default=0.3, help="nu, in (-1, 0.5] (-)")
     m.add_argument("--reference-depth", type=float, default=1.0, help="c0 (m)")
     m.add_argument("--rigid-indenter", action="store_true", help="rigid indenter on the graded slider")
-    m.add_argument("--h-normal", type=float, default=None, help="override h_N(k, nu) (-)")
-    m.add_argument("--h-tangential", type=float, default=None, help="override h_T(k, nu) (-)")
+    m.add_argument("--h-normal", type=float, default=None,
+                   help="replace the closed-form h_N(k, nu), > 0 (-); default: the closed form")
+    m.add_argument("--h-tangential", type=float, default=None,
+                   help="replace the closed-form h_T(k, nu), > 0 (-); default: the closed form")
+    add_variant_argument(m)
     c = p.add_argument_group("contact")
-    c.add_argument("--indenter-radius", type=float, default=2.5e-3, help="R of the paraboloid (m)")
-    c.add_argument("--mu", type=float, default=0.3, help="indenter-slider friction coefficient (-)")
-    c.add_argument("--mu1", type=float, default=0.1, help="slider-base friction coefficient (-)")
+    c.add_argument("--indenter-radius", type=float, default=2.5e-3, help="R of the paraboloid, > 0 (m)")
+    c.add_argument("--mu", type=float, default=0.3, help="indenter-slider friction coefficient, > 0 (-)")
+    c.add_argument("--mu1", type=float, default=0.1, help="slider-base friction coefficient, >= 0 (-)")
     d = p.add_argument_group("drive")
-    d.add_argument("--slider-mass", type=float, default=0.05, help="slider mass M (kg)")
-    d.add_argument("--cargo-mass", type=float, default=0.0, help="cargo mass m; load F_m = m g (kg)")
-    d.add_argument("--load-force", type=float, default=None, help="load F_m, replaces m g (N)")
+    d.add_argument("--slider-mass", type=float, default=0.05, help="slider mass M, > 0 (kg)")
+    d.add_argument("--cargo-mass", type=float, default=None,
+                   help="cargo mass m, >= 0; load F_m = m g (kg); default: 0 (no load)")
+    d.add_argument("--load-force", type=float, default=None,
+                   help="load F_m, >= 0, instead of --cargo-mass (N); default: m g")
     d.add_argument("--gravity", type=float, default=9.81, help="g (m/s^2)")
     d.add_argument("--cargo-inertia", action="store_true", help="the cargo moves with the slider (mass M + m)")
     n = p.add_argument_group("numerics")
-    n.add_argument("--numerics", default="default", choices=sorted(NUMERICS_PRESETS),
-                   help="preset: paper = dt 1e-7 s, dx 1e-8 m; default = dt 1e-6 s, dx 1e-7 m; "
-                        "fast = the node solver (docs/performance.md)")
-    n.add_argument("--dt", type=float, default=None, help="override the preset's time step (s)")
-    n.add_argument("--dx", type=float, default=None, help="override the preset's spring spacing (m)")
+    add_numerics_argument(n, numerics_default)
+    n.add_argument("--dt", type=float, default=None,
+                   help="replace the preset's time step (s); for --numerics fast: its longest step; "
+                        "default: the preset's")
+    n.add_argument("--dx", type=float, default=None,
+                   help="replace the spring spacing of the grid presets paper and default (m); "
+                        "default: the preset's")
+
+
+def add_numerics_argument(p, default: str) -> None:
+    """``--numerics``: one preset name means one solver everywhere (core.params.NUMERICS_PRESETS)."""
+    p.add_argument("--numerics", default=default, choices=sorted(NUMERICS_PRESETS),
+                   help="solver preset: fast = the node solver (48 nodes, steps <= 5e-6 s, 0.3 um in x, "
+                        "0.1 um in z; most accurate and fastest, docs/performance.md); default = the paper's grid "
+                        "scheme at dt 1e-6 s, dx 1e-7 m; paper = the grid scheme at the paper's dt 1e-7 s, "
+                        f"dx 1e-8 m (default: {default})")
+
+
+def add_variant_argument(p) -> None:
+    """``--variant``: the model as specified, or the paper's code as hypothesised (h_N x 2)."""
+    p.add_argument("--variant", default="as-specified", choices=VARIANTS,
+                   help="model variant: as-specified = the model of docs/model.md; as-published = h_N doubled, "
+                        "h_T as is (the hypothesis about the paper's own code, docs/paper_reproduction.md) "
+                        "(default: as-specified)")
 
 
 def add_waveform_arguments(p: argparse.ArgumentParser) -> None:
@@ -79,27 +129,65 @@ def add_waveform_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def params_from_args(a: argparse.Namespace) -> DriveParams:
-    graded = Material(youngs_modulus=a.youngs_modulus, poisson_ratio=a.poisson_ratio, grading_exponent=a.k,
-                      reference_depth=a.reference_depth, h_normal_override=a.h_normal,
-                      h_tangential_override=a.h_tangential)
-    return DriveParams(
-        indenter=Material.rigid() if a.rigid_indenter else graded,
-        slider=graded,
-        contact=Contact(indenter_radius=a.indenter_radius, friction_coefficient=a.mu, base_friction_coefficient=a.mu1),
-        drive=Drive(slider_mass=a.slider_mass, cargo_mass=a.cargo_mass, gravity=a.gravity, load_force=a.load_force,
-                    cargo_inertia=a.cargo_inertia),
-    )
+    """The model the options describe; a bad value raises ``ValueError`` naming the option."""
+    if a.load_force is not None and a.cargo_mass is not None:
+        raise ValueError("--load-force and --cargo-mass both set the load: give one of them")
+    try:
+        graded = Material(youngs_modulus=a.youngs_modulus, poisson_ratio=a.poisson_ratio, grading_exponent=a.k,
+                          reference_depth=a.reference_depth, h_normal_override=a.h_normal,
+                          h_tangential_override=a.h_tangential)
+        return DriveParams(
+            indenter=Material.rigid() if a.rigid_indenter else graded,
+            slider=graded,
+            contact=Contact(indenter_radius=a.indenter_radius, friction_coefficient=a.mu,
+                            base_friction_coefficient=a.mu1),
+            drive=Drive(slider_mass=a.slider_mass, cargo_mass=a.cargo_mass or 0.0, gravity=a.gravity,
+                        load_force=a.load_force, cargo_inertia=a.cargo_inertia),
+            variant=a.variant,
+        )
+    except ValueError as e:
+        raise with_option_name(e, FIELD_OPTIONS) from None
 
 
 def numerics_from_args(a: argparse.Namespace) -> Numerics:
+    """The preset ``--numerics`` names, with ``--dt``/``--dx`` where they apply (else ``ValueError``)."""
     base = numerics_preset(a.numerics)
-    return Numerics(time_step=a.dt if a.dt is not None else base.time_step,
-                    spring_spacing=a.dx if a.dx is not None else base.spring_spacing)
+    changes = {}
+    if a.dt is not None:
+        changes["time_step"] = a.dt
+    if a.dx is not None:
+        if base.method != "grid":
+            raise ValueError(f"--dx: --numerics {a.numerics} is the node solver, which has no spring spacing "
+                             "(use --numerics default or paper for a grid of springs)")
+        changes["spring_spacing"] = a.dx
+    try:
+        return dataclasses.replace(base, **changes)
+    except ValueError as e:
+        raise with_option_name(e, FIELD_OPTIONS) from None
 
 
 def waveform_from_args(a: argparse.Namespace) -> Waveform:
-    return Waveform(x=AxisWaveform(a.x_amplitude, a.x_rise_time, a.x_fall_time),
-                    z=AxisWaveform(a.z_amplitude, a.z_rise_time, a.z_fall_time), z_phase=a.z_phase)
+    """The waveform the options describe; a bad value raises ``ValueError`` naming the option."""
+    axes = {}
+    for axis in ("x", "z"):
+        try:
+            axes[axis] = AxisWaveform(getattr(a, f"{axis}_amplitude"), getattr(a, f"{axis}_rise_time"),
+                                      getattr(a, f"{axis}_fall_time"))
+        except ValueError as e:
+            raise with_option_name(e, {f: o.format(axis=axis) for f, o in AXIS_OPTIONS.items()}) from None
+    try:
+        return Waveform(x=axes["x"], z=axes["z"], z_phase=a.z_phase)
+    except ValueError as e:
+        raise with_option_name(e, AXIS_OPTIONS) from None
+
+
+def describe_numerics(numerics: Numerics, name: str | None = None) -> str:
+    """One line saying which solver and steps a run used, e.g. for table headers."""
+    label = f"{name} numerics: " if name else ""
+    if numerics.method == "nodes":
+        return (f"{label}node solver, {numerics.nodes} nodes, time step <= {numerics.time_step:g} s "
+                f"(<= {numerics.max_x_step:g} m of x, {numerics.max_z_step:g} m of z per step)")
+    return f"{label}grid solver, time step dt = {numerics.time_step:g} s, spring spacing dx = {numerics.spring_spacing:g} m"
 
 
 def _jsonable(obj):
@@ -123,7 +211,7 @@ def plot_run(results, path: str, title: str, mu: float = 0.3) -> None:
     a1.plot(t, tr[:, K.T_X] * 1e6, label="indenter x", lw=0.8)
     a1.plot(t, tr[:, K.T_Z] * 1e6 * 5, label="indenter z (x5)", lw=0.8)
     a1.plot(t, tr[:, K.T_SLIDER_X] * 1e6, label="slider X", lw=1.5)
-    a1.set(ylabel="position (um)", title=title)
+    a1.set(ylabel="position (µm)", title=title)
     a2.plot(t, tr[:, K.T_FX], label="F_x", lw=0.8)
     a2.plot(t, tr[:, K.T_FZ] * mu, label="mu F_z (Coulomb bound)", lw=0.8)
     a2.set(xlabel="t (ms)", ylabel="force (N)")
@@ -131,20 +219,57 @@ def plot_run(results, path: str, title: str, mu: float = 0.3) -> None:
         a.legend(fontsize=8)
         a.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path)
     plt.close(fig)
+
+
+#: Most periods one ``simulate`` run may ask for (a long run streams with a progress bar).
+MAX_PERIODS = 1_000_000
+#: Most periods of a ``simulate --plot`` run (the plot keeps a trace row every 10 us).
+MAX_PLOT_PERIODS = 10_000
+#: Units of the per-period fields of ``simulate --json`` (core.PeriodResult).
+PERIOD_UNITS = {"displacement": "m", "mean_velocity": "m/s", "peak_tangential_force": "N",
+                "peak_normal_force": "N", "indenter_dissipation": "J", "base_dissipation": "J", "load_work": "J",
+                "indenter_work_x": "J", "indenter_work_z": "J", "end_velocity": "m/s", "end_position": "m"}
+
+
+def run_periods(sim: DriveSimulator, waveform: Waveform, periods: int, record_every: int = 0):
+    """Run up to ``periods`` periods with a progress bar on stderr (shown for long runs).
+
+    Returns ``(results, interrupted)``: Ctrl-C stops the run and keeps the periods computed so far.
+    """
+    from tqdm import tqdm
+
+    results = []
+    try:
+        for _ in tqdm(range(periods), desc="periods", unit="period", file=sys.stderr, disable=periods < 500,
+                      leave=False):
+            results.append(sim.step(waveform, record_every))
+    except KeyboardInterrupt:
+        return results, True
+    return results, False
 
 
 def cmd_simulate(a: argparse.Namespace) -> int:
     params, numerics, waveform = params_from_args(a), numerics_from_args(a), waveform_from_args(a)
+    if a.plot and a.periods > MAX_PLOT_PERIODS:
+        raise ValueError(f"--periods={a.periods} with --plot is outside the allowed range [1, {MAX_PLOT_PERIODS}] "
+                         "(plot a shorter run, or drop --plot)")
     sim = DriveSimulator(params, numerics, max_depth=max(waveform.max_depth, 1e-9))
     record = a.record_every or (max(1, int(round(1e-5 / numerics.time_step))) if a.plot else 0)
+    check_numerics(numerics, waveform)  # a bad time step fails here, before the run
     t0 = time.perf_counter()
-    results = sim.run(waveform, a.periods, record_every=record)
+    results, interrupted = run_periods(sim, waveform, a.periods, record)
     wall = time.perf_counter() - t0
+    if interrupted:
+        print(f"mdr-drive simulate: interrupted after {len(results)} of {a.periods} periods; "
+              "printing those", file=sys.stderr)
+    if not results:
+        return 130
+    numerics_line = describe_numerics(numerics, a.numerics)
     if a.plot:
-        plot_run(results, a.plot, f"k = {params.k:g}, m = {params.drive.cargo_mass:g} kg ({a.numerics} numerics)",
-                 mu=params.contact.friction_coefficient)
+        plot_run(results, a.plot, f"k = {params.k:g}, load {params.drive.load:.4g} N, {params.variant}\n"
+                                  f"{numerics_line}", mu=params.contact.friction_coefficient)
     v = [r.mean_velocity for r in results]
     if a.json:
         fields = [f.name for f in dataclasses.fields(results[0]) if f.name != "trace"]
@@ -152,6 +277,11 @@ def cmd_simulate(a: argparse.Namespace) -> int:
             "period_mean_velocity": v,
             "period_displacement": [r.displacement for r in results],
             "periods": [{f: getattr(r, f) for f in fields} for r in results],
+            "units": {"period_mean_velocity": "m/s", "period_displacement": "m", "load_force": "N",
+                      "wall_time_s": "s", "periods": PERIOD_UNITS, "params": "SI (m, s, kg, Pa, N)"},
+            "periods_run": len(results),
+            "interrupted": interrupted,
+            "numerics_preset": a.numerics,
             "params": _jsonable(params),
             "numerics": _jsonable(numerics),
             "waveform": _jsonable(waveform),
@@ -159,21 +289,23 @@ def cmd_simulate(a: argparse.Namespace) -> int:
             "wall_time_s": wall,
         }))
     else:
-        print(f"k = {params.k:g}, load F_m = {params.drive.load:.4g} N, {a.periods} periods "
-              f"({numerics.time_step:g} s, {numerics.spring_spacing:g} m) in {wall:.2f} s")
-        print(" period   displacement (um)   mean velocity (mm/s)   peak F_x (N)   peak F_z (N)")
+        print(f"k = {params.k:g}, load F_m = {params.drive.load:.4g} N, variant {params.variant}, "
+              f"{len(results)} periods in {wall:.2f} s")
+        print(numerics_line)
+        print(" period   displacement (µm)   mean velocity (mm/s)   peak F_x (N)   peak F_z (N)")
         for i, r in enumerate(results, 1):
             print(f"{i:7d} {r.displacement * 1e6:19.4f} {r.mean_velocity * 1e3:22.4f} "
-                  f"{r.peak_tangential_force:14.3f} {r.peak_normal_force:14.3f}")
+                  f"{r.peak_tangential_force:14.4g} {r.peak_normal_force:14.4g}")
         if a.plot:
             print(f"plot: {a.plot}")
-    return 0
+    return 130 if interrupted else 0
 
 
 def cmd_reproduce(a: argparse.Namespace) -> int:
     from .reproduce import reproduce
 
-    summary = reproduce(a.out, numerics=a.numerics, periods=a.periods, workers=a.workers, quick=a.quick)
+    summary = reproduce(a.out, numerics=a.numerics, periods=a.periods, workers=a.workers, quick=a.quick,
+                        variant=a.variant)
     print(json.dumps(summary, indent=2))
     print(f"figures and CSVs in {a.out}/")
     return 0
@@ -183,7 +315,7 @@ def cmd_bench(a: argparse.Namespace) -> int:
     from .bench import run
 
     res = run(a.out, quick=a.quick)
-    print((__import__("pathlib").Path(a.out) / "bench_speed.md").read_text())
+    print((Path(a.out) / "bench_speed.md").read_text())
     return 0 if res["accuracy_fast"]["max_error_over_tolerance"] <= 1.0 else 1
 
 
@@ -218,39 +350,48 @@ def _agents_main(module: str, a: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="mdr-drive", description=__doc__, formatter_class=_F)
+    parser = Parser(prog="mdr-drive", description=__doc__)
     parser.add_argument("--version", action="version", version=f"mdr-drive {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
 
-    s = sub.add_parser("simulate", formatter_class=_F, help="simulate the drive for N periods",
-                       description="Simulate the drive with a fixed waveform; print per-period results.")
+    s = sub.add_parser("simulate", help="simulate the drive for N periods",
+                       description="Simulate the drive with a fixed waveform; print per-period results "
+                                   "(SI units in --json; µm, mm/s and N in the table).")
     add_model_arguments(s)
     add_waveform_arguments(s)
     o = s.add_argument_group("output")
-    o.add_argument("--periods", type=positive_int, default=6, help="drive periods to simulate (-)")
-    o.add_argument("--record-every", type=int, default=0, help="trace row every N time steps (0: auto with --plot) (-)")
-    o.add_argument("--plot", metavar="OUT.png", default=None, help="write X(t), x(t), z(t), F_x, F_z as a PNG")
-    o.add_argument("--json", action="store_true", help="print one JSON object (per-period results, params)")
+    o.add_argument("--periods", type=int_range(1, MAX_PERIODS), default=6,
+                   help=f"drive periods to simulate, in [1, {MAX_PERIODS}]; long runs show a progress bar, "
+                        "Ctrl-C prints the periods done (-)")
+    o.add_argument("--record-every", type=int_range(0), default=0,
+                   help="trace row every N time steps, 0: one every 10 us with --plot (-)")
+    o.add_argument("--plot", metavar="OUT.png", default=None, type=output_file(".png", ".pdf", ".svg"),
+                   help="write X(t), x(t), z(t), F_x, F_z as a PNG (or .pdf, .svg); its folder is created")
+    o.add_argument("--json", action="store_true", help="print one JSON object (per-period results in SI units)")
     s.set_defaults(func=cmd_simulate)
 
-    r = sub.add_parser("reproduce", formatter_class=_F, help="reproduce the paper's Figs. 3-5",
-                       description="Write Figs. 3, 4, 5 and the h_N/h_T sensitivity plot as PNG + CSV.")
-    r.add_argument("--out", default="results/paper", help="output folder")
-    r.add_argument("--numerics", default="paper", choices=sorted(NUMERICS_PRESETS), help="numerics preset")
+    r = sub.add_parser("reproduce", help="reproduce the paper's Figs. 3-5",
+                       description="Write Figs. 3, 4, 5 and the h_N/h_T sensitivity plot as PNG + CSV. The "
+                                   "paper's numerics by default, since this reproduces the paper's figures.")
+    r.add_argument("--out", default="results/paper", type=output_dir, help="output folder (created if missing)")
+    add_numerics_argument(r, "paper")
+    add_variant_argument(r)
     r.add_argument("--periods", type=positive_int, default=10, help="periods shown in Figs. 3 and 4 (-)")
-    r.add_argument("--workers", type=int, default=None, help="processes (default: available cores)")
+    r.add_argument("--workers", type=positive_int, default=None,
+                   help="processes (-); default: the cores available")
     r.add_argument("--quick", action="store_true", help="a small subset of the cases (for CI)")
     r.set_defaults(func=cmd_reproduce)
 
-    b = sub.add_parser("bench", formatter_class=_F, help="speed and accuracy of the solvers",
+    b = sub.add_parser("bench", help="speed and accuracy of the solvers",
                        description="Periods/s of the kernels, env and vector env; accuracy of the fast solver "
                                    "against the paper preset on the k x load x waveform grid.")
-    b.add_argument("--out", default="results/bench", help="output folder (bench_speed.json, bench_speed.md)")
+    b.add_argument("--out", default="results/bench", type=output_dir,
+                   help="output folder (bench_speed.json, bench_speed.md)")
     b.add_argument("--quick", action="store_true", help="shorter timing blocks")
     b.set_defaults(func=cmd_bench)
 
     for name, help_text, description in AGENT_COMMANDS:  # implemented in agents/ (the train extra)
-        a = sub.add_parser(name, formatter_class=_F, help=help_text, description=description)
+        a = sub.add_parser(name, help=help_text, description=description)
         _agents_arguments(a, name)
         a.set_defaults(func=functools.partial(_agents_main, name))
     return parser
@@ -261,11 +402,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except ValueError as e:
-        print(f"mdr-drive: error: {e}", file=sys.stderr)
+    except (ValueError, OSError) as e:  # bad values, and paths that went bad after the command line was read
+        print(f"mdr-drive {args.command}: error: {e}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"mdr-drive {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":
     sys.exit(main())
-

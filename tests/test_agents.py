@@ -97,7 +97,7 @@ def test_policy_rollout_uses_each_points_own_load():
         def __call__(self, obs):
             return np.tile(np.array([1.0, 1.0, 1.0, 0.7777778, -1.0], dtype=np.float32), (len(obs), 1))
 
-    disp, acts = policy_rollout(Constant(), [(0.0, 0.0), (0.0, 0.6)], periods=6)
+    disp, acts, _ = policy_rollout(Constant(), [(0.0, 0.0), (0.0, 0.6)], periods=6)
     assert disp.shape == (6, 2) and acts.shape == (6, 2, 5)
     assert disp[-1, 0] > disp[-1, 1]  # the heavier load moves less
 

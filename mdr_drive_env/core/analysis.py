@@ -12,12 +12,17 @@ A run of a fixed waveform ends in one of three states (:data:`MOTION_STATES`):
 ``"runaway"``
     the load accelerates the slider backwards without bound (possible because the model's moving
     mass is the 50 g slider and its base friction ``mu1 F_z`` vanishes with the contact). The mean
-    velocity grows with the run length, so it is never reported as a velocity. Detected by
-    either of two sufficient conditions: the load exceeds ``(mu + mu1) max F_z``, the most the
-    contact and the base can ever push forward; or the slider moved backwards faster than the
-    indenter's fastest backward stroke in the last two periods and is still speeding up (then
-    the contact slips forward all period, the forces no longer depend on the slider, and the load
-    wins every period by the same amount).
+    velocity grows with the run length, so it is never reported as a velocity. Detected by any
+    of three conditions (:func:`is_runaway`); the first two are sufficient by themselves:
+
+    1. the load exceeds ``(mu + mu1) max F_z``, the most the contact and the base can ever push
+       forward;
+    2. the slider moved backwards faster than the indenter's fastest backward stroke in the last
+       two periods and is still speeding up: the contact then slips forward all period, the
+       forces no longer depend on the slider, and the load wins every period by the same amount;
+    3. on the way there: the mean velocity over windows of ``window`` periods is negative and has
+       fallen in each of the last three windows by more than the settling tolerance, without the
+       falls shrinking (a transient's falls shrink geometrically; a runaway's stay constant).
 """
 
 from __future__ import annotations
@@ -36,6 +41,33 @@ PAPER_SKIP_PERIODS = 5
 MOTION_STATES = ("settled", "settling", "runaway")
 
 
+def is_runaway(period_velocities, indenter_min_velocity, load_margin, window: int = 2, rtol: float = 1e-3,
+               atol: float = 1e-6):
+    """Whether the load runs away with the slider (the three conditions of the module docstring).
+
+    Args:
+        period_velocities: mean slider velocity (m/s) of each period, oldest first: shape
+            (periods,) for one run, or (periods, n) for n runs (then the result has shape (n,)).
+        indenter_min_velocity: the indenter's most negative x velocity (m/s) over a period.
+        load_margin: ``(mu + mu1) max F_z - F_m`` (N) of the last period (scalar or (n,)).
+        window, rtol, atol: the windows (periods) and the settling tolerance (-, m/s) of condition 3.
+    """
+    v = np.asarray(period_velocities, dtype=float)
+    result = np.asarray(load_margin) < 0.0
+    if v.shape[0] >= 2:
+        past_the_stroke = (v[-1] < indenter_min_velocity) & (v[-2] < indenter_min_velocity)
+        result = result | (past_the_stroke & (v[-1] < v[-2]))
+    if v.shape[0] >= 4 * window:
+        end = v.shape[0]
+        means = np.stack([v[end - (i + 1) * window:end - i * window].mean(axis=0)
+                          for i in range(3, -1, -1)])  # the last four windows, oldest first
+        falls = -np.diff(means, axis=0)
+        tolerance = rtol * np.abs(means[-1]) + atol
+        steady_fall = np.all(falls > tolerance, axis=0) & (falls[-1] >= 0.9 * falls[0])
+        result = result | ((means[-1] < 0.0) & steady_fall)
+    return result
+
+
 def motion_state(period_velocities, indenter_min_velocity: float, load_margin: float = np.inf, window: int = 2,
                  rtol: float = 1e-3, atol: float = 1e-6) -> str:
     """The state a run ended in: ``"settled"``, ``"settling"`` or ``"runaway"`` (module docstring).
@@ -51,9 +83,7 @@ def motion_state(period_velocities, indenter_min_velocity: float, load_margin: f
     v = np.asarray(period_velocities, dtype=float)
     if v.ndim != 1 or v.size == 0:
         raise ValueError("period_velocities must be a non-empty 1D sequence")
-    if load_margin < 0.0:
-        return "runaway"
-    if v.size >= 2 and v[-1] < indenter_min_velocity and v[-2] < indenter_min_velocity and v[-1] < v[-2]:
+    if bool(is_runaway(v, indenter_min_velocity, load_margin, window, rtol, atol)):
         return "runaway"
     if v.size >= 2 * window:
         last, before = v[-window:], v[-2 * window:-window]

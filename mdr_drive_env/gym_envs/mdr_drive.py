@@ -12,6 +12,7 @@ from gymnasium import spaces
 
 from ..core import Contact, Drive, DriveParams, DriveSimulator, Material, numerics_preset
 from ..core.materials import normal_force_analytic
+from ..core.params import VARIANTS
 from ..core.waveform import PAPER_X, PAPER_Z, Waveform
 from .spaces import ActionMap, ObservationLayout, sample_range
 
@@ -100,7 +101,8 @@ class MDRDriveEnv(gym.Env):
     (low, high), replaces ``cargo_mass`` when given: ``m g = ratio mu F_ref``), ``youngs_modulus`` (Pa),
     ``poisson_ratio``, ``reference_depth`` (m), ``rigid_indenter`` (bool), ``indenter_radius`` (m),
     ``friction_coefficient``, ``base_friction_coefficient``, ``slider_mass`` (kg), ``gravity``
-    (m/s^2), ``cargo_inertia`` (bool), ``numerics`` (preset name: ``"fast"``, the default node
+    (m/s^2), ``cargo_inertia`` (bool), ``variant`` (``"as-specified"``, the default, or
+    ``"as-published"``: h_N doubled, the hypothesis about the paper's code), ``numerics`` (preset name: ``"fast"``, the default node
     solver, see docs/performance.md; ``"default"`` or ``"paper"`` for the reference solver), ``period`` (s), ``max_periods``,
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
     ``max_rise_fraction``, ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``render_mode``
@@ -128,6 +130,7 @@ class MDRDriveEnv(gym.Env):
         slider_mass: float = 0.05,
         gravity: float = 9.81,
         cargo_inertia: bool = False,
+        variant: str = "as-specified",
         numerics: str = "fast",
         period: float = 2e-3,
         max_periods: int = 50,
@@ -149,6 +152,9 @@ class MDRDriveEnv(gym.Env):
         self._contact = Contact(indenter_radius=indenter_radius, friction_coefficient=friction_coefficient,
                                 base_friction_coefficient=base_friction_coefficient)
         self._drive = Drive(slider_mass=slider_mass, gravity=gravity, cargo_inertia=bool(cargo_inertia))
+        if variant not in VARIANTS:
+            raise ValueError(f"variant={variant!r} is not one of {list(VARIANTS)}")
+        self.variant = variant
         self.numerics = numerics_preset(numerics)
         if not (isinstance(max_periods, (int, np.integer)) and max_periods >= 1):
             raise ValueError(f"max_periods={max_periods!r} is outside the allowed range [1, inf)")
@@ -181,7 +187,8 @@ class MDRDriveEnv(gym.Env):
         """The physical model for one episode."""
         graded = dataclasses.replace(self._material, grading_exponent=k)
         return DriveParams(indenter=Material.rigid() if self.rigid_indenter else graded, slider=graded,
-                           contact=self._contact, drive=dataclasses.replace(self._drive, cargo_mass=cargo_mass))
+                           contact=self._contact, drive=dataclasses.replace(self._drive, cargo_mass=cargo_mass),
+                           variant=self.variant)
 
     def sample_episode(self, rng: np.random.Generator, options: dict[str, Any] | None = None):
         """(k, cargo mass, DriveParams) of a new episode: from ``options`` or drawn from the ranges."""
