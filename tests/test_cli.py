@@ -216,10 +216,27 @@ def test_agents_modules_run_as_scripts(command):
     assert out.startswith(f"usage: mdr-drive {command}")
 
 
-def test_quick_reproduction_writes_figures_and_csvs(tmp_path):
+def test_quick_reproduction_writes_figures_and_csvs_with_states(tmp_path):
+    import csv
+
     from mdr_drive_env.reproduce import reproduce
 
-    reproduce(tmp_path, numerics="default", periods=2, workers=1, quick=True)
+    summary = reproduce(tmp_path, numerics="fast", periods=2, workers=1, quick=True, variant="as-published")
+    assert summary["variant"] == "as-published" and summary["numerics"] == "fast"
     for name in ("fig3", "fig4", "fig5", "sensitivity"):
         assert (tmp_path / f"{name}.png").stat().st_size > 10_000
         assert (tmp_path / f"{name}.csv").read_text().count("\n") > 2
+    rows = list(csv.DictReader(open(tmp_path / "fig5.csv")))
+    states = {r["settled_state"] for r in rows} | {r["paper_rule_state"] for r in rows}
+    assert states <= {"settled", "settling", "runaway"} and "runaway" in states
+    for r in rows:  # a runaway has no velocity in the CSV; everything else has one
+        for rule in ("paper_rule", "settled"):
+            assert (r[f"{rule}_velocity_m_s"] == "") == (r[f"{rule}_state"] == "runaway"), r
+    heavy = [r for r in rows if float(r["k"]) == 0.6 and float(r["cargo_mass_kg"]) >= 0.5]
+    assert heavy and all(r["settled_state"] == "runaway" for r in heavy)  # 4.9 N against 0.15 N of push
+
+
+def test_reproduce_cli_names_its_variant(tmp_path, capsys):
+    assert main(["reproduce", "--numerics", "fast", "--quick", "--periods", "2", "--workers", "1",
+                 "--variant", "as-published", "--out", str(tmp_path)]) == 0
+    assert json.loads((tmp_path / "summary.json").read_text())["variant"] == "as-published"

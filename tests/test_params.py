@@ -88,3 +88,65 @@ def test_waveform_beyond_grid_raises():
     sim = DriveSimulator(DriveParams.paper(), Numerics(1e-6, 1e-7), max_depth=3e-6)
     with pytest.raises(ValueError, match="max_depth"):
         sim.step(Waveform.paper())
+
+
+# --- the "as-published" variant (physics.md section 5) ---
+
+def test_as_published_doubles_h_normal_only():
+    spec, pub = DriveParams.paper(k=0.3), DriveParams.paper(k=0.3, variant="as-published")
+    assert pub.normal_stiffness_prefactor == pytest.approx(2 * spec.normal_stiffness_prefactor, rel=1e-15)
+    assert pub.tangential_stiffness_prefactor == spec.tangential_stiffness_prefactor
+    assert pub.slip_ratio == pytest.approx(2 * spec.slip_ratio, rel=1e-15)
+    # identical bodies: C_N = 2 h_N E0 / (2 (1 - nu^2)), i.e. h_N E0 / (1 - nu^2)
+    from mdr_drive_env.core import h_normal
+
+    assert pub.normal_stiffness_prefactor == pytest.approx(h_normal(0.3, 0.3) * 2e11 / (1 - 0.09), rel=1e-12)
+
+
+def test_as_published_composes_with_overrides_and_a_rigid_indenter():
+    import dataclasses
+
+    mat = Material(grading_exponent=0.2, h_normal_override=1.7, h_tangential_override=0.6)
+    p = DriveParams(indenter=mat, slider=mat, variant="as-published")
+    assert p.normal_stiffness_prefactor == pytest.approx(2 * 1.7 * 2e11 / (2 * (1 - 0.09)), rel=1e-12)
+    assert p.tangential_stiffness_prefactor == pytest.approx(0.6 * 2e11 / 2, rel=1e-12)
+    rigid = DriveParams(indenter=Material.rigid(), slider=mat)
+    assert dataclasses.replace(rigid, variant="as-published").normal_stiffness_prefactor == pytest.approx(
+        2 * rigid.normal_stiffness_prefactor, rel=1e-15)
+    assert p.with_k(0.4).variant == p.with_cargo_mass(0.2).variant == "as-published"
+
+
+def test_unknown_variant_is_rejected():
+    with pytest.raises(ValueError, match="DriveParams.variant='as-built'"):
+        DriveParams(variant="as-built")
+
+
+def test_the_variant_decides_the_papers_open_point():
+    """k = 0.3, m = 0.1 kg: the text says the drive still moves the cargo forward (physics.md 5)."""
+    from mdr_drive_env.core import steady_velocity
+
+    spec = steady_velocity(DriveParams.paper(k=0.3, cargo_mass=0.1))
+    pub = steady_velocity(DriveParams.paper(k=0.3, cargo_mass=0.1, variant="as-published"))
+    assert spec.settled and spec.velocity == pytest.approx(-7.66e-3, rel=2e-3)
+    assert pub.settled and pub.velocity == pytest.approx(11.86e-3, rel=2e-3)
+
+
+def test_env_and_cli_take_the_variant(capsys):
+    import json
+
+    import gymnasium as gym
+
+    import mdr_drive_env  # noqa: F401
+    from mdr_drive_env.cli import main
+    from mdr_drive_env.core import DriveSimulator, Waveform
+
+    api = [r.mean_velocity for r in DriveSimulator(DriveParams.paper(0.3, 0.1, "as-published")).run(Waveform.paper(), 3)]
+    env = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.1, variant="as-published")
+    env.reset(seed=1)
+    assert [env.step(env.unwrapped.trapezoid_action())[4]["mean_velocity"] for _ in range(3)] == api
+    assert main(["simulate", "--k", "0.3", "--cargo-mass", "0.1", "--variant", "as-published", "--periods", "3",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["period_mean_velocity"] == api and out["params"]["variant"] == "as-published"
+    with pytest.raises(ValueError, match="variant="):
+        gym.make("MDRDrive-v0", variant="nope")

@@ -3,9 +3,9 @@
 A run of a fixed waveform ends in one of three states (:data:`MOTION_STATES`):
 
 ``"settled"``
-    periodic motion: every period velocity of the last ``window`` periods equals the one
-    ``window`` periods before to ``rtol |v| + atol`` (so a state that alternates between two
-    period velocities is settled with ``window = 2``, but a decaying alternation is not). Its velocity is a steady velocity (it may be negative: the load drags
+    periodic motion: for some p <= ``window``, every period velocity of the last p periods
+    equals the one p periods before to ``rtol |v| + atol`` (so a state that alternates between
+    two period velocities is settled with ``window = 2``, but a decaying alternation is not). Its velocity is a steady velocity (it may be negative: the load drags
     the slider back at a steady rate).
 ``"settling"``
     still in its transient when the run ended: the number is not a steady velocity.
@@ -85,10 +85,11 @@ def motion_state(period_velocities, indenter_min_velocity: float, load_margin: f
         raise ValueError("period_velocities must be a non-empty 1D sequence")
     if bool(is_runaway(v, indenter_min_velocity, load_margin, window, rtol, atol)):
         return "runaway"
-    if v.size >= 2 * window:
-        last, before = v[-window:], v[-2 * window:-window]
-        if np.max(np.abs(last - before)) <= rtol * abs(last.mean()) + atol:
-            return "settled"
+    for p in range(1, window + 1):  # periodic with a period of p drive periods, for some p <= window
+        if v.size >= 2 * p:
+            last, before = v[-p:], v[-2 * p:-p]
+            if np.max(np.abs(last - before)) <= rtol * abs(last.mean()) + atol:
+                return "settled"
     return "settling"
 
 
@@ -129,9 +130,9 @@ def steady_velocity(
     """Mean slider velocity (m/s) of a fixed waveform, and the state the run ended in.
 
     Rules:
-        ``"settled"`` (default): run until the motion is periodic with period ``window`` (each of
-            the last ``window`` period velocities within ``rtol * |v| + atol`` (m/s) of the one
-            ``window`` periods earlier; a window of 2 admits alternating stick-slip states), or
+        ``"settled"`` (default): run until the motion is periodic with a period of p <= ``window``
+            drive periods (each of the last p period velocities within ``rtol * |v| + atol``
+            (m/s) of the one p periods earlier; a window of 2 admits alternating states), or
             until a runaway is detected, or ``max_periods`` (then ``state="settling"``). Returns
             the last window's mean.
         ``"paper"``: skip 5 periods, average over the 6th (the paper's Fig. 5). The state is what
