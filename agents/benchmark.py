@@ -175,7 +175,8 @@ def summarize(res: dict, ks) -> dict:
 
 def markdown(res: dict, ks, masses) -> str:
     n = len(masses)
-    lines = ["Steady velocity (mm/s): trapezoid / CMA-ES / learned (mean +- std over "
+    lines = ["Fast numerics (the node solver), model as specified.", "",
+             "Steady velocity (mm/s): trapezoid / CMA-ES / learned (mean +- std over "
              f"{len(res['policies'])} seeds); 'runaway': the load accelerates the slider backwards without "
              "bound, so there is no steady velocity", "", "| k \\ m (kg) | " + " | ".join(f"{m:g}" for m in masses) + " |",
              "|---|" + "---|" * n]

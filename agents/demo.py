@@ -79,7 +79,7 @@ def main(args: argparse.Namespace) -> int:
         learned = steady_velocity_of(disp, runaway=runaway)
         bar.update()
     n_table = len(table_points)
-    print(f"\nsteady velocity (mm/s, mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}): "
+    print(f"\nsteady velocity (mm/s, fast numerics, mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}): "
           f"{name} / paper trapezoid ('runaway': the load accelerates the slider backwards without bound)")
     print("   k  " + "".join(f"{f'm = {m:g} kg':>20}" for m in DEMO_MASSES))
     n = len(DEMO_MASSES)

@@ -2,7 +2,7 @@
 
 One protocol for every method: a fresh drive runs ``EVAL_PERIODS`` periods, and the steady
 velocity is the mean slider velocity over the last ``AVERAGE_PERIODS`` (after the transient; a
-mean over several periods also averages period-doubled states). A drive whose load runs away
+mean over several periods also averages states that alternate between two period velocities). A drive whose load runs away
 with the slider (``mdr_drive_env.core.analysis.is_runaway``) has no steady velocity: with
 ``mark_runaway=True`` its velocity is NaN, printed as "runaway" in tables.
 

@@ -14,7 +14,7 @@ def register_envs() -> None:
     from gymnasium.envs.registration import register, registry
 
     if "MDRDrive-v0" not in registry:
-        register(id="MDRDrive-v0", entry_point="mdr_drive_env.gym_envs:MDRDriveEnv",
+        register(id="MDRDrive-v0", entry_point="mdr_drive_env.gym_envs.mdr_drive:make_env",
                  vector_entry_point="mdr_drive_env.gym_envs:MDRDriveVectorEnv")
 
 

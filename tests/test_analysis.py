@@ -16,8 +16,8 @@ def test_paper_rule_is_the_sixth_period_mean():
     assert sv.periods_run == 6 and len(sv.period_velocities) == 6
 
 
-def test_settled_rule_averages_period_doubling():
-    p = DriveParams.paper(k=0.2, cargo_mass=0.1)  # alternates between two period velocities
+def test_settled_rule_waits_out_a_decaying_alternation():
+    p = DriveParams.paper(k=0.2, cargo_mass=0.1)  # alternates between two period velocities, decaying
     sv = steady_velocity(p, numerics=COARSE, rule="settled", window=2, rtol=1e-3)
     assert sv.settled
     v = sv.period_velocities

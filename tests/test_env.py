@@ -213,9 +213,98 @@ def test_docs_environment_md_is_the_env_docstring():
 
     from mdr_drive_env.gym_envs import MDRDriveEnv
 
+    import sys
+
     doc = inspect.cleandoc(MDRDriveEnv.__doc__)
     text = (Path(__file__).parents[1] / "docs" / "environment.md").read_text()
     assert doc in text, "docs/environment.md is stale: run python scripts/gen_env_doc.py"
+    sys.path.insert(0, str(Path(__file__).parents[1] / "scripts"))
+    from gen_env_doc import render
+
+    assert text == render(), "docs/environment.md is stale: run python scripts/gen_env_doc.py"
     for section in ("Description", "Action Space", "Observation Space", "Rewards", "Starting State",
                     "Episode End", "Arguments", "Version History"):
         assert f"## {section}" in doc
+
+
+def test_spec_says_the_episode_length():
+    assert gym.make("MDRDrive-v0").spec.max_episode_steps == 50
+    env = gym.make("MDRDrive-v0", max_periods=7)
+    assert env.spec.max_episode_steps == 7
+    env.reset(seed=0)
+    steps = 0
+    while True:
+        steps += 1
+        *_, terminated, truncated, _ = env.step(env.unwrapped.trapezoid_action())
+        if terminated or truncated:
+            break
+    assert steps == 7 and truncated and not terminated
+
+
+def test_reset_option_load_ratio_is_the_make_argument():
+    made = gym.make("MDRDrive-v0", k=0.3, load_ratio=0.15)
+    opt = gym.make("MDRDrive-v0", k=0.3)
+    _, i_made = made.reset(seed=4)
+    _, i_opt = opt.reset(seed=4, options={"load_ratio": 0.15})
+    assert i_made["cargo_mass"] == i_opt["cargo_mass"] > 0
+    _, ranged = opt.reset(seed=5, options={"load_ratio": (0.0, 0.2)})
+    _, ranged_made = gym.make("MDRDrive-v0", k=0.3, load_ratio=(0.0, 0.2)).reset(seed=5)
+    assert ranged["cargo_mass"] == ranged_made["cargo_mass"]
+    with pytest.raises(ValueError, match="both set the load"):
+        opt.reset(options={"load_ratio": 0.1, "cargo_mass": 0.1})
+    with pytest.raises(ValueError, match="load_ratio"):
+        opt.reset(options={"load_ratio": -0.1})
+
+
+def test_defaults_are_the_documented_ones():
+    _, info = gym.make("MDRDrive-v0").reset(seed=0)
+    assert info["k"] == 0.2 and info["cargo_mass"] == 0.1
+    doc = gym.make("MDRDrive-v0").unwrapped.__doc__
+    assert "k = 0.2 and a cargo of m = 0.1 kg" in " ".join(doc.split())
+
+
+def test_the_documented_trapezoid_rewards():
+    """environment.md: 0.78 in the first period, 1.01 per period once settled (k = 0, m = 0.1 kg)."""
+    env = gym.make("MDRDrive-v0", k=0.0, cargo_mass=0.1, max_periods=30)
+    env.reset(seed=0)
+    rewards = [env.step(env.unwrapped.trapezoid_action())[1] for _ in range(30)]
+    assert round(rewards[0], 2) == 0.78 and round(rewards[-1], 2) == 1.01
+
+
+def test_render_frames_say_what_happened(monkeypatch):
+    from mdr_drive_env.gym_envs import rendering
+
+    env = gym.make("MDRDrive-v0", render_mode="rgb_array", k=0.2, cargo_mass=0.1)
+    env.reset(seed=0)
+    texts = []
+    real_draw = rendering.Renderer.draw
+
+    def draw(self, e):
+        frame = real_draw(self, e)
+        texts.append(" ".join(t.get_text() for ax in self.fig.axes for t in ax.texts + [ax.title]
+                              + [ax.yaxis.label]))
+        return frame
+
+    monkeypatch.setattr(rendering.Renderer, "draw", draw)
+    first = env.render()
+    assert first.ndim == 3 and "no period simulated yet" in texts[-1] and "F_m 0.981 N" in texts[-1]
+    _, reward, *_ , info = env.step(env.unwrapped.trapezoid_action())
+    env.render()
+    assert f"reward {reward:.3f}" in texts[-1] and f"{info['mean_velocity'] * 1e3:.2f} mm/s" in texts[-1]
+    assert "µm" in texts[-1] and " um" not in texts[-1]
+
+
+def test_quickstart_runs_and_its_returns_are_in_the_documented_range():
+    """scripts/quickstart_sb3.py, the SB3 quick start of docs/environment.md, for 1,024 steps."""
+    pytest.importorskip("stable_baselines3")
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "scripts"))
+    from quickstart_sb3 import quickstart
+
+    returns = quickstart(steps=1024)
+    assert returns["trapezoid"] == pytest.approx(39.5, abs=0.05)  # as documented (deterministic)
+    assert returns["random"] == pytest.approx(-189.0, abs=0.05)
+    # 50 periods can earn at most about 1.2 each; a barely trained policy is far from that
+    assert np.isfinite(returns["PPO"]) and -1000.0 < returns["PPO"] < 60.0

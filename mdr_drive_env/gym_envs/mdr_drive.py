@@ -17,6 +17,20 @@ from ..core.waveform import PAPER_X, PAPER_Z, Waveform
 from .spaces import ActionMap, ObservationLayout, sample_range
 
 
+#: Periods per episode unless ``max_periods`` says otherwise.
+DEFAULT_MAX_PERIODS = 50
+
+
+def make_env(**kwargs) -> gym.Env:
+    """The registered entry point of ``MDRDrive-v0``: :class:`MDRDriveEnv` in a ``TimeLimit`` of its
+    own ``max_periods``, so that ``env.spec.max_episode_steps`` is the episode length whatever
+    ``max_periods`` the caller passed to ``gym.make``."""
+    from gymnasium.wrappers import TimeLimit
+
+    env = MDRDriveEnv(**kwargs)
+    return TimeLimit(env, env.max_periods)
+
+
 class MDRDriveEnv(gym.Env):
     """
     ## Description
@@ -35,13 +49,13 @@ class MDRDriveEnv(gym.Env):
 
     | index | waveform parameter | range (defaults) |
     |---|---|---|
-    | 0 | x amplitude | [0, ``x_amplitude_max``] = [0, 30 um] |
+    | 0 | x amplitude | [0, ``x_amplitude_max``] = [0, 30 µm] |
     | 1 | x rise fraction t1/T (slow forward stroke; the fall is the rest) | [0.05, 0.95] |
-    | 2 | z amplitude (maximum indentation depth) | [0, ``z_amplitude_max``] = [0, 6 um] |
+    | 2 | z amplitude (maximum indentation depth) | [0, ``z_amplitude_max``] = [0, 6 µm] |
     | 3 | z rise fraction | [0.05, 0.95] |
     | 4 | z phase delay, fraction of T | [0, 1) |
 
-    Rise fractions and the phase are quantised to 10 us (1/200 of T), so corners fall on the time
+    Rise fractions and the phase are quantised to 10 µs (1/200 of T), so corners fall on the time
     steps of every numerics preset. Actions outside the box are clipped; a non-finite action raises
     ``ValueError``. ``env.unwrapped.trapezoid_action()`` is the paper's waveform (Fig. 2) exactly.
 
@@ -72,32 +86,40 @@ class MDRDriveEnv(gym.Env):
 
     ## Rewards
 
-    ``reward = displacement / reward_scale - actuation_penalty * effort`` per period, where the
-    displacement (m) is positive against the load and ``reward_scale`` defaults to 30 um (the
-    paper's x stroke: the trapezoid earns about 0.8 per period at k = 0, m = 0.1 kg).
+    ``reward = max(displacement / reward_scale - actuation_penalty * effort, reward_floor)`` per
+    period, where the displacement (m) is positive against the load and ``reward_scale`` defaults
+    to 30 µm, the paper's x stroke. At k = 0, m = 0.1 kg the trapezoid moves the slider 23.29 µm in
+    its first period (reward 0.78) and 30.41 µm per period once settled (reward 1.01)
+    (``mdr-drive simulate --k 0 --cargo-mass 0.1 --periods 30``, displacement column / 30 µm).
     ``effort = ((A_x / A_x,max)^2 + (A_z / A_z,max)^2) / 2`` in [0, 1] is an electrical-energy proxy
     (a piezo stack's energy per cycle grows with the square of its stroke); the penalty is off by
-    default.
+    default. ``reward_floor`` (default None: no floor) clamps each period's reward from below: a
+    slider the load drags back fast (hundreds of mm/s, rewards of -10 to -1000 per period) would
+    otherwise dominate the returns a learner sees; the training recipe uses -2.
 
     ## Starting State
 
-    Slider at rest at X = 0, indenter at x = z = 0 (no contact), springs unloaded. k and the cargo
-    mass are drawn uniformly from their ranges (if given as ``(low, high)``) with the env's seeded
-    generator, or set for one episode by ``reset(options={"k": ..., "cargo_mass": ...})``. With
-    ``load_ratio`` the load is drawn instead as a fraction of ``mu F_ref`` (observation entry 11),
-    which puts the working range of every k in the same interval (the paper's trapezoid stalls at
-    a ratio of about 0.1 to 0.3).
+    Slider at rest at X = 0, indenter at x = z = 0 (no contact), springs unloaded. By default every
+    episode has k = 0.2 and a cargo of m = 0.1 kg. k and the cargo mass are drawn uniformly from
+    their ranges (if given as ``(low, high)``) with the env's seeded generator, or set for one
+    episode by ``reset(options={"k": ..., "cargo_mass": ...})`` (or ``"load_ratio"`` instead of
+    ``"cargo_mass"``, a value or a range). With ``load_ratio`` the load is drawn instead as a
+    fraction of ``mu F_ref`` (observation entry 11), which puts the working range of every k in
+    the same interval (the paper's trapezoid stalls at a ratio of about 0.1 to 0.3).
 
     ## Episode End
 
-    Truncation after ``max_periods`` steps (default 50, i.e. 0.1 s), ``truncated=True``. The drive
-    has no absorbing failure state, so ``terminated`` is always False: a slider dragged back by
-    its load keeps earning negative reward until the episode is truncated.
+    Truncation after ``max_periods`` steps (default 50, i.e. 0.1 s), ``truncated=True``;
+    ``gym.make`` wraps the env in a ``TimeLimit`` of the same length, so ``env.spec.max_episode_steps``
+    is ``max_periods``. Set the length with ``max_periods`` (gym.make's ``max_episode_steps`` can only
+    shorten it, and then observation entry 13 does not reach 1). The drive has no absorbing failure
+    state, so ``terminated`` is always False: a slider dragged back by its load keeps earning
+    negative reward until the episode is truncated.
 
     ## Arguments
 
     ``gym.make("MDRDrive-v0", **kwargs)`` with flat keyword arguments (SI units):
-    ``k`` (float or (low, high)), ``cargo_mass`` (kg, float or (low, high)), ``load_ratio`` (float or
+    ``k`` (float or (low, high); default 0.2), ``cargo_mass`` (kg, float or (low, high); default 0.1), ``load_ratio`` (float or
     (low, high), replaces ``cargo_mass`` when given: ``m g = ratio mu F_ref``), ``youngs_modulus`` (Pa),
     ``poisson_ratio``, ``reference_depth`` (m), ``rigid_indenter`` (bool), ``indenter_radius`` (m),
     ``friction_coefficient``, ``base_friction_coefficient``, ``slider_mass`` (kg), ``gravity``
@@ -133,7 +155,7 @@ class MDRDriveEnv(gym.Env):
         variant: str = "as-specified",
         numerics: str = "fast",
         period: float = 2e-3,
-        max_periods: int = 50,
+        max_periods: int = DEFAULT_MAX_PERIODS,
         x_amplitude_max: float = 30e-6,
         z_amplitude_max: float = 6e-6,
         min_rise_fraction: float = 0.05,
@@ -156,7 +178,7 @@ class MDRDriveEnv(gym.Env):
             raise ValueError(f"variant={variant!r} is not one of {list(VARIANTS)}")
         self.variant = variant
         self.numerics = numerics_preset(numerics)
-        if not (isinstance(max_periods, (int, np.integer)) and max_periods >= 1):
+        if isinstance(max_periods, bool) or not (isinstance(max_periods, (int, np.integer)) and max_periods >= 1):
             raise ValueError(f"max_periods={max_periods!r} is outside the allowed range [1, inf)")
         for name, value in (("reward_scale", reward_scale), ("period", period)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -193,14 +215,19 @@ class MDRDriveEnv(gym.Env):
     def sample_episode(self, rng: np.random.Generator, options: dict[str, Any] | None = None):
         """(k, cargo mass, DriveParams) of a new episode: from ``options`` or drawn from the ranges."""
         options = dict(options or {})
-        unknown = set(options) - {"k", "cargo_mass"}
+        unknown = set(options) - {"k", "cargo_mass", "load_ratio"}
         if unknown:
-            raise ValueError(f"reset options {sorted(unknown)} are not supported (use 'k', 'cargo_mass')")
+            raise ValueError(f"reset options {sorted(unknown)} are not supported (use 'k', 'cargo_mass', 'load_ratio')")
+        if options.get("cargo_mass") is not None and options.get("load_ratio") is not None:
+            raise ValueError("reset options 'cargo_mass' and 'load_ratio' both set the load: give one of them")
         k = options.get("k", None)
         m = options.get("cargo_mass", None)
         k = float(rng.uniform(*self.k_range)) if k is None else float(k)
-        if m is None and self.load_ratio_range is not None:  # load as a fraction of mu F_ref at this k
-            ratio = float(rng.uniform(*self.load_ratio_range))
+        ratio_range = self.load_ratio_range
+        if options.get("load_ratio") is not None:
+            ratio_range = sample_range("load_ratio", options["load_ratio"], 0.0, 10.0)
+        if m is None and ratio_range is not None:  # load as a fraction of mu F_ref at this k
+            ratio = float(rng.uniform(*ratio_range))
             p0 = self.params_for(k, 0.0)
             m = ratio * p0.contact.friction_coefficient * self.reference_force(p0) / p0.drive.gravity
         m = float(rng.uniform(*self.cargo_mass_range)) if m is None else float(m)
@@ -227,6 +254,8 @@ class MDRDriveEnv(gym.Env):
         self.force_ref = self.reference_force(self.params)
         self.period_index = 0
         self.last_trace = None
+        self.last_reward: float | None = None  # of the last period (None before the first)
+        self.last_mean_velocity: float | None = None  # m/s
         self._prev_action = np.zeros(ActionMap.SIZE, dtype=np.float32)
         obs = self._observation(None)
         return obs, self._info(None, None)
@@ -245,6 +274,7 @@ class MDRDriveEnv(gym.Env):
         effort = self.action_map.effort(wp.x_amplitude, wp.z_amplitude)
         reward = self.reward_of(result.displacement, effort)
         obs = self._observation(result)
+        self.last_reward, self.last_mean_velocity = float(reward), result.mean_velocity
         truncated = self.period_index >= self.max_periods
         if self.render_mode == "human":
             self.render()

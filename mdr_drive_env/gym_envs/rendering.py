@@ -1,4 +1,5 @@
-"""Matplotlib rendering of MDRDrive: the last period's x(t), z(t), X(t) and a sketch of the drive."""
+"""Matplotlib rendering of MDRDrive: the last period's x(t), z(t), X(t), its reward and mean velocity,
+and a sketch of the drive with the load."""
 
 from __future__ import annotations
 
@@ -36,8 +37,15 @@ class Renderer:
             ax.plot(t, tr[:, K.T_Z] * 1e6 * 5, label="indenter z (x5)")
             ax.plot(t, (tr[:, K.T_SLIDER_X] - tr[0, K.T_SLIDER_X]) * 1e6, label="slider X - X0", lw=2)
             ax.legend(fontsize=7, loc="upper left")
-        ax.set(xlabel="t in last period (ms)", ylabel="um",
-               title=f"period {env.period_index}, k = {env.k:.2f}, m = {env.cargo_mass:.3f} kg")
+            title = (f"period {env.period_index}: reward {env.last_reward:.3f}, "
+                     f"mean velocity {env.last_mean_velocity * 1e3:.2f} mm/s")
+        else:
+            ax.text(0.5, 0.5, "no period simulated yet", transform=ax.transAxes, ha="center", va="center",
+                    fontsize=11, color="0.4")
+            title = "after reset"
+        ax.set(xlabel="t in last period (ms)", ylabel="µm",
+               title=f"{title}\nk = {env.k:.2f}, m = {env.cargo_mass:.3f} kg, load F_m = {env.params.drive.load:.3g} N")
+        ax.title.set_fontsize(9)
         ax.grid(alpha=0.3)
         # sketch in the lab frame: base, slider (ticks move with X), paraboloid indenter at (x, z)
         sim = env.sim
@@ -51,9 +59,12 @@ class Renderer:
         r = np.linspace(-25, 25, 60)
         sk.plot(x_ind + r, 20 - 2 * depth + r**2 / 40, color="tab:red", lw=2)
         sk.text(-55, 23, "slider", fontsize=7)
+        sk.annotate("", xy=(-58, 10), xytext=(-28, 10),
+                    arrowprops=dict(arrowstyle="-|>", color="tab:green", lw=2))  # the load pulls towards -X
+        sk.text(-57, 12.5, f"F_m {env.params.drive.load:.3g} N", fontsize=7, color="tab:green", ha="left")
         sk.text(x_ind - 10, 38, "indenter", fontsize=7, color="tab:red")
         sk.set(xlim=(-60, 90), ylim=(-5, 45), xticks=[], yticks=[],
-               title=f"X = {X:.1f} um, x = {x_ind:.1f} um, d = {depth:.2f} um")
+               title=f"X = {X:.1f} µm, x = {x_ind:.1f} µm, d = {depth:.2f} µm")
         sk.title.set_fontsize(8)
         self.fig.tight_layout()
         self.fig.canvas.draw()
