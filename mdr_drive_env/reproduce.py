@@ -1,4 +1,4 @@
-"""Reproduction of the paper's Figs. 3-5, and the h_N/h_T sensitivity of physics.md section 5.
+"""Reproduction of the paper's Figs. 3-5, and the h_N/h_T sensitivity (docs/paper_reproduction.md).
 
 Writes PNG figures and the CSV behind each under an output folder. Used by
 ``scripts/reproduce_paper.py`` and ``mdr-drive reproduce``.

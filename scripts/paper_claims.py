@@ -6,15 +6,15 @@
 
 The paper (Lyashenko, Borysiuk & Popov 2020) prints no data, only statements about its figures.
 This script turns each statement into a test with a number that decides it, and runs it for the
-model as specified, for the "as-published" variant (h_N doubled: the hypothesis of physics.md
-section 5 about the paper's own code) and for other slips one could suspect (both h doubled, the
+model as specified, for the "as-published" variant (h_N doubled: the hypothesis about the paper's
+own code, docs/paper_reproduction.md) and for other slips one could suspect (both h doubled, the
 cargo's inertia, h_N x 1.5). <V> follows the paper's rule (the 6th period) as the paper's figures
-do; the settled <V> is reported beside it. Writes ``claims.md`` and ``claims.json``.
+do; the settled <V> is reported beside it. Writes ``claims.md`` (every claim with the numbers that
+decide it), ``claims_summary.md`` (the yes/no grid) and ``claims.json``.
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import sys
@@ -180,17 +180,36 @@ def markdown(results: dict[str, list[dict]], numerics: str, wall: float) -> str:
     return "\n".join(lines) + "\n"
 
 
+def summary_table(results: dict[str, list[dict]]) -> str:
+    """The yes/no grid of ``markdown`` without the numbers (docs/paper_reproduction.md quotes it)."""
+    names = list(results)
+    first = results[names[0]]
+    lines = ["| Fig. | claim | " + " | ".join(names) + " |", "|---|---|" + "---|" * len(names)]
+    for i, c in enumerate(first):
+        lines.append(f"| {c['figure']} | {c['claim']} | "
+                     + " | ".join("**yes**" if results[n][i]["holds"] else "no" for n in names) + " |")
+    lines.append("| | claims held | " + " | ".join(f"{sum(c['holds'] for c in results[n])}/{len(first)}"
+                                                 for n in names) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     ap = Parser(prog="paper_claims.py", description=__doc__)
     ap.add_argument("--numerics", default="fast", choices=("fast", "default", "paper"), help="numerics preset")
     ap.add_argument("--models", nargs="+", default=list(MODELS), choices=list(MODELS), metavar="MODEL",
                     help=f"models to test, of: {', '.join(MODELS)} (default: all)")
+    ap.add_argument("--h-normal-scales", nargs="*", type=float, default=[], metavar="S",
+                    help="also test the model with h_N times each S (h_T as is) (-)")
     ap.add_argument("--out", default="results/paper_claims", type=output_dir, help="output folder")
     a = ap.parse_args(argv)
     t0 = time.perf_counter()
-    results = {name: claims_of(MODELS[name], a.numerics) for name in tqdm(a.models, desc="models", unit="model")}
+    models = {name: MODELS[name] for name in a.models}
+    for scale in a.h_normal_scales:
+        models[f"h_N x{scale:g}"] = lambda k, m, scale=scale: scaled_h(DriveParams.paper(k, m), scale, 1.0)
+    results = {name: claims_of(model, a.numerics) for name, model in tqdm(models.items(), desc="models", unit="model")}
     text = markdown(results, a.numerics, time.perf_counter() - t0)
     write_text(Path(a.out) / "claims.md", text)
+    write_text(Path(a.out) / "claims_summary.md", summary_table(results))
     write_text(Path(a.out) / "claims.json", json.dumps({"numerics": a.numerics, "results": results}, indent=1))
     print(text)
     return 0

@@ -53,7 +53,7 @@ def test_critical_load_is_zero_when_the_drive_cannot_move():
     assert cl.cargo_mass == 0.0 and cl.evaluations == 1
 
 
-# --- the state a run ends in (physics.md section 5, "Transients") ---
+# --- the state a run ends in (docs/model.md, "Steady velocity") ---
 
 def test_motion_state_on_synthetic_runs():
     from mdr_drive_env.core.analysis import motion_state

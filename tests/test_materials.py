@@ -1,4 +1,4 @@
-"""Material factors and closed forms against physics.md's test vectors and limits."""
+"""Material factors and closed forms against the test vectors and limits of docs/model.md."""
 
 import math
 
@@ -15,7 +15,7 @@ from mdr_drive_env.core import (
     normal_force_analytic,
 )
 
-# physics.md section 1, nu = 0.3
+# docs/model.md, nu = 0.3
 VECTORS = [
     (0.0, 1.000000, 0.904977),
     (0.2, 1.165829, 0.836335),
@@ -26,7 +26,7 @@ VECTORS = [
 
 
 @pytest.mark.parametrize("k,h_n,h_t", VECTORS)
-def test_h_factors_match_physics_md_vectors(k, h_n, h_t):
+def test_h_factors_match_the_test_vectors(k, h_n, h_t):
     assert h_normal(k, 0.3) == pytest.approx(h_n, abs=1e-6)
     assert h_tangential(k, 0.3) == pytest.approx(h_t, abs=1e-6)
 
@@ -39,7 +39,7 @@ def test_homogeneous_limits(nu):
 
 def jitcharoen_h_normal(k: float, nu: float, youngs_modulus: float = 2e11, radius: float = 2.5e-3) -> float:
     """h_N implied by the graded Hertz contact of Jitcharoen et al. (1998), after Giannakopoulos
-    and Suresh (1997) (physics.md section 5): a rigid sphere of diameter D = 2R pressed with force P
+    and Suresh (1997) (docs/model.md): a rigid sphere of diameter D = 2R pressed with force P
     into ``E(z) = E0 z^k`` (c0 = 1 m) has ``a^(3+k) = P D c1 G(1/2+k/2) G(3/2+k/2) / (pi 2^(2-k))
     (1+k)(3+k)/2``; the MDR force ``P = 4 h_N E0 a^(3+k) / ((1-nu^2)(1+k)^2(3+k) R)`` must give the
     same a for the same P. Independent of materials.py: only the gamma function is shared."""

@@ -90,7 +90,7 @@ def test_waveform_beyond_grid_raises():
         sim.step(Waveform.paper())
 
 
-# --- the "as-published" variant (physics.md section 5) ---
+# --- the "as-published" variant (docs/paper_reproduction.md) ---
 
 def test_as_published_doubles_h_normal_only():
     spec, pub = DriveParams.paper(k=0.3), DriveParams.paper(k=0.3, variant="as-published")
@@ -122,7 +122,7 @@ def test_unknown_variant_is_rejected():
 
 
 def test_the_variant_decides_the_papers_open_point():
-    """k = 0.3, m = 0.1 kg: the text says the drive still moves the cargo forward (physics.md 5)."""
+    """k = 0.3, m = 0.1 kg: the text says the drive still moves the cargo forward (docs/paper_reproduction.md)."""
     from mdr_drive_env.core import steady_velocity
 
     spec = steady_velocity(DriveParams.paper(k=0.3, cargo_mass=0.1))

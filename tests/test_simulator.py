@@ -38,7 +38,7 @@ def _random_waveform(rng):
 
 @pytest.mark.parametrize("k", [0.0, 0.3, 0.6])
 def test_tangential_loading_follows_graded_cattaneo_mindlin(k):
-    """Fixed depth, monotonic shift: F_x(delta) equals the scipy integral of physics.md 1."""
+    """Fixed depth, monotonic shift: F_x(delta) equals the scipy integral of docs/model.md."""
     params = dataclasses.replace(DriveParams.paper(k=k), drive=IMMOVABLE)
     depth, period = 4e-6, 1e-3
     sim = DriveSimulator(params, Numerics(1e-6, 2e-8), max_depth=depth)

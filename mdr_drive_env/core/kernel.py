@@ -1,6 +1,6 @@
 """The Numba kernel of the reference solver: one call advances the drive by one period.
 
-Time stepping (physics.md section 2, paper Eqs. 13-16), per step ``t_n -> t_{n+1}``:
+Time stepping (docs/model.md, paper Eqs. 13-16), per step ``t_n -> t_{n+1}``:
 
 1. forces ``F_x``, ``F_z`` from the spring state at ``t_n`` (kept from the previous step);
 2. semi-implicit Euler for the slider: ``V += dt (F_x - sgn(V) mu1 F_z - F_m) / M``, then

@@ -1,6 +1,6 @@
 """Power-law graded materials in the Method of Dimensionality Reduction (MDR).
 
-Closed forms from ``shared/physics.md`` section 1 (Hess 2016, the graded MDR):
+Closed forms of docs/model.md (Hess 2016, the graded MDR):
 
 * ``h_N(k, nu)``, ``h_T(k, nu)``: the dimensionless factors of the 1D foundation stiffness,
 * ``c_N``, ``c_T``: the foundation stiffness per unit length of a pair of bodies (paper Eqs. 3-5),

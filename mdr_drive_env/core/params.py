@@ -3,7 +3,7 @@
 A bad value raises ``ValueError`` naming the field, the value and the allowed range, e.g.
 ``Material.poisson_ratio=0.7 is outside the allowed range (-1, 0.5]``.
 
-Defaults are the paper's parameter set (physics.md section 4).
+Defaults are the paper's parameter set (docs/model.md).
 """
 
 from __future__ import annotations
@@ -177,8 +177,8 @@ class Drive:
         return self.slider_mass + (self.cargo_mass if self.cargo_inertia else 0.0)
 
 
-#: Model variants. ``as-specified`` is the model of docs/model.md (physics.md); ``as-published``
-#: is the hypothesis of physics.md section 5 about the paper's own code: h_N doubled, h_T as is.
+#: Model variants. ``as-specified`` is the model of docs/model.md; ``as-published``
+#: is the hypothesis about the paper's own code (docs/paper_reproduction.md): h_N doubled, h_T as is.
 VARIANTS: tuple[str, ...] = ("as-specified", "as-published")
 #: Factor on h_N of each variant (h_T is never scaled).
 VARIANT_H_NORMAL_FACTOR = {"as-specified": 1.0, "as-published": 2.0}
@@ -188,7 +188,7 @@ VARIANT_H_NORMAL_FACTOR = {"as-specified": 1.0, "as-published": 2.0}
 class DriveParams:
     """The whole physical model: two bodies, the contact, the drive and the model variant.
 
-    The bodies must share k and c0 unless one of them is rigid (physics.md 1). For a rigid
+    The bodies must share k and c0 unless one of them is rigid (docs/model.md). For a rigid
     indenter on a graded slider the normal-tangential coupling is neglected (it vanishes only at
     ``nu = 1/(2+k)``).
 
