@@ -21,9 +21,12 @@ import numpy as np
 from tqdm import tqdm
 
 from .baselines import CMA_BUDGET, cma_optimize
-from .evaluate import (
+from .evaluate import (  # noqa: F401  (CRITICAL_GRID, first_stall, upper_mass: re-exported for scripts/)
     AVERAGE_PERIODS,
+    CRITICAL_GRID,
     EVAL_PERIODS,
+    critical_loads_grid,
+    first_stall,
     format_velocity,
     load_policy,
     policy_path,
@@ -32,49 +35,13 @@ from .evaluate import (
     policy_velocity,
     steady_velocity_of,
     trapezoid_action,
+    upper_mass,
 )
 
 GRID_KS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
 GRID_MASSES = (0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5)
 QUICK_KS = (0.0, 0.3)
 QUICK_MASSES = (0.0, 0.1)
-#: Fine load grid (kg) of the critical-load search, as fractions of a k-dependent upper bound.
-CRITICAL_GRID = 64
-
-
-def first_stall(masses: np.ndarray, velocity: np.ndarray) -> float:
-    """Largest mass of the grid before the velocity first drops to <= 0 (0 if it never moves)."""
-    bad = np.flatnonzero(~(np.asarray(velocity) > 0.0))  # NaN (a runaway) stalls too
-    if bad.size == 0:
-        return float(masses[-1])
-    return float(masses[bad[0] - 1]) if bad[0] > 0 else 0.0
-
-
-def upper_mass(k: float) -> float:
-    """A load (kg) above every method's critical load at k: 0.8 of mu F_ref / g (the trapezoid stalls
-    at 0.18-0.33 of it)."""
-    import gymnasium as gym
-
-    import mdr_drive_env  # noqa: F401
-
-    env = gym.make("MDRDrive-v0", k=k, load_ratio=0.8).unwrapped
-    env.reset(seed=0)
-    return env.cargo_mass
-
-
-def critical_loads_grid(ks, velocity_fn) -> dict[float, float]:
-    """Critical load per k from ``velocity_fn(points) -> velocities`` on a fine load grid (two passes)."""
-    out = {}
-    for k in ks:
-        hi = upper_mass(k)
-        masses = np.linspace(0.0, hi, CRITICAL_GRID)
-        m1 = first_stall(masses, velocity_fn([(k, m) for m in masses]))
-        step = masses[1]
-        fine = np.linspace(m1, min(m1 + step, hi), CRITICAL_GRID)  # refine between the last mover and the stall
-        out[k] = first_stall(fine, velocity_fn([(k, m) for m in fine])) if m1 < hi else hi
-    return out
-
-
 def critical_load_cma(k: float, hi: float, budget: int, iterations: int = 8) -> float:
     lo = 0.0
     if cma_optimize(k, 0.0, budget).velocity <= 0.0:

@@ -85,6 +85,41 @@ def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: in
     return steady_velocity_of(disp, average, runaway)
 
 
+#: Fine load grid (kg) of the critical-load search, as fractions of a k-dependent upper bound.
+CRITICAL_GRID = 64
+
+
+def first_stall(masses: np.ndarray, velocity: np.ndarray) -> float:
+    """Largest mass of the grid before the velocity first drops to <= 0 (0 if it never moves)."""
+    bad = np.flatnonzero(~(np.asarray(velocity) > 0.0))  # NaN (a runaway) stalls too
+    if bad.size == 0:
+        return float(masses[-1])
+    return float(masses[bad[0] - 1]) if bad[0] > 0 else 0.0
+
+
+def upper_mass(k: float, variant: str = "as-specified") -> float:
+    """A load (kg) above every method's critical load at k: 0.8 of mu F_ref / g (the trapezoid stalls
+    at 0.18-0.33 of it)."""
+    env = gym.make("MDRDrive-v0", k=k, load_ratio=0.8, variant=variant).unwrapped
+    env.reset(seed=0)
+    return env.cargo_mass
+
+
+def critical_loads_grid(ks, velocity_fn, variant: str = "as-specified") -> dict[float, float]:
+    """Critical load (kg) per k from ``velocity_fn(points) -> velocities`` on a fine load grid (two
+    passes of ``CRITICAL_GRID`` loads up to :func:`upper_mass`): the largest load before the
+    velocity first drops to <= 0 (or runs away)."""
+    out = {}
+    for k in ks:
+        hi = upper_mass(k, variant)
+        masses = np.linspace(0.0, hi, CRITICAL_GRID)
+        m1 = first_stall(masses, velocity_fn([(k, m) for m in masses]))
+        step = masses[1]
+        fine = np.linspace(m1, min(m1 + step, hi), CRITICAL_GRID)  # refine between the last mover and the stall
+        out[k] = first_stall(fine, velocity_fn([(k, m) for m in fine])) if m1 < hi else hi
+    return out
+
+
 class Policy:
     """A trained SB3 policy with its VecNormalize statistics, as ``obs -> action`` (deterministic)."""
 
@@ -154,9 +189,9 @@ def policy_rollout(policy, points, periods: int = EVAL_PERIODS, variant: str = "
 
 
 def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS,
-                    mark_runaway: bool = False) -> np.ndarray:
+                    mark_runaway: bool = False, variant: str = "as-specified") -> np.ndarray:
     """Steady velocity (m/s) of a closed-loop policy at each point (NaN where runaway, with ``mark_runaway``)."""
-    disp, _, runaway = policy_rollout(policy, points, periods)
+    disp, _, runaway = policy_rollout(policy, points, periods, variant)
     return steady_velocity_of(disp, average, runaway if mark_runaway else None)
 
 
@@ -168,39 +203,99 @@ def policy_path(text: str) -> str:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from mdr_drive_env.cli import add_variant_argument
     from mdr_drive_env.cli_args import folder_with
 
     p.add_argument("--policy", required=True, type=folder_with("model.zip"),
                    help="folder with model.zip and vecnormalize.pkl")
-    p.add_argument("--k", type=float, required=True, help="grading exponent k (-)")
-    p.add_argument("--cargo-mass", type=float, required=True, help="cargo mass m (kg)")
+    p.add_argument("--k", type=float, nargs="+", required=True, metavar="K",
+                   help="grading exponent(s) k, in [0, 1); several values pair with --cargo-mass (-)")
+    p.add_argument("--cargo-mass", type=float, nargs="+", default=None, metavar="M",
+                   help="cargo mass(es) m, >= 0, one per --k value (kg)")
+    p.add_argument("--critical-load", action="store_true",
+                   help="instead of velocities: per --k value, the critical load of the policy and of the "
+                        "trapezoid (the largest cargo mass they still move forward, kg)")
     p.add_argument("--json", action="store_true",
-                   help="print one JSON object (velocities in m/s; null where the load runs away)")
-    from mdr_drive_env.cli import add_variant_argument
-
+                   help="print JSON: one object for one point (or k), a list for several; velocities in m/s, "
+                        "null where the load runs away with the slider; critical loads in kg")
     add_variant_argument(p)
 
 
+def trained_range_warnings(run: dict, points) -> list[str]:
+    """Warnings for points outside the k and load-ratio ranges the policy was trained on (run.json)."""
+    env = run.get("env_kwargs", {})
+    k_range = env.get("k")
+    warnings = []
+    if isinstance(k_range, (list, tuple)) and len(k_range) == 2:
+        outside = sorted({k for k, _ in points if not k_range[0] <= k <= k_range[1]})
+        if outside:
+            warnings.append(f"k = {', '.join(f'{k:g}' for k in outside)} is outside the trained range "
+                            f"[{k_range[0]:g}, {k_range[1]:g}]")
+    ratio = env.get("load_ratio")
+    if isinstance(ratio, (list, tuple)) and len(ratio) == 2:
+        for k, m in points:
+            hi = ratio[1] * upper_mass(k) / 0.8  # upper_mass is 0.8 of mu F_ref / g
+            if m > hi * (1 + 1e-9):
+                warnings.append(f"m = {m:g} kg at k = {k:g} is above the trained loads (load ratio <= "
+                                f"{ratio[1]:g}, i.e. m <= {hi:.4g} kg)")
+    return warnings
+
+
+def _velocity_record(k, m, variant, learned, trapezoid, last_action) -> dict:
+    return {"k": k, "cargo_mass": m, "variant": variant,
+            "learned_mean_velocity": None if np.isnan(learned) else float(learned),
+            "trapezoid_mean_velocity": None if np.isnan(trapezoid) else float(trapezoid),
+            "learned_runaway": bool(np.isnan(learned)), "trapezoid_runaway": bool(np.isnan(trapezoid)),
+            "learned_waveform_last_period": ACTION_MAP.to_params(last_action)._asdict(),
+            "protocol": f"mean over periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}, m/s"}
+
+
 def main(args: argparse.Namespace) -> int:
-    DriveParams.paper(k=args.k, cargo_mass=args.cargo_mass)  # a bad value fails here, before the policy loads
-    policy = Policy(args.policy)
-    point = [(args.k, args.cargo_mass)]
-    disp, acts, runaway = policy_rollout(policy, point, variant=args.variant)
-    learned = float(steady_velocity_of(disp, runaway=runaway)[0])
-    trapezoid = float(open_loop_velocity(point, trapezoid_action(), mark_runaway=True, variant=args.variant)[0])
-    last = ACTION_MAP.to_params(acts[-1, 0])._asdict()
-    res = {"k": args.k, "cargo_mass": args.cargo_mass, "variant": args.variant,
-           "learned_mean_velocity": None if np.isnan(learned) else learned,
-           "trapezoid_mean_velocity": None if np.isnan(trapezoid) else trapezoid,
-           "learned_runaway": bool(np.isnan(learned)), "trapezoid_runaway": bool(np.isnan(trapezoid)),
-           "learned_waveform_last_period": last,
-           "protocol": f"mean over periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}, m/s"}
-    if args.json:
-        print(json.dumps(res))
+    import sys
+
+    ks = list(args.k)
+    if args.critical_load:
+        if args.cargo_mass is not None:
+            raise ValueError("--critical-load finds the load itself: give --k only, not --cargo-mass")
+        points = [(k, 0.0) for k in ks]
     else:
-        print(f"k = {args.k:g}, m = {args.cargo_mass:g} kg: learned {format_velocity(learned, digits=3)} mm/s, "
-              f"trapezoid {format_velocity(trapezoid, digits=3)} mm/s")
-        print("learned waveform (last period):", {k: f"{v:.4g}" for k, v in last.items()})
+        if args.cargo_mass is None:
+            raise ValueError("--cargo-mass is required (one value per --k value), unless --critical-load")
+        if len(args.cargo_mass) != len(ks):
+            raise ValueError(f"--k and --cargo-mass pair up: got {len(ks)} and {len(args.cargo_mass)} values")
+        points = list(zip(ks, args.cargo_mass))
+    for k, m in points:  # bad values fail here, with the option's name, before the policy loads
+        try:
+            DriveParams.paper(k=k, cargo_mass=m)
+        except ValueError as e:
+            from mdr_drive_env.cli import FIELD_OPTIONS, with_option_name
+
+            raise with_option_name(e, FIELD_OPTIONS) from None
+    policy = Policy(args.policy)
+    for warning in trained_range_warnings(policy.run, points if not args.critical_load else []):
+        print(f"mdr-drive evaluate: warning: {warning}", file=sys.stderr)
+    if args.critical_load:
+        learned = critical_loads_grid(ks, lambda pts: policy_velocity(policy, pts, variant=args.variant),
+                                      args.variant)
+        trap = critical_loads_grid(ks, lambda pts: open_loop_velocity(pts, trapezoid_action(), variant=args.variant),
+                                   args.variant)
+        records = [{"k": k, "critical_load_learned": learned[k], "critical_load_trapezoid": trap[k],
+                    "variant": args.variant} for k in ks]
+        text = [f"k = {r['k']:g}: critical load learned {r['critical_load_learned']:.4f} kg, "
+                f"trapezoid {r['critical_load_trapezoid']:.4f} kg" for r in records]
+    else:
+        disp, acts, runaway = policy_rollout(policy, points, variant=args.variant)
+        learned = steady_velocity_of(disp, runaway=runaway)
+        trapezoid = open_loop_velocity(points, trapezoid_action(), mark_runaway=True, variant=args.variant)
+        records = [_velocity_record(k, m, args.variant, lv, tv, acts[-1, i])
+                   for i, ((k, m), lv, tv) in enumerate(zip(points, learned, trapezoid))]
+        text = [f"k = {k:g}, m = {m:g} kg: learned {format_velocity(lv, digits=3)} mm/s, trapezoid "
+                f"{format_velocity(tv, digits=3)} mm/s (mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-"
+                f"{EVAL_PERIODS}, fast numerics)" for (k, m), lv, tv in zip(points, learned, trapezoid)]
+    if args.json:
+        print(json.dumps(records[0] if len(records) == 1 else records))
+    else:
+        print("\n".join(text))
     return 0
 
 

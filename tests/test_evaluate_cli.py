@@ -1,0 +1,70 @@
+"""``mdr-drive evaluate``, the interface other tools call: one point, paired points, critical loads."""
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from agents.demo import PRETRAINED  # noqa: E402
+from agents.evaluate import critical_loads_grid, open_loop_velocity, trapezoid_action  # noqa: E402
+from mdr_drive_env.cli import main  # noqa: E402
+
+POLICY = str(PRETRAINED)
+
+
+def _run(argv, capsys):
+    code = main(["evaluate", "--policy", POLICY, *argv])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def test_one_point_prints_one_object_with_the_trapezoid_of_the_protocol(capsys):
+    code, out, _ = _run(["--k", "0.2", "--cargo-mass", "0.1", "--json"], capsys)
+    record = json.loads(out)
+    assert code == 0 and isinstance(record, dict)
+    assert record["k"] == 0.2 and record["cargo_mass"] == 0.1
+    assert record["trapezoid_mean_velocity"] == pytest.approx(open_loop_velocity([(0.2, 0.1)], trapezoid_action())[0],
+                                                              rel=1e-12)
+    assert 0.0 < record["learned_mean_velocity"] < 0.05  # m/s, not mm/s
+
+
+def test_paired_values_print_a_list_in_order(capsys):
+    code, out, _ = _run(["--k", "0.0", "0.3", "--cargo-mass", "0.0", "0.4", "--json"], capsys)
+    records = json.loads(out)
+    assert code == 0 and [(r["k"], r["cargo_mass"]) for r in records] == [(0.0, 0.0), (0.3, 0.4)]
+    heavy = records[1]  # 0.4 kg at k = 0.3: the load runs away with the slider, no velocity to report
+    assert heavy["trapezoid_runaway"] and heavy["trapezoid_mean_velocity"] is None
+    assert records[0]["trapezoid_mean_velocity"] == pytest.approx(15.49e-3, rel=2e-3)
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["--k", "0.2", "0.3", "--cargo-mass", "0.1"], "--k and --cargo-mass pair up: got 2 and 1"),
+    (["--k", "0.2"], "--cargo-mass is required"),
+    (["--k", "0.2", "--cargo-mass", "0.1", "--critical-load"], "--critical-load finds the load itself"),
+    (["--k", "1.2", "--cargo-mass", "0.1"], "--k: Material.grading_exponent=1.2"),
+    (["--k", "0.2", "--cargo-mass", "-0.1"], "--cargo-mass: Drive.cargo_mass=-0.1"),
+])
+def test_bad_requests_are_one_line_errors(argv, needle, capsys):
+    code, out, err = _run(argv, capsys)
+    assert code == 2 and needle in err and len(err.strip().splitlines()) == 1 and not out
+
+
+def test_critical_load_per_k_in_kg(capsys):
+    code, out, _ = _run(["--k", "0.3", "--critical-load", "--json"], capsys)
+    record = json.loads(out)
+    assert code == 0 and set(record) >= {"k", "critical_load_learned", "critical_load_trapezoid"}
+    expected = critical_loads_grid([0.3], lambda pts: open_loop_velocity(pts, trapezoid_action()))[0.3]
+    assert record["critical_load_trapezoid"] == expected and 0.05 < expected < 0.1  # kg (0.070 by bisection)
+    # the policy moves its critical load forward and the next grid load not
+    from agents.evaluate import Policy, policy_velocity
+
+    v = policy_velocity(Policy(POLICY), [(0.3, record["critical_load_learned"])])
+    assert v[0] > 0
+
+
+def test_warns_outside_the_trained_range(capsys):
+    code, out, err = _run(["--k", "0.7", "--cargo-mass", "0.0", "--json"], capsys)
+    assert code == 0 and "outside the trained range [0, 0.6]" in err
+    assert np.isfinite(json.loads(out)["trapezoid_mean_velocity"])
