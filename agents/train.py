@@ -4,15 +4,18 @@
     mdr-drive train --resume runs/ppo_s0 --steps 500000      # continue, same step counter
 
 Writes into ``--out``: ``model.zip``, ``vecnormalize.pkl`` (normalisation statistics, needed to run
-the policy), ``checkpoints/``, ``best/`` (best evaluation on held-out points), ``tb/`` (TensorBoard),
-``evaluations.npz`` and ``run.json`` (command, versions, seed, steps, wall time, steps/s).
+the policy), ``checkpoints/``, ``best/`` (best evaluation on held-out points, with its own
+``vecnormalize.pkl``), ``tb/`` (TensorBoard), ``evaluations.npz`` and ``run.json`` (command,
+versions, seed, steps, wall time, steps/s). Ctrl-C or SIGTERM stops training, saves all of these and
+marks the run ``interrupted`` in run.json; ``--resume`` continues it. An existing run is never
+overwritten without ``--force``. torch uses one thread unless ``--torch-threads`` says otherwise
+(the policies are small MLPs; on a busy 2-core machine 2 threads made PPO 10-30 times slower).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import platform
 import sys
 import time
@@ -126,20 +129,60 @@ def versions() -> dict[str, str]:
             "numba": numba.__version__, "numpy": np.__version__}
 
 
+def _save_normalisation_callback(path: Path):
+    """An SB3 callback (for EvalCallback's ``callback_on_new_best``) that saves the training env's
+    VecNormalize statistics beside the best model, so ``best/`` loads like the run's own folder."""
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    class SaveNormalisation(BaseCallback):
+        def _on_step(self) -> bool:
+            env = self.model.get_env()
+            if isinstance(env, VecNormalize):
+                path.parent.mkdir(parents=True, exist_ok=True)
+                env.save(str(path))
+            return True
+
+    return SaveNormalisation()
+
+
+class _Interrupted(Exception):
+    """SIGTERM during training (handled like Ctrl-C)."""
+
+
+def rounded_steps(algo: str, steps: int, n_envs: int, hyper: dict[str, Any]) -> int:
+    """The steps SB3 will actually run: PPO collects whole rollouts of ``n_steps * n_envs``."""
+    if algo == "ppo":
+        rollout = int(hyper.get("n_steps", 2048)) * n_envs
+        return -(-steps // rollout) * rollout
+    return steps
+
+
 def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str | Path = "runs/ppo",
           n_envs: int | None = None, k=None, cargo_mass=None, load_ratio=None, config: str | Path | None = None,
           resume: str | Path | None = None, eval_freq: int = 20_000, checkpoint_freq: int = 100_000,
-          warm_start: str | None = None,
-          progress_bar: bool = True, verbose: int = 0) -> dict[str, Any]:
-    """Train (or resume) a policy; returns the run record also written to ``run.json``."""
+          warm_start: str | None = None, progress_bar: bool = True, verbose: int = 0, force: bool = False,
+          torch_threads: int = 1) -> dict[str, Any]:
+    """Train (or resume) a policy; returns the run record also written to ``run.json``.
+
+    Refuses to train into a folder that holds a run unless ``resume`` names it or ``force`` is set.
+    Ctrl-C or SIGTERM saves the model, its normalisation and run.json (``"interrupted": true``).
+    """
+    import signal
+
     import torch
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
     from stable_baselines3.common.vec_env import VecNormalize
 
     algos = {"ppo": PPO, "sac": SAC}
+    for name, value in (("steps", steps), ("n_envs", n_envs), ("torch_threads", torch_threads)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
+            raise ValueError(f"{name}={value!r} is outside the allowed range [1, inf)")
     out = Path(resume or out)
     run_file = out / "run.json"
+    if not resume and not force and ((out / "run.json").exists() or (out / "model.zip").exists()):
+        raise ValueError(f"{out} already holds a run: continue it with --resume {out}, or overwrite it with --force")
     previous = json.loads(run_file.read_text()) if resume else None
     if resume:
         algo, seed = previous["algo"], previous["seed"]
@@ -162,8 +205,13 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     hyper.pop("n_timesteps", None)
     hyper.pop("policy", None)
     normalize = hyper.pop("normalize", True)
-    threads = len(os.sched_getaffinity(0))
+    threads = int(torch_threads)
     torch.set_num_threads(threads)
+    actual = rounded_steps(algo, total, n, hyper)
+    if actual != total:
+        rollout = int(hyper.get("n_steps", 2048))
+        print(f"train: PPO collects whole rollouts of n_steps x n_envs = {rollout} x {n} = {rollout * n} steps: "
+              f"--steps {total} runs {actual} steps", file=sys.stderr)
     out.mkdir(parents=True, exist_ok=True)
 
     if not resume:
@@ -206,7 +254,8 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         CheckpointCallback(max(checkpoint_freq // n, 1), str(out / "checkpoints"), name_prefix=algo,
                            save_vecnormalize=True),
         EvalCallback(eval_env, n_eval_episodes=len(HELD_OUT_POINTS), eval_freq=max(eval_freq // n, 1),
-                     best_model_save_path=str(out / "best"), log_path=str(out), deterministic=True),
+                     best_model_save_path=str(out / "best"), log_path=str(out), deterministic=True,
+                     callback_on_new_best=_save_normalisation_callback(out / "best" / "vecnormalize.pkl")),
     ]
     teacher_steps = hyper.get("teacher_steps_per_rollout")
     if teacher_steps and teacher is not None:  # keep pulling towards the teacher of the warm start
@@ -215,8 +264,20 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         callbacks.append(teacher_regulariser(policy_teacher, int(teacher_steps), seed=seed))
     start_steps = model.num_timesteps
     t0 = time.perf_counter()
-    model.learn(total, callback=callbacks, progress_bar=progress_bar, reset_num_timesteps=not resume,
-                tb_log_name=algo)
+
+    def on_sigterm(signum, frame):
+        raise _Interrupted
+
+    interrupted = False
+    old_handler = signal.signal(signal.SIGTERM, on_sigterm)
+    try:
+        model.learn(total, callback=callbacks, progress_bar=progress_bar, reset_num_timesteps=not resume,
+                    tb_log_name=algo)
+    except (KeyboardInterrupt, _Interrupted):
+        interrupted = True
+        print(f"train: interrupted at step {model.num_timesteps}; saved, continue with --resume {out}", file=sys.stderr)
+    finally:
+        signal.signal(signal.SIGTERM, old_handler)
     wall = time.perf_counter() - t0
     model.save(out / "model.zip")
     if isinstance(model.get_env(), VecNormalize):
@@ -230,13 +291,14 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         "steps_per_s_this_run": round((model.num_timesteps - start_steps) / wall, 1),
         "resumes": (previous["resumes"] + 1) if previous else 0,
         "held_out_points": HELD_OUT_POINTS,
+        "interrupted": interrupted,
     }
     run_file.write_text(json.dumps(record, indent=2))
     return record
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from mdr_drive_env.cli_args import folder_with, input_file, output_dir
+    from mdr_drive_env.cli_args import folder_with, input_file, output_dir, positive_int
 
     def warm_start_type(text: str) -> str:
         if text.startswith("cma:"):
@@ -253,14 +315,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "config's load ratio (kg)")
     p.add_argument("--load-ratio", type=float, nargs="+", default=None,
                    help="load as a fraction of mu F_ref, one value or a low high range (-); default from the config")
-    p.add_argument("--steps", type=int, default=None, help="environment steps (drive periods) to train (-)")
+    p.add_argument("--steps", type=positive_int, default=None,
+                   help="environment steps (drive periods) to train, >= 1; PPO rounds up to whole rollouts "
+                        "and says so (-); default from the config")
     p.add_argument("--seed", type=int, default=0, help="seed of the policy and the environments (-)")
-    p.add_argument("--n-envs", type=int, default=None, help="drives stepped together in the batched env (-)")
+    p.add_argument("--n-envs", type=positive_int, default=None,
+                   help="drives stepped together in the batched env, >= 1 (-); default from the config")
+    p.add_argument("--torch-threads", type=positive_int, default=1,
+                   help="torch threads of this process (-); 1 is fastest for these small MLPs")
+    p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
     p.add_argument("--config", default=None, type=input_file, help="RL-Zoo-style YAML (default: agents/configs/<algo>.yaml)")
     p.add_argument("--out", default=None, type=output_dir, help="output folder (default: runs/<algo>_s<seed>)")
     p.add_argument("--resume", default=None, metavar="DIR", type=folder_with("model.zip", "run.json"), help="continue the run in DIR (same step counter)")
-    p.add_argument("--eval-freq", type=int, default=20_000, help="evaluate on held-out points every N steps (-)")
-    p.add_argument("--checkpoint-freq", type=int, default=100_000, help="checkpoint every N steps (-)")
+    p.add_argument("--eval-freq", type=positive_int, default=20_000, help="evaluate on held-out points every N steps (-)")
+    p.add_argument("--checkpoint-freq", type=positive_int, default=100_000, help="checkpoint every N steps (-)")
     p.add_argument("--warm-start", default=None, metavar="none|trapezoid|cma:FILE", type=warm_start_type,
                    help="initial policy: as is, mean at the trapezoid, or cloned from a CMA-ES teacher "
                         "(python -m agents.teacher); default from the config")
@@ -272,10 +340,10 @@ def main(args: argparse.Namespace) -> int:
     record = train(args.algo, args.steps, args.seed, out, args.n_envs, args.k, args.cargo_mass, args.load_ratio,
                    args.config,
                    args.resume, args.eval_freq, args.checkpoint_freq, warm_start=args.warm_start,
-                   progress_bar=not args.no_progress)
+                   progress_bar=not args.no_progress, force=args.force, torch_threads=args.torch_threads)
     print(json.dumps({key: record[key] for key in ("algo", "seed", "total_timesteps", "wall_time_s",
-                                                    "steps_per_s_this_run")}, indent=2))
-    return 0
+                                                    "steps_per_s_this_run", "interrupted")}, indent=2))
+    return 130 if record["interrupted"] else 0
 
 
 if __name__ == "__main__":  # python -m agents.train ... is mdr-drive train ...

@@ -1,0 +1,103 @@
+"""Training a user can rely on: interrupts save a resumable run, runs are not overwritten, --steps is
+honoured or its rounding said, bad values are errors, the best model has its own normalisation."""
+
+import json
+import os
+import signal
+import threading
+
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from agents.train import rounded_steps, train  # noqa: E402
+from mdr_drive_env.cli import main  # noqa: E402
+
+KW = dict(n_envs=4, eval_freq=64, checkpoint_freq=10_000, progress_bar=False)
+
+
+def _interrupt_at(step: int, how: str):
+    """An SB3 callback that interrupts training once it has run ``step`` steps."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Interrupt(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= step:
+                if how == "sigint":
+                    raise KeyboardInterrupt
+                os.kill(os.getpid(), signal.SIGTERM)
+            return True
+
+    return Interrupt()
+
+
+@pytest.mark.parametrize("how", ["sigint", "sigterm"])
+def test_an_interrupt_saves_a_run_that_resumes_with_the_same_step_counter(how, tmp_path, monkeypatch):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    assert threading.current_thread() is threading.main_thread()  # signal handlers need it
+    out = tmp_path / "run"
+    learn = PPO.learn
+
+    def learn_with_interrupt(self, *a, callback=None, **kw):
+        return learn(self, *a, callback=[*callback, _interrupt_at(192, how)], **kw)
+
+    monkeypatch.setattr(PPO, "learn", learn_with_interrupt)
+    record = train("ppo", steps=4096, seed=0, out=out, **KW)
+    monkeypatch.setattr(PPO, "learn", learn)
+    assert record["interrupted"] and 192 <= record["total_timesteps"] < 4096
+    assert json.loads((out / "run.json").read_text())["interrupted"]
+    model = PPO.load(out / "model.zip", device="cpu")  # plain SB3 loads what the interrupt saved
+    assert model.num_timesteps == record["total_timesteps"]
+    assert VecNormalize.load(str(out / "vecnormalize.pkl"), _venv()).obs_rms.count > 0
+    resumed = train(resume=out, steps=64, **KW)
+    assert not resumed["interrupted"] and resumed["total_timesteps"] >= record["total_timesteps"] + 64
+    assert resumed["resumes"] == 1
+
+
+def _venv():
+    from agents.vec_env import BatchedVecEnv
+
+    return BatchedVecEnv(1, seed=0)
+
+
+def test_an_existing_run_is_not_overwritten_without_force(tmp_path, capsys):
+    out = tmp_path / "run"
+    train("ppo", steps=64, seed=0, out=out, **KW)
+    before = (out / "model.zip").read_bytes()
+    with pytest.raises(ValueError, match="already holds a run: continue it with --resume"):
+        train("ppo", steps=64, seed=1, out=out, **KW)
+    assert (out / "model.zip").read_bytes() == before
+    assert main(["train", "--steps", "64", "--n-envs", "4", "--no-progress", "--out", str(out)]) == 2
+    assert "already holds a run" in capsys.readouterr().err
+    assert train("ppo", steps=64, seed=1, out=out, force=True, **KW)["seed"] == 1
+
+
+def test_steps_rounding_is_said_and_bad_counts_are_errors(tmp_path, capsys):
+    assert rounded_steps("ppo", 100, 4, {"n_steps": 16}) == 128 and rounded_steps("ppo", 128, 4, {"n_steps": 16}) == 128
+    assert rounded_steps("sac", 100, 4, {}) == 100
+    record = train("ppo", steps=100, seed=0, out=tmp_path / "r", **KW)
+    err = capsys.readouterr().err
+    n_steps = record["hyperparameters"]["n_steps"]
+    assert f"--steps 100 runs {rounded_steps('ppo', 100, 4, {'n_steps': n_steps})} steps" in err
+    assert record["total_timesteps"] == rounded_steps("ppo", 100, 4, {"n_steps": n_steps})
+    for argv in (["--steps", "0"], ["--n-envs", "-2"], ["--steps", "ten"], ["--torch-threads", "0"]):
+        with pytest.raises(SystemExit) as e:
+            main(["train", *argv])
+        assert e.value.code == 2
+    with pytest.raises(ValueError, match="steps=0"):
+        train("ppo", steps=0, out=tmp_path / "x", **KW)
+
+
+def test_the_best_model_has_its_own_normalisation_and_one_torch_thread(tmp_path):
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    out = tmp_path / "run"
+    record = train("ppo", steps=256, seed=0, out=out, **KW)
+    assert record["torch_threads"] == 1 and torch.get_num_threads() == 1
+    assert (out / "best" / "best_model.zip").exists() and (out / "best" / "vecnormalize.pkl").exists()
+    PPO.load(out / "best" / "best_model.zip", device="cpu")
+    assert VecNormalize.load(str(out / "best" / "vecnormalize.pkl"), _venv()).obs_rms.mean.shape == (14,)
