@@ -17,6 +17,11 @@ from .evaluate import ACTION_MAP, open_loop_velocity, trapezoid_action
 #: Default CMA-ES budget: steady-velocity evaluations per point (each one 30 simulated periods).
 CMA_BUDGET = 480
 CMA_POPSIZE = 12
+#: Start of the two-action search: a slow full forward stroke pressed to full depth at mid-period
+#: ("push"), then a period with almost no x stroke and a fast full-depth press ("clamp").
+PUSH_CLAMP = np.array([[1.0, 0.8, 1.0, 0.0, 1.0], [-0.87, -0.9, 1.0, -0.9, 0.8]])
+#: CMA-ES evaluations of one two-action cycle search (per start), its population and step size.
+CYCLE_SEARCH = {"budget": 1500, "popsize": 16, "sigma0": 0.3}
 
 
 @dataclass(frozen=True)
@@ -66,4 +71,38 @@ def best_cma_run(k: float, cargo_mass: float, starts, budget: int, popsize: int,
     return max(runs, key=lambda r: r.velocity)
 
 
-__all__ = ["ACTION_MAP", "CMAResult", "best_cma_run", "cma_optimize", "trapezoid_action"]
+def best_cycle(k: float, cargo_mass: float, starts=(None, PUSH_CLAMP), budget: int = CYCLE_SEARCH["budget"],
+               seed: int = 0) -> CMAResult:
+    """The best two-action cycle found by CMA-ES runs from each of ``starts`` (None: the trapezoid
+    every period), ``CYCLE_SEARCH`` settings, ``budget`` evaluations per start."""
+    return best_cma_run(k, cargo_mass, starts, budget, popsize=CYCLE_SEARCH["popsize"],
+                        sigma0=CYCLE_SEARCH["sigma0"], cycle=2, seed=seed)
+
+
+def cycle_critical_load(k: float, trapezoid_critical: float, iterations: int = 8,
+                        budget: int = CYCLE_SEARCH["budget"]) -> tuple[float, np.ndarray]:
+    """Critical load (kg) of the best two-action cycle found, by bisection on the load from the
+    trapezoid's critical load up, re-optimising the cycle at every trial load (starts: the
+    push/clamp cycle and the best cycle so far). The bracket's upper end starts at 1.8x the
+    trapezoid's and doubles while the cycle still moves there. Returns (load, its cycle)."""
+    lo = trapezoid_critical
+    if lo <= 0.0:
+        return 0.0, np.tile(trapezoid_action(), (2, 1))
+    best = best_cycle(k, lo, (PUSH_CLAMP,), budget)
+    if best.velocity <= 0.0:  # the trapezoid itself moves here, so a search never ends below it
+        return 0.0, best.action
+    cycle, hi = best.action, 1.8 * lo
+    while (trial := best_cycle(k, hi, (PUSH_CLAMP, cycle), budget)).velocity > 0.0:
+        lo, cycle, hi = hi, trial.action, 2.0 * hi
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        trial = best_cycle(k, mid, (PUSH_CLAMP, cycle), budget)
+        if trial.velocity > 0.0:
+            lo, cycle = mid, trial.action
+        else:
+            hi = mid
+    return lo, cycle
+
+
+__all__ = ["ACTION_MAP", "CMAResult", "CYCLE_SEARCH", "PUSH_CLAMP", "best_cma_run", "best_cycle", "cma_optimize",
+           "cycle_critical_load", "trapezoid_action"]

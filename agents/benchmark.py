@@ -176,20 +176,45 @@ def write_report(out: str | Path, stem: str, lines: list[str], rows, t0: float) 
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from mdr_drive_env.cli_args import output_dir
+    from mdr_drive_env.cli_args import int_range, output_dir, positive_int
 
     p.add_argument("--policies", nargs="*", default=[], type=policy_path,
                    help="policy folders (one per training seed), or CMA-ES teacher .npz files played as their "
                         "lookup (agents.residual.TeacherLookup)")
-    p.add_argument("--out", default="results/benchmark", type=output_dir, help="output folder")
+    p.add_argument("--out", default=None, type=output_dir,
+                   help="output folder (default: results/benchmark, or results/blind/seed<S> with --blind)")
     p.add_argument("--quick", action="store_true", help="a CI-sized grid and CMA-ES budget")
+    b = p.add_argument_group("blind benchmark (agents/blind.py): random points of the training domain")
+    b.add_argument("--blind", type=positive_int, default=None, metavar="N",
+                   help="draw N (k, load) points with --seed instead of the fixed grid (-)")
+    b.add_argument("--seed", type=int, default=None, help="seed of the blind points (-); required with --blind")
+    b.add_argument("--scan-ks", type=int_range(2), default=25,
+                   help="k values of the critical-load scan, evenly spaced in [0, 0.6] (-)")
+    b.add_argument("--workers", type=positive_int, default=None,
+                   help="processes for the searches (-); default: the cores available")
     p.add_argument("--cma-budget", type=int, default=None, help=f"CMA-ES evaluations per point (-) (default: {CMA_BUDGET})")
 
 
 def main(args: argparse.Namespace) -> int:
-    res = run(args.policies, args.out, args.quick, args.cma_budget)
-    print((Path(args.out) / "benchmark.md").read_text())
-    print(f"wall time {res['wall_time_s']} s; figures and tables in {args.out}/")
+    if args.blind is not None:
+        from . import blind
+
+        if args.seed is None:
+            raise ValueError("--blind needs --seed: the seed that draws the points (keep one for your own "
+                             "decisions, report on another)")
+        out = args.out or f"results/blind/seed{args.seed}"
+        budget = {"fixed_budget": args.cma_budget} if args.cma_budget else {}
+        res = blind.run(args.policies, args.blind, args.seed, out, quick=args.quick, scan_ks=args.scan_ks,
+                        workers=args.workers, **budget)
+        print((Path(out) / "blind.md").read_text())
+        print(f"tables and figures in {out}/")
+        return 0
+    if args.seed is not None:
+        raise ValueError("--seed draws blind points: give --blind N too (the fixed grid has no seed)")
+    out = args.out or "results/benchmark"
+    res = run(args.policies, out, args.quick, args.cma_budget)
+    print((Path(out) / "benchmark.md").read_text())
+    print(f"wall time {res['wall_time_s']} s; figures and tables in {out}/")
     return 0
 
 

@@ -36,15 +36,12 @@ from tqdm import tqdm
 
 import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
 
-from .baselines import CMA_BUDGET, cma_optimize
+from .baselines import CMA_BUDGET, PUSH_CLAMP, cma_optimize
 from .evaluate import open_loop_velocity, trapezoid_action
 
 ENV_ID = "MDRDrive-v0"
 
 
-#: Start of the two-action search: a slow full forward stroke pressed to full depth at mid-period
-#: ("push"), then a period with almost no x stroke and a fast full-depth press ("clamp").
-PUSH_CLAMP = np.array([[1.0, 0.8, 1.0, 0.0, 1.0], [-0.87, -0.9, 1.0, -0.9, 0.8]])
 #: CMA-ES evaluations of the two-action search per loaded point.
 CYCLE_BUDGET = 2500
 #: Loads of the stall points and of the transition points, as multiples of the trapezoid's critical load.

@@ -1,10 +1,11 @@
 #!/usr/bin/env python
 """The critical load of the best two-waveform cycle, and how precisely a drive must play it.
 
-For each k, a bisection on the cargo mass between 1.0x and 1.8x the trapezoid's critical load: at
-every trial load CMA-ES searches two-action cycles (period t uses action t mod 2; 1,500
-evaluations, popsize 16, from the "push/clamp" pair of ``agents.teacher`` and from the best cycle
-of the previous trial) and the load counts as moved if the best steady velocity found is > 0.
+For each k, a bisection on the cargo mass from the trapezoid's critical load up (the upper end
+starts at 1.8x and doubles while the cycle still moves there; ``agents.baselines.cycle_critical_load``):
+at every trial load CMA-ES searches two-action cycles (period t uses action t mod 2; 1,500
+evaluations, popsize 16, from the "push/clamp" pair and from the best cycle of the previous trial)
+and the load counts as moved if the best steady velocity found is > 0.
 The result is the largest load any drive found here moves, as a multiple of the trapezoid's
 critical load: the reference for the learned policies' critical loads (a policy that plays the
 best cycle exactly reaches it; a fixed waveform cannot pass about 1.0x at k >= 0.2, see
@@ -24,35 +25,12 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from agents.baselines import best_cma_run
+from agents.baselines import cycle_critical_load
 from agents.benchmark import GRID_KS, critical_loads_grid, write_report
 from agents.evaluate import ACTION_MAP, open_loop_velocity, trapezoid_action
-from agents.teacher import PUSH_CLAMP
 
-BUDGET = 1500
 #: Action perturbation of the sensitivity table (action units).
 DELTA = 0.05
-
-
-def best_cycle(k: float, m: float, starts) -> tuple[float, np.ndarray]:
-    best = best_cma_run(k, m, starts, BUDGET, popsize=16, sigma0=0.3, cycle=2)
-    return best.velocity, best.action
-
-
-def cycle_critical_load(k: float, m_trap: float, iterations: int) -> tuple[float, np.ndarray]:
-    """Largest load moved (kg) by bisection in [1.0, 1.8] x ``m_trap``, and the best cycle found there."""
-    lo, hi = m_trap, 1.8 * m_trap
-    v, cycle = best_cycle(k, lo, [PUSH_CLAMP])
-    if v <= 0.0:
-        return 0.0, cycle
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        v, c = best_cycle(k, mid, [PUSH_CLAMP, cycle])
-        if v > 0.0:
-            lo, cycle = mid, c
-        else:
-            hi = mid
-    return lo, cycle
 
 
 def sensitivity(k: float, m: float, cycle: np.ndarray) -> dict[str, list[float]]:

@@ -1,0 +1,298 @@
+"""The blind benchmark: policies judged on random points nobody tuned to (``mdr-drive benchmark --blind``).
+
+    mdr-drive benchmark --blind 24 --seed 7 --policies agents/pretrained/ppo_generalist --out results/blind/seed7
+
+``--seed`` draws N points (k, load) from the training domain: k uniform in [0, 0.6], the cargo
+mass uniform from 0 to 1.25 times the trapezoid's critical load at that k. At every point it
+reports the trapezoid, each policy (closed loop), and the best drive found by a stated search:
+CMA-ES over fixed actions (``CMA_BUDGET`` evaluations) and over two-action cycles
+(``CYCLE_SEARCH``, from the trapezoid and from the push/clamp cycle), the better of the two. Then
+a critical-load scan over ``--scan-ks`` values of k in [0, 0.6] for the trapezoid, the policies and
+the best two-action cycle (bisection with CMA-ES at every trial load, ``cycle_critical_load``).
+Every velocity follows the evaluation protocol of ``agents.evaluate`` (30 periods, mean of the
+last 10, runaways marked).
+
+Statistics, per policy: points below the trapezoid by more than ``BELOW_TOLERANCE`` where either
+moves; the fraction of the best drive, only where the best drive moves at least
+``MOVING_THRESHOLD`` (never a ratio to a near-zero number); critical load over the trapezoid's and
+over the best cycle's at every scanned k. Keep one seed for your own decisions and report on
+another: a result on the seed you tuned on is not a blind result.
+
+Writes ``blind.json``, ``blind.md``, ``points.csv``, ``critical_loads.csv`` and two PNG plots.
+Ctrl-C keeps what is done in ``partial.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from mdr_drive_env.files import save_figure, write_csv, write_text
+
+from .baselines import CMA_BUDGET, CYCLE_SEARCH, best_cycle, cma_optimize, cycle_critical_load
+from .evaluate import (
+    AVERAGE_PERIODS,
+    EVAL_PERIODS,
+    critical_loads_grid,
+    format_velocity,
+    load_policy,
+    open_loop_velocity,
+    policy_rollout,
+    steady_velocity_of,
+    trapezoid_action,
+)
+
+#: The training domain the points are drawn from.
+K_RANGE = (0.0, 0.6)
+LOAD_FACTOR = 1.25
+#: A policy is "below the trapezoid" when slower by more than this (m/s).
+BELOW_TOLERANCE = 0.05e-3
+#: The fraction of the best drive counts only where the best drive moves at least this fast (m/s).
+MOVING_THRESHOLD = 2e-3
+#: Budgets of the quick mode (CI): tiny searches, a 3-value scan with 1 bisection step.
+QUICK = {"fixed_budget": 24, "cycle_budget": 32, "scan_ks": 3, "iterations": 1}
+
+
+def trapezoid_critical(ks) -> np.ndarray:
+    """The trapezoid's critical load (kg) at each k (``agents.evaluate.critical_loads_grid``)."""
+    crit = critical_loads_grid(sorted(set(ks)), lambda pts: open_loop_velocity(pts, trapezoid_action()))
+    return np.array([crit[k] for k in ks])
+
+
+def draw_points(n: int, seed: int) -> tuple[list[tuple[float, float]], np.ndarray]:
+    """``n`` (k, cargo mass) points of the training domain from ``seed``, and the trapezoid's
+    critical load at each k."""
+    rng = np.random.default_rng(seed)
+    ks = [float(round(k, 6)) for k in rng.uniform(*K_RANGE, n)]
+    crit = trapezoid_critical(ks)
+    masses = rng.uniform(0.0, 1.0, n) * LOAD_FACTOR * crit
+    return [(k, float(m)) for k, m in zip(ks, masses)], crit
+
+
+def best_drive(args) -> dict:
+    """The best drive found at one point: CMA-ES over fixed actions and over two-action cycles."""
+    k, m, fixed_budget, cycle_budget = args
+    fixed = cma_optimize(k, m, fixed_budget)
+    cyc = best_cycle(k, m, budget=cycle_budget)
+    best = cyc if cyc.velocity > fixed.velocity else fixed
+    return {"velocity": best.velocity, "kind": "two-action cycle" if best is cyc else "fixed action",
+            "action": np.asarray(best.action).tolist(), "fixed_velocity": fixed.velocity,
+            "cycle_velocity": cyc.velocity, "evaluations": fixed.evaluations + cyc.evaluations}
+
+
+def cycle_scan_task(args) -> float:
+    k, m_trap, iterations, budget = args
+    return cycle_critical_load(k, m_trap, iterations, budget)[0]
+
+
+def _map(fn, tasks, desc: str, workers: int, done: dict) -> list:
+    """``fn`` over ``tasks`` with a progress bar; results kept in ``done`` (task index -> result) as
+    they arrive, so an interrupt keeps them."""
+    if workers <= 1:
+        for i, t in enumerate(tqdm(tasks, desc=desc, unit="task")):
+            done[i] = fn(t)
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = {pool.submit(fn, t): i for i, t in enumerate(tasks)}
+            for f in tqdm(as_completed(futures), total=len(tasks), desc=desc, unit="task"):
+                done[futures[f]] = f.result()
+    return [done[i] for i in range(len(tasks))]
+
+
+def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: dict, ks) -> dict:
+    """The blind statistics of one policy (velocities in m/s; NaN is a runaway)."""
+    moving = (trap > 0) | (learned > 0)
+    with np.errstate(invalid="ignore"):  # both runaway: -inf - -inf, and neither moves there
+        gap = np.where(np.isnan(learned), -np.inf, learned) - np.where(np.isnan(trap), -np.inf, trap)
+    below = moving & (gap < -BELOW_TOLERANCE)
+    comparable = moving & np.isfinite(gap)
+    scored = best >= MOVING_THRESHOLD
+    fraction = np.where(np.isnan(learned), 0.0, learned)[scored] / best[scored]
+    ratio_trap = [crit["policy"][i] / crit["trapezoid"][i] if crit["trapezoid"][i] > 0 else None
+                  for i in range(len(ks))]
+    ratio_cycle = [crit["policy"][i] / crit["best cycle"][i] if crit["best cycle"][i] > 0 else None
+                   for i in range(len(ks))]
+    finite = [r for r in ratio_cycle if r is not None]
+    return {
+        "points_below_trapezoid": int(below.sum()),
+        "worst_difference_to_trapezoid_mm_s": float(gap[comparable].min() * 1e3) if comparable.any() else None,
+        "points_runaway_where_trapezoid_moves": int((np.isnan(learned) & (trap > 0)).sum()),
+        "points_scored": int(scored.sum()),
+        "fraction_of_best_mean": float(fraction.mean()) if fraction.size else None,
+        "fraction_of_best_min": float(fraction.min()) if fraction.size else None,
+        "critical_load_over_trapezoid": ratio_trap,
+        "critical_load_over_best_cycle": ratio_cycle,
+        "critical_load_over_best_cycle_min": min(finite) if finite else None,
+    }
+
+
+def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = False, scan_ks: int = 25,
+        workers: int | None = None, fixed_budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_SEARCH["budget"],
+        iterations: int = 8) -> dict:
+    """The blind benchmark (module docstring); returns what ``blind.json`` holds."""
+    if quick:
+        fixed_budget, cycle_budget, scan_ks, iterations = (QUICK[key] for key in
+                                                           ("fixed_budget", "cycle_budget", "scan_ks", "iterations"))
+    workers = workers or len(os.sched_getaffinity(0))
+    out = Path(out)
+    t0 = time.perf_counter()
+    res: dict = {"seed": seed, "n": n, "domain": {"k": list(K_RANGE), "load": f"0-{LOAD_FACTOR}x trapezoid critical"},
+                 "search": {"fixed_action_cma_evaluations": fixed_budget,
+                            "two_action_cycle_cma_evaluations_per_start": cycle_budget, "cycle_starts": 2,
+                            "cycle_critical_load_bisection_steps": iterations},
+                 "protocol": f"fast numerics; mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}",
+                 "policies": list(policies)}
+    done: dict = {}
+    try:
+        points, crit_at_points = draw_points(n, seed)
+        res["points"] = points
+        trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
+        res["trapezoid"] = trap.tolist()
+        found = _map(best_drive, [(k, m, fixed_budget, cycle_budget) for k, m in points], "best drive per point",
+                     workers, done)
+        res["best"] = found
+        best_v = np.array([f["velocity"] for f in found])
+        loaded = [load_policy(p) for p in policies]
+        learned = {}
+        for path, pol in zip(policies, loaded):
+            disp, _, runaway = policy_rollout(pol, points)
+            learned[path] = steady_velocity_of(disp, runaway=runaway)
+        res["learned"] = {p: v.tolist() for p, v in learned.items()}
+        ks = [float(k) for k in np.round(np.linspace(*K_RANGE, scan_ks), 6)]
+        crit_trap = trapezoid_critical(ks)
+        done.clear()
+        crit_cycle = _map(cycle_scan_task, [(k, m, iterations, cycle_budget) for k, m in zip(ks, crit_trap)],
+                          "critical load of the best cycle per k", workers, done)
+        crit = {"k": ks, "trapezoid": crit_trap.tolist(), "best cycle": crit_cycle}
+        for path, pol in zip(policies, loaded):
+            c = critical_loads_grid(ks, lambda pts, pol=pol: _policy_velocity(pol, pts))
+            crit[path] = [c[k] for k in ks]
+        res["critical_load_kg"] = crit
+        res["statistics"] = {p: statistics(trap, best_v, learned[p], {**crit, "policy": crit[p]}, ks)
+                             for p in policies}
+    except KeyboardInterrupt:
+        res["interrupted"] = True
+        res["partial_tasks"] = {str(i): v for i, v in done.items()}
+        write_text(out / "partial.json", json.dumps(_json_safe(res), indent=1))
+        raise
+    res["wall_time_s"] = round(time.perf_counter() - t0, 1)
+    write_outputs(res, out)
+    return res
+
+
+def _policy_velocity(policy, points):
+    from .evaluate import policy_velocity
+
+    return policy_velocity(policy, points)
+
+
+def _json_safe(obj):
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, (float, np.floating)):
+        return None if np.isnan(obj) else float(obj)
+    return obj
+
+
+def markdown(res: dict) -> str:
+    lines = [f"Blind benchmark, seed {res['seed']}: {res['n']} points, k uniform in {res['domain']['k']}, "
+             f"load {res['domain']['load']}; {res['protocol']}.",
+             f"Best drive: the better of CMA-ES over fixed actions ({res['search']['fixed_action_cma_evaluations']} "
+             f"evaluations) and over two-action cycles ({res['search']['two_action_cycle_cma_evaluations_per_start']} "
+             "evaluations from each of 2 starts). Velocities in mm/s; 'runaway': the load runs away with the slider.",
+             "", "| k | m (kg) | trapezoid | best drive (kind) | " + " | ".join(
+                 f"policy {i + 1}" for i in range(len(res["policies"]))) + " |",
+             "|---|---|---|---|" + "---|" * len(res["policies"])]
+    for i, (k, m) in enumerate(res["points"]):
+        b = res["best"][i]
+        cells = [format_velocity(res["learned"][p][i]) for p in res["policies"]]
+        lines.append(f"| {k:.3f} | {m:.4f} | {format_velocity(res['trapezoid'][i])} | "
+                     f"{format_velocity(b['velocity'])} ({b['kind']}) | " + " | ".join(cells) + " |")
+    crit = res["critical_load_kg"]
+    lines += ["", "Critical load (kg) per k (best cycle: bisection with CMA-ES at every trial load):", "",
+              "| k | trapezoid | best cycle | " + " | ".join(f"policy {i + 1}" for i in range(len(res["policies"])))
+              + " |", "|---|---|---|" + "---|" * len(res["policies"])]
+    for i, k in enumerate(crit["k"]):
+        lines.append(f"| {k:g} | {crit['trapezoid'][i]:.4f} | {crit['best cycle'][i]:.4f} | "
+                     + " | ".join(f"{crit[p][i]:.4f}" for p in res["policies"]) + " |")
+    lines += ["", "Statistics per policy:", ""]
+    for i, p in enumerate(res["policies"]):
+        s = res["statistics"][p]
+        ratios = [r for r in s["critical_load_over_trapezoid"] if r is not None]
+        lines.append(f"* policy {i + 1} (`{p}`): {s['points_below_trapezoid']} points below the trapezoid by more "
+                     f"than {BELOW_TOLERANCE * 1e3:g} mm/s (policy minus trapezoid at worst: "
+                     f"{_f(s['worst_difference_to_trapezoid_mm_s'])} mm/s); fraction of the best drive where it moves >= {MOVING_THRESHOLD * 1e3:g} mm/s "
+                     f"({s['points_scored']} points): mean {_f(s['fraction_of_best_mean'])}, min "
+                     f"{_f(s['fraction_of_best_min'])}; critical load / best cycle's: min "
+                     f"{_f(s['critical_load_over_best_cycle_min'])}; / trapezoid's: "
+                     f"{min(ratios) if ratios else float('nan'):.3f}-{max(ratios) if ratios else float('nan'):.3f}")
+    lines += ["", f"wall time {res['wall_time_s']} s"]
+    return "\n".join(lines) + "\n"
+
+
+def _f(x) -> str:
+    return "-" if x is None else f"{x:.3f}"
+
+
+def write_outputs(res: dict, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    write_text(out / "blind.json", json.dumps(_json_safe(res), indent=1))
+    write_text(out / "blind.md", markdown(res))
+    names = [f"policy {i + 1}" for i in range(len(res["policies"]))]
+    write_csv(out / "points.csv", ["k", "cargo_mass_kg", "trapezoid_m_s", "best_m_s", "best_kind", *
+                                   [f"{n}_m_s" for n in names]],
+              [(k, m, _cell(res["trapezoid"][i]), res["best"][i]["velocity"], res["best"][i]["kind"],
+                *(_cell(res["learned"][p][i]) for p in res["policies"])) for i, (k, m) in enumerate(res["points"])])
+    crit = res["critical_load_kg"]
+    write_csv(out / "critical_loads.csv", ["k", "trapezoid_kg", "best_cycle_kg", *[f"{n}_kg" for n in names]],
+              [(k, crit["trapezoid"][i], crit["best cycle"][i], *(crit[p][i] for p in res["policies"]))
+               for i, k in enumerate(crit["k"])])
+
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ax.plot(crit["k"], crit["best cycle"], "-s", ms=3, color="k", label="best two-action cycle found")
+    ax.plot(crit["k"], crit["trapezoid"], "-o", ms=3, color="0.5", label="trapezoid")
+    for i, p in enumerate(res["policies"]):
+        ax.plot(crit["k"], crit[p], ":^", ms=4, color=f"C{i}", label=names[i] + f" ({Path(p).name})")
+    ax.set(yscale="log", xlabel="k", ylabel="critical cargo mass (kg)",
+           title=f"critical load vs k (blind benchmark, seed {res['seed']}, fast numerics)")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, out / "critical_load_vs_k.png")
+    plt.close(fig)
+
+    best = np.array([b["velocity"] for b in res["best"]])
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ks = np.array([k for k, _ in res["points"]])
+    for i, p in enumerate(res["policies"]):
+        v = np.array(res["learned"][p], dtype=float)
+        sel = best >= MOVING_THRESHOLD
+        ax.plot(ks[sel], np.nan_to_num(v[sel], nan=0.0) / best[sel], "^", color=f"C{i}", label=names[i])
+    trap = np.array(res["trapezoid"], dtype=float)
+    sel = best >= MOVING_THRESHOLD
+    ax.plot(ks[sel], np.nan_to_num(trap[sel], nan=0.0) / best[sel], "o", color="0.5", label="trapezoid")
+    ax.axhline(1.0, color="k", lw=0.6)
+    ax.set(xlabel="k", ylabel="velocity / best drive found",
+           title=f"fraction of the best drive at the blind points (seed {res['seed']}; best >= 2 mm/s)")
+    ax.title.set_fontsize(9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, out / "fraction_of_best.png")
+    plt.close(fig)
+
+
+def _cell(v):
+    return "runaway" if v is None or (isinstance(v, float) and np.isnan(v)) else v

@@ -1,0 +1,79 @@
+"""The blind benchmark (agents/blind.py) in its quick mode, and its statistics on known numbers."""
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from agents import blind  # noqa: E402
+from agents.demo import PRETRAINED  # noqa: E402
+from mdr_drive_env.cli import main  # noqa: E402
+
+
+def test_points_are_drawn_from_the_training_domain_by_the_seed():
+    points, crit = blind.draw_points(8, seed=3)
+    again, _ = blind.draw_points(8, seed=3)
+    other, _ = blind.draw_points(8, seed=4)
+    assert points == again and points != other
+    for (k, m), c in zip(points, crit):
+        assert 0.0 <= k <= 0.6 and 0.0 <= m <= 1.25 * c
+    assert np.all(crit > 0)
+
+
+def test_statistics_on_known_numbers():
+    trap = np.array([10e-3, 5e-3, -1e-3, np.nan, 1e-3])
+    best = np.array([20e-3, 10e-3, 4e-3, 1e-3, 1.5e-3])
+    learned = np.array([18e-3, 4.9e-3, 2e-3, np.nan, 1.0e-3])
+    crit = {"trapezoid": [1.0, 0.5], "best cycle": [1.5, 0.6], "policy": [1.5, 0.57]}
+    s = blind.statistics(trap, best, learned, crit, [0.0, 0.3])
+    assert s["points_below_trapezoid"] == 1  # 4.9 against 5.0 mm/s; 1.0 against 1.0 is not below
+    assert s["worst_difference_to_trapezoid_mm_s"] == pytest.approx(-0.1)
+    assert s["points_scored"] == 3  # the best drive moves >= 2 mm/s at the first three points only
+    assert s["fraction_of_best_mean"] == pytest.approx(np.mean([0.9, 0.49, 0.5]))
+    assert s["fraction_of_best_min"] == pytest.approx(0.49)
+    assert s["critical_load_over_best_cycle"] == pytest.approx([1.0, 0.95])
+    assert s["critical_load_over_best_cycle_min"] == pytest.approx(0.95)
+    assert s["critical_load_over_trapezoid"] == pytest.approx([1.5, 1.14])
+
+
+def test_quick_blind_benchmark_writes_its_report(tmp_path, capsys):
+    out = tmp_path / "blind"
+    assert main(["benchmark", "--blind", "3", "--seed", "11", "--quick", "--workers", "1",
+                 "--policies", str(PRETRAINED), "--out", str(out)]) == 0
+    res = json.loads((out / "blind.json").read_text())
+    assert res["seed"] == 11 and len(res["points"]) == 3 and len(res["critical_load_kg"]["k"]) == 3
+    for b, t in zip(res["best"], res["trapezoid"]):  # the search starts from the trapezoid: never worse
+        assert t is None or b["velocity"] >= t - 1e-12
+    for i, k in enumerate(res["critical_load_kg"]["k"]):  # the best cycle is never below the trapezoid
+        assert res["critical_load_kg"]["best cycle"][i] >= res["critical_load_kg"]["trapezoid"][i]
+    stats = res["statistics"][str(PRETRAINED)]
+    assert {"points_below_trapezoid", "fraction_of_best_mean", "critical_load_over_best_cycle_min"} <= set(stats)
+    for name in ("blind.md", "points.csv", "critical_loads.csv", "critical_load_vs_k.png", "fraction_of_best.png"):
+        assert (out / name).stat().st_size > 100, name
+    assert "Blind benchmark, seed 11" in capsys.readouterr().out
+
+
+def test_blind_needs_a_seed_and_a_seed_needs_blind(capsys):
+    assert main(["benchmark", "--blind", "3"]) == 2
+    assert "--blind needs --seed" in capsys.readouterr().err
+    assert main(["benchmark", "--seed", "3"]) == 2
+    assert "give --blind N too" in capsys.readouterr().err
+
+
+def test_ctrl_c_keeps_the_finished_searches(tmp_path, monkeypatch):
+    calls = []
+    real = blind.best_drive
+
+    def interrupted(args):
+        calls.append(args)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(args)
+
+    monkeypatch.setattr(blind, "best_drive", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        blind.run([], 4, seed=2, out=tmp_path, quick=True, workers=1)
+    partial = json.loads((tmp_path / "partial.json").read_text())
+    assert partial["interrupted"] and len(partial["partial_tasks"]) == 2 and len(partial["points"]) == 4
