@@ -43,6 +43,7 @@ from .evaluate import (
     format_velocity,
     load_policy,
     open_loop_velocity,
+    policy_label,
     policy_rollout,
     steady_velocity_of,
     trapezoid_action,
@@ -264,7 +265,7 @@ def write_outputs(res: dict, out: Path) -> None:
     ax.plot(crit["k"], crit["best cycle"], "-s", ms=3, color="k", label="best two-action cycle found")
     ax.plot(crit["k"], crit["trapezoid"], "-o", ms=3, color="0.5", label="trapezoid")
     for i, p in enumerate(res["policies"]):
-        ax.plot(crit["k"], crit[p], ":^", ms=4, color=f"C{i}", label=names[i] + f" ({Path(p).name})")
+        ax.plot(crit["k"], crit[p], ":^", ms=4, color=f"C{i}", label=f"{names[i]}: {policy_label(p)}")
     ax.set(yscale="log", xlabel="k", ylabel="critical cargo mass (kg)",
            title=f"critical load vs k (blind benchmark, seed {res['seed']}, fast numerics)")
     ax.legend(fontsize=7)
@@ -279,7 +280,8 @@ def write_outputs(res: dict, out: Path) -> None:
     for i, p in enumerate(res["policies"]):
         v = np.array(res["learned"][p], dtype=float)
         sel = best >= MOVING_THRESHOLD
-        ax.plot(ks[sel], np.nan_to_num(v[sel], nan=0.0) / best[sel], "^", color=f"C{i}", label=names[i])
+        ax.plot(ks[sel], np.nan_to_num(v[sel], nan=0.0) / best[sel], "^", color=f"C{i}",
+                label=f"{names[i]}: {policy_label(p)}")
     trap = np.array(res["trapezoid"], dtype=float)
     sel = best >= MOVING_THRESHOLD
     ax.plot(ks[sel], np.nan_to_num(trap[sel], nan=0.0) / best[sel], "o", color="0.5", label="trapezoid")

@@ -14,15 +14,16 @@ from mdr_drive_env.core import DriveParams, DriveSimulator, Waveform
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
+    PRETRAINED,
     Policy,
     format_velocity,
     open_loop_velocity,
+    policy_label,
     policy_rollout,
     steady_velocity_of,
     trapezoid_action,
 )
 
-PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
 DEMO_KS = (0.0, 0.1, 0.2, 0.3)
 DEMO_MASSES = (0.0, 0.1, 0.2, 0.4)
 #: Loads of the demo's plot (kg): fine enough to show where each drive stalls.
@@ -37,12 +38,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="results/demo", type=output_dir, help="output folder")
     p.add_argument("--policy", default=str(PRETRAINED), type=policy_path,
                    help="policy folder (default: the shipped one, agents/pretrained/ppo_generalist)")
-
-
-def policy_label(path: str | Path) -> str:
-    """How plots and tables name a policy: "shipped policy" for the shipped one, else its folder name."""
-    path = Path(path)
-    return "shipped policy" if path.resolve() == PRETRAINED.resolve() else f"policy {path.name}"
 
 
 def main(args: argparse.Namespace) -> int:

@@ -25,6 +25,8 @@ from mdr_drive_env.core.analysis import is_runaway
 from mdr_drive_env.core.batch import BatchedDriveSimulator
 from mdr_drive_env.gym_envs.spaces import ActionMap
 
+#: The shipped policy.
+PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
 EVAL_PERIODS = 30
 AVERAGE_PERIODS = 10
 ACTION_MAP = ActionMap()
@@ -47,6 +49,19 @@ def runaway_of(displacements: np.ndarray, peak_normal_force: np.ndarray, params:
     margin = np.array([(p.contact.friction_coefficient + p.contact.base_friction_coefficient) * fz - p.drive.load
                        for p, fz in zip(params, peak_normal_force)])
     return is_runaway(np.asarray(displacements) / ACTION_MAP.period, INDENTER_MIN_VELOCITY, margin)
+
+
+def policy_label(path: str | Path) -> str:
+    """How plots and tables name a policy: "shipped policy" for the shipped one, else what its run.json
+    says (algorithm and seed) or its folder's name, never a path of the machine that trained it."""
+    path = Path(path)
+    if path.resolve() == PRETRAINED.resolve():
+        return "shipped policy"
+    run_file = path / "run.json"
+    if run_file.exists():
+        run = json.loads(run_file.read_text())
+        return f"{run.get('algo', 'policy').upper()} seed {run.get('seed', '?')} ({path.name})"
+    return f"policy {path.stem}"
 
 
 def format_velocity(v: float, width: int = 0, digits: int = 2) -> str:

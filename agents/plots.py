@@ -8,7 +8,7 @@ import numpy as np
 
 from mdr_drive_env.core.waveform import knots_from_params
 
-from .evaluate import ACTION_MAP, trapezoid_action
+from .evaluate import ACTION_MAP, policy_label, trapezoid_action
 
 
 def _waveform(action):
@@ -58,7 +58,8 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
     fig, ax = plt.subplots(figsize=(6, 4))
     for name, c in res["critical_load_kg"].items():
         style = "-o" if name in ("trapezoid", "cma-es") else ":^"
-        ax.plot(ks, [c[f"{k:g}"] for k in ks], style, ms=4, label=name)
+        ax.plot(ks, [c[f"{k:g}"] for k in ks], style, ms=4,
+                label=name if name in ("trapezoid", "cma-es") else policy_label(name))
     ax.set(yscale="log", xlabel="k", ylabel="critical cargo mass (kg)", title="critical load vs k")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)

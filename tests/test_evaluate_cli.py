@@ -68,3 +68,13 @@ def test_warns_outside_the_trained_range(capsys):
     code, out, err = _run(["--k", "0.7", "--cargo-mass", "0.0", "--json"], capsys)
     assert code == 0 and "outside the trained range [0, 0.6]" in err
     assert np.isfinite(json.loads(out)["trapezoid_mean_velocity"])
+
+
+def test_policies_are_named_by_what_they_are_not_by_paths(tmp_path):
+    from agents.evaluate import policy_label
+
+    assert policy_label(PRETRAINED) == "shipped policy"
+    run = tmp_path / "deep" / "folder" / "ppo_s3"
+    run.mkdir(parents=True)
+    (run / "run.json").write_text(json.dumps({"algo": "ppo", "seed": 3}))
+    assert policy_label(run) == "PPO seed 3 (ppo_s3)" and str(tmp_path) not in policy_label(run)
