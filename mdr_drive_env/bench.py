@@ -64,10 +64,11 @@ def env_rate(steps: int, repeats: int, **kwargs) -> float:
     return _median_rate(block, steps, repeats)
 
 
-def vector_rate(n: int, steps: int, repeats: int) -> float:
+def vector_rate(n: int, steps: int, repeats: int, num_threads: int | None = None) -> float:
     import gymnasium as gym
 
-    venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=10**9)
+    venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=10**9,
+                        num_threads=num_threads)
     venv.reset(seed=0)
     rng = np.random.default_rng(0)
     actions = rng.uniform(-1, 1, (32, n, 5)).astype(np.float32)
@@ -130,6 +131,11 @@ def run(out_dir: str | Path = "results/bench", quick: bool = False, reference_ca
     res["env_steps_per_s_default_numerics"] = env_rate(50 if quick else 200, reps, numerics="default")
     res["vector_env_steps_per_s"] = {str(n): vector_rate(n, max(4, (400 if quick else 2000) // n), reps)
                                      for n in tqdm((1, 8, 64), desc="vector env")}
+    from .core.batch import default_threads
+
+    res["vector_env_64_steps_per_s_by_threads"] = {
+        str(t): vector_rate(64, max(4, (400 if quick else 2000) // 64), reps, num_threads=t)
+        for t in tqdm(range(1, default_threads() + 1), desc="vector env threads")}
 
     actions, _ = accuracy_waveforms()
     reference = reference_displacements(reference_cache)
@@ -154,8 +160,11 @@ def markdown(res: dict) -> str:
               f"* `env.step` via `gym.make(\"MDRDrive-v0\")` (default wrappers, fast numerics): "
               f"{res['env_steps_per_s']:,.0f} steps/s; with `numerics=\"default\"`: "
               f"{res['env_steps_per_s_default_numerics']:,.0f} steps/s",
-              "* batched vector env (`gym.make_vec(..., vectorization_mode=\"vector_entry_point\")`), env-steps/s: "
-              + ", ".join(f"N = {n}: {v:,.0f}" for n, v in res["vector_env_steps_per_s"].items()),
+              "* batched vector env (`gym.make_vec(..., vectorization_mode=\"vector_entry_point\")`, all cores), "
+              "env-steps/s: " + ", ".join(f"N = {n}: {v:,.0f}" for n, v in res["vector_env_steps_per_s"].items()),
+              "* batched vector env, N = 64, by thread count (`num_threads`), env-steps/s: "
+              + ", ".join(f"{t} thread{'s' if t != '1' else ''}: {v:,.0f}"
+                          for t, v in res["vector_env_64_steps_per_s_by_threads"].items()),
               f"* first period in a fresh process, not a per-step cost: JIT compile with an empty numba cache "
               f"{res['first_call']['compile_first_period_s']:.1f} s (import {res['first_call']['compile_import_s']:.1f} s); "
               f"from numba's cache {res['first_call']['cache_load_first_period_s']:.2f} s "

@@ -137,9 +137,11 @@ def test_batched_solver_equals_single_simulators_bit_for_bit(rng):
             assert out[i, K.O_PEAK_FX] == r.peak_tangential_force
 
 
-def test_vector_env_equals_single_envs_across_autoresets():
+@pytest.mark.parametrize("num_threads", [1, 2])
+def test_vector_env_equals_single_envs_across_autoresets(num_threads):
     n, kw = 3, dict(k=(0.0, 0.5), cargo_mass=(0.0, 0.3), max_periods=4)
-    venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", num_threads=num_threads,
+                        **kw)
     singles = [gym.make("MDRDrive-v0", numerics="fast", **kw) for _ in range(n)]
     obs, _ = venv.reset(seed=5)
     np.testing.assert_array_equal(obs, [e.reset(seed=5 + i)[0] for i, e in enumerate(singles)])
@@ -187,3 +189,35 @@ def test_no_contact_base_stick_without_contact_force():
     sim = DriveSimulator(params, FAST)
     r = sim.step_knots([0.0, 2e-3], [0.0, 0.0], [0.0, 2e-3], [0.0, 0.0])
     assert r.displacement == pytest.approx(-0.5 * 0.981 / 0.05 * 2e-3**2, rel=1e-9)
+
+
+def test_batched_results_do_not_depend_on_the_thread_count(rng):
+    import numba
+
+    from mdr_drive_env.core.batch import BatchedDriveSimulator
+
+    n = 16
+    waveforms = np.column_stack([rng.uniform(0, 30e-6, n), rng.integers(5, 196, n) * 1e-5, rng.uniform(0, 6e-6, n),
+                                 rng.integers(5, 196, n) * 1e-5, rng.integers(0, 200, n) / 200])
+    outs = []
+    for threads in range(1, numba.config.NUMBA_NUM_THREADS + 1):
+        sim = BatchedDriveSimulator(n, num_threads=threads)
+        for i in range(n):
+            sim.set_params(i, DriveParams.paper(k=0.6 * i / n, cargo_mass=0.02 * (i % 4)))
+        outs.append(np.array([sim.step(waveforms, 2e-3).copy() for _ in range(4)]))
+    for other in outs[1:]:
+        np.testing.assert_array_equal(other, outs[0])
+    with pytest.raises(ValueError, match="num_threads"):
+        BatchedDriveSimulator(2, num_threads=0)
+
+
+def test_batched_action_map_equals_the_scalar_one(rng):
+    from mdr_drive_env.gym_envs.spaces import ActionMap
+
+    amap = ActionMap(time_step=5e-6)
+    actions = np.concatenate([rng.uniform(-1.3, 1.3, (2000, 5)), rng.integers(-2, 3, (500, 5)) / 2])
+    scalar = np.array([[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
+                       for p in (amap.to_params(a) for a in actions)])
+    np.testing.assert_array_equal(amap.to_params_batch(actions), scalar)
+    with pytest.raises(ValueError, match="not finite"):
+        amap.to_params_batch(np.array([[0, 0, np.nan, 0, 0]]))

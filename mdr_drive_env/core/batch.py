@@ -1,14 +1,18 @@
 """N independent drives stepped by one compiled call per period (the fast solver, ``method="nodes"``).
 
 Each drive has its own model (k, load, ...) and waveform; all share the numerics and the node
-positions in g. Used by the vector environment; results equal N separate :class:`DriveSimulator`
-runs with the same numerics bit for bit.
+positions in g. The drives are spread over ``num_threads`` threads (numba ``prange``); each drive is
+computed by one thread exactly as alone, so results equal N separate :class:`DriveSimulator` runs
+with the same numerics bit for bit, whatever the thread count. Used by the vector environment.
 """
 
 from __future__ import annotations
 
+import os
+
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from . import kernel as K
 from .fast_kernel import advance_period_nodes, node_positions, node_weights, normal_force
@@ -20,12 +24,13 @@ P_CT, P_CN, P_K, P_S, P_C0K, P_SLIP, P_MASS, P_LOAD, P_MU1 = range(9)
 N_PARAMS = 9
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def advance_batch(u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out):
     """Advance every drive e by one period with its waveform row
-    ``waveforms[e] = (x_amplitude, x_rise_time, z_amplitude, z_rise_time, z_phase)`` (m, s, -)."""
-    trace = np.empty((0, 7))
-    for e in range(u.shape[0]):
+    ``waveforms[e] = (x_amplitude, x_rise_time, z_amplitude, z_rise_time, z_phase)`` (m, s, -);
+    the drives run in parallel (``prange``), each on one thread."""
+    for e in prange(u.shape[0]):
+        trace = np.empty((0, 7))
         z_start = state[e, K.S_ZIND] if state[e, K.S_TIME] > 0.0 else -1.0
         wf = waveforms[e]
         tx, vx, tz, vz = knots_from_params(wf[0], wf[1], wf[2], wf[3], wf[4], period, z_start, -1.0)
@@ -39,6 +44,11 @@ def advance_batch(u, state, g, w, left, p1, p3, model, waveforms, period, dt_max
                              m[P_MU1], 0, trace, out[e])
 
 
+def default_threads() -> int:
+    """The cores available to this process, at most numba's thread pool."""
+    return max(1, min(len(os.sched_getaffinity(0)), numba.config.NUMBA_NUM_THREADS))
+
+
 class BatchedDriveSimulator:
     """``n`` drives with the fast solver, stepped together.
 
@@ -46,15 +56,24 @@ class BatchedDriveSimulator:
         n: number of drives.
         numerics: a ``method="nodes"`` :class:`Numerics` or preset name (default ``"fast"``).
         max_depth: largest indentation (m) any waveform will use.
+        num_threads: threads that step the drives (default: the cores available to this process,
+            at most numba's thread pool); results do not depend on it.
     """
 
-    def __init__(self, n: int, numerics: Numerics | str = "fast", max_depth: float = 6e-6):
+    def __init__(self, n: int, numerics: Numerics | str = "fast", max_depth: float = 6e-6,
+                 num_threads: int | None = None):
         self.numerics = numerics_preset(numerics)
         if self.numerics.method != "nodes":
             raise ValueError(f"numerics={numerics!r}: the batched solver needs method='nodes'")
         if n < 1:
             raise ValueError(f"n={n!r} is outside the allowed range [1, inf)")
         self.n = n
+        self.num_threads = default_threads() if num_threads is None else num_threads
+        if isinstance(self.num_threads, bool) or not isinstance(self.num_threads, (int, np.integer)) or not (
+                1 <= self.num_threads <= numba.config.NUMBA_NUM_THREADS):
+            raise ValueError(f"num_threads={num_threads!r} is outside the allowed range "
+                             f"[1, {numba.config.NUMBA_NUM_THREADS}]")
+        self.num_threads = int(self.num_threads)
         self.max_depth = float(max_depth)
         nodes = self.numerics.nodes
         self.g = node_positions(self.max_depth, nodes, self.numerics.node_power)
@@ -90,6 +109,7 @@ class BatchedDriveSimulator:
         if any(p is None for p in self.params):
             raise RuntimeError("set_params() every drive before step()")
         num = self.numerics
+        numba.set_num_threads(self.num_threads)
         advance_batch(self.u, self.state, self.g, self.w, self.left, self.p1, self.p3, self.model,
                       np.ascontiguousarray(waveforms, dtype=np.float64), float(period), num.time_step,
                       num.max_x_step, num.max_z_step, self.out)

@@ -228,32 +228,34 @@ class DriveSimulator:
                                                 period, z_start, -1.0), record_every)
 
     def _advance(self, tx, vx, tz, vz, record_every: int) -> PeriodResult:
-        period = tx[-1]
-        dt = self.numerics.time_step
-        if self.time == 0.0:  # first period: indenter at its start, pressed to depth vz[0], springs unloaded
+        if self.state[K.S_TIME] == 0.0:  # first period: indenter at its start, pressed to depth vz[0], springs unloaded
             self.state[K.S_XIND] = vx[0]
             self.state[K.S_ZIND] = vz[0]
             self.state[K.S_FZ] = self.elastic_normal_force(vz[0])
-        n_steps = int(round(period / dt))
-        if record_every and self.numerics.method == "nodes":  # steps adapt per segment: bound their number
-            n_steps = (int(np.ceil(period / dt)) + tx.size + tz.size
-                       + int(np.ceil(np.abs(np.diff(vx)).sum() / self.numerics.max_x_step))
-                       + int(np.ceil(np.abs(np.diff(vz)).sum() / self.numerics.max_z_step)))
-        trace = np.empty((n_steps // record_every, len(K.TRACE_COLUMNS))) if record_every else self._empty_trace
+        if record_every:
+            period, dt = tx[-1], self.numerics.time_step
+            n_steps = int(round(period / dt))
+            if self.numerics.method == "nodes":  # steps adapt per segment: bound their number
+                n_steps = (int(np.ceil(period / dt)) + tx.size + tz.size
+                           + int(np.ceil(np.abs(np.diff(vx)).sum() / self.numerics.max_x_step))
+                           + int(np.ceil(np.abs(np.diff(vz)).sum() / self.numerics.max_z_step)))
+            trace = np.empty((n_steps // record_every, len(K.TRACE_COLUMNS)))
+        else:
+            trace = self._empty_trace
         self.run_kernel(tx, vx, tz, vz, record_every, trace, self._out)
-        o = self._out
+        o = self._out.tolist()  # one conversion, then plain floats
         return PeriodResult(
-            displacement=float(o[K.O_DISPLACEMENT]),
-            mean_velocity=float(o[K.O_MEAN_VELOCITY]),
-            peak_tangential_force=float(o[K.O_PEAK_FX]),
-            peak_normal_force=float(o[K.O_PEAK_FZ]),
-            indenter_dissipation=float(o[K.O_DISS_INDENTER]),
-            base_dissipation=float(o[K.O_DISS_BASE]),
-            load_work=float(o[K.O_WORK_LOAD]),
-            indenter_work_x=float(o[K.O_WORK_INDENTER_X]),
-            indenter_work_z=float(o[K.O_WORK_INDENTER_Z]),
-            end_velocity=self.velocity,
-            end_position=self.position,
+            displacement=o[K.O_DISPLACEMENT],
+            mean_velocity=o[K.O_MEAN_VELOCITY],
+            peak_tangential_force=o[K.O_PEAK_FX],
+            peak_normal_force=o[K.O_PEAK_FZ],
+            indenter_dissipation=o[K.O_DISS_INDENTER],
+            base_dissipation=o[K.O_DISS_BASE],
+            load_work=o[K.O_WORK_LOAD],
+            indenter_work_x=o[K.O_WORK_INDENTER_X],
+            indenter_work_z=o[K.O_WORK_INDENTER_Z],
+            end_velocity=float(self.state[K.S_V]),
+            end_position=float(self.state[K.S_X]),
             trace=trace[: int(o[K.O_N_RECORDED])] if record_every else None,
         )
 

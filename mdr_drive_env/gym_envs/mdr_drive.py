@@ -17,6 +17,8 @@ from ..core.waveform import PAPER_X, PAPER_Z, Waveform
 from .spaces import ActionMap, ObservationLayout, sample_range
 
 
+#: Observation bounds as Python floats (ObservationLayout's, for the env's per-step clip).
+_OBS_BOUNDS = (ObservationLayout.low.astype(float).tolist(), ObservationLayout.high.astype(float).tolist())
 #: Periods per episode unless ``max_periods`` says otherwise.
 DEFAULT_MAX_PERIODS = 50
 
@@ -270,7 +272,7 @@ class MDRDriveEnv(gym.Env):
                                       wp.period, record_every=record)
         self.last_trace = result.trace
         self.period_index += 1
-        self._prev_action = np.clip(action, -1.0, 1.0).astype(np.float32)
+        self._prev_action = np.minimum(np.maximum(action, -1.0), 1.0).astype(np.float32)  # clip, cheaper
         effort = self.action_map.effort(wp.x_amplitude, wp.z_amplitude)
         reward = self.reward_of(result.displacement, effort)
         obs = self._observation(result)
@@ -294,13 +296,21 @@ class MDRDriveEnv(gym.Env):
                          peak_fx / mu_fref, peak_fz / force_ref]).T  # (5,) stays (5,); (5, n) becomes (n, 5)
 
     def _observation(self, r) -> np.ndarray:
+        """The observation after period result ``r`` (None after reset). The same numbers as
+        ``ObservationLayout.build`` (which the vector env uses), in plain floats: building a
+        14-entry array with NumPy costs more than the arithmetic."""
         p = self.params
-        dyn = np.zeros(5) if r is None else self.dynamics_of(
-            r.displacement, r.mean_velocity, r.end_velocity, r.peak_tangential_force, r.peak_normal_force,
-            self.force_ref)
         mu_fref = p.contact.friction_coefficient * self.force_ref
-        return ObservationLayout.build(dyn[None], self._prev_action[None], np.array([p.k]), np.array([p.drive.load]),
-                                       np.array([mu_fref]), np.array([self.period_index / self.max_periods]))[0]
+        if r is None:
+            values = [0.0] * 5
+        else:
+            v_scale = self.reward_scale / self.action_map.period  # as dynamics_of
+            values = [r.displacement / self.reward_scale, r.mean_velocity / v_scale, r.end_velocity / v_scale,
+                      r.peak_tangential_force / mu_fref, r.peak_normal_force / self.force_ref]
+        values += self._prev_action.tolist()
+        values += [p.k, p.drive.load / mu_fref, p.drive.load / 10.0, self.period_index / self.max_periods]
+        low, high = _OBS_BOUNDS
+        return np.array([min(max(v, lo), hi) for v, lo, hi in zip(values, low, high)], dtype=np.float32)
 
     def _info(self, r, wp, effort=0.0) -> dict[str, Any]:
         info: dict[str, Any] = {"k": self.k, "cargo_mass": self.cargo_mass, "load_force": self.params.drive.load,
