@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from mdr_drive_env.files import json_safe
+
 from .baselines import CMA_BUDGET, cma_optimize
 from .evaluate import (  # noqa: F401  (CRITICAL_GRID, first_stall, upper_mass: re-exported for scripts/)
     AVERAGE_PERIODS,
@@ -111,15 +113,6 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     (out / "benchmark.md").write_text(markdown(res, ks, masses))
     plot_all(res, ks, masses, out)
     return res
-
-
-def json_safe(obj):
-    """``obj`` with every NaN (a runaway point: no steady velocity) as None, for standard JSON."""
-    if isinstance(obj, dict):
-        return {k: json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [json_safe(v) for v in obj]
-    return None if isinstance(obj, float) and np.isnan(obj) else obj
 
 
 def summarize(res: dict, ks) -> dict:

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from mdr_drive_env.files import save_figure, write_csv, write_text
+from mdr_drive_env.files import json_safe, save_figure, write_csv, write_text
 
 from .baselines import CMA_BUDGET, CYCLE_SEARCH, best_cycle, cma_optimize, cycle_critical_load
 from .evaluate import (
@@ -180,7 +180,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     except KeyboardInterrupt:
         res["interrupted"] = True
         res["partial_tasks"] = {str(i): v for i, v in done.items()}
-        write_text(out / "partial.json", json.dumps(_json_safe(res), indent=1))
+        write_text(out / "partial.json", json.dumps(json_safe(res), indent=1))
         raise
     res["wall_time_s"] = round(time.perf_counter() - t0, 1)
     write_outputs(res, out)
@@ -191,16 +191,6 @@ def _policy_velocity(policy, points):
     from .evaluate import policy_velocity
 
     return policy_velocity(policy, points)
-
-
-def _json_safe(obj):
-    if isinstance(obj, dict):
-        return {k: _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json_safe(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return None if np.isnan(obj) else float(obj)
-    return obj
 
 
 def markdown(res: dict) -> str:
@@ -249,7 +239,7 @@ def write_outputs(res: dict, out: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    write_text(out / "blind.json", json.dumps(_json_safe(res), indent=1))
+    write_text(out / "blind.json", json.dumps(json_safe(res), indent=1))
     write_text(out / "blind.md", markdown(res))
     names = [f"policy {i + 1}" for i in range(len(res["policies"]))]
     write_csv(out / "points.csv", ["k", "cargo_mass_kg", "trapezoid_m_s", "best_m_s", "best_kind", *

@@ -9,9 +9,12 @@ from __future__ import annotations
 import contextlib
 import csv
 import io
+import math
 import os
 import tempfile
 from pathlib import Path
+
+import numpy as np
 
 
 @contextlib.contextmanager
@@ -49,6 +52,20 @@ def write_csv(path: str | Path, header: list[str], rows) -> None:
     w.writerow(header)
     w.writerows(rows)
     write_text(path, buf.getvalue())
+
+
+def json_safe(obj):
+    """``obj`` with every NaN float as None (standard JSON has no NaN; here NaN marks "no value",
+    e.g. a runaway drive's velocity), NumPy scalars as Python numbers, tuples as lists."""
+    if isinstance(obj, dict):
+        return {k: json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and math.isnan(obj):
+        return None
+    return obj
 
 
 def save_figure(fig, path: str | Path, dpi: int = 120) -> None:

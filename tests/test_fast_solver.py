@@ -221,3 +221,23 @@ def test_batched_action_map_equals_the_scalar_one(rng):
     np.testing.assert_array_equal(amap.to_params_batch(actions), scalar)
     with pytest.raises(ValueError, match="not finite"):
         amap.to_params_batch(np.array([[0, 0, np.nan, 0, 0]]))
+
+
+def _batch_displacements(_=None):
+    from mdr_drive_env.core.batch import BatchedDriveSimulator
+
+    sim = BatchedDriveSimulator(4)
+    for i in range(4):
+        sim.set_params(i, DriveParams.paper(k=0.1 * i, cargo_mass=0.05))
+    return sim.step(np.tile([30e-6, 1.9e-3, 6e-6, 1.7e-3, 0.0], (4, 1)), 2e-3)[:, K.O_DISPLACEMENT].copy()
+
+
+def test_processes_forked_after_a_parallel_batch_still_run_it():
+    """The sweeps fork worker processes; a threading layer that is not fork-safe (GNU OpenMP) kills them."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    here = _batch_displacements()
+    with ProcessPoolExecutor(2, mp_context=mp.get_context("fork")) as pool:
+        for there in pool.map(_batch_displacements, range(2)):
+            np.testing.assert_array_equal(there, here)

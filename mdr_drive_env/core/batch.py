@@ -15,6 +15,13 @@ import numpy as np
 from numba import njit, prange
 
 from . import kernel as K
+
+# Numba's threading layer: "workqueue" unless the user chose one (NUMBA_THREADING_LAYER). The GNU
+# OpenMP layer it would otherwise pick kills any process that fork()s after a parallel call
+# ("fork() called from a process already using GNU OpenMP"), and the sweeps fork worker processes.
+# workqueue is fork-safe; it is not thread-safe (call the batched solver from one thread at a time).
+if numba.config.THREADING_LAYER == "default":
+    numba.config.THREADING_LAYER = "workqueue"
 from .fast_kernel import advance_period_nodes, node_positions, node_weights, normal_force
 from .params import DriveParams, Numerics, numerics_preset
 from .waveform import knots_from_params
