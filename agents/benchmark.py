@@ -75,7 +75,7 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     cma_v, cma_actions = [], []
     for k, m in tqdm(points, desc="CMA-ES per point", unit="point"):
         r = cma_optimize(k, m, budget)
-        cma_v.append(r.velocity)
+        cma_v.append(float(open_loop_velocity([(k, m)], r.action, mark_runaway=True)[0]))  # NaN: runaway
         cma_actions.append(r.action.tolist())
     rows += [("cma-es", "", k, m, v) for (k, m), v in zip(points, cma_v)]
     loaded = [load_policy(p) for p in tqdm(policies, desc="load policies")]
@@ -146,7 +146,9 @@ def markdown(res: dict, ks, masses) -> str:
             idx = i * n + j
             c = f"{format_velocity(res['trapezoid'][idx])} / {format_velocity(res['cma_es'][idx])}"
             if res["learned_mean"]:
-                c += f" / {format_velocity(res['learned_mean'][idx])} +- {res['learned_std'][idx] * 1e3:.2f}"
+                c += f" / {format_velocity(res['learned_mean'][idx])}"
+                if not np.isnan(res["learned_std"][idx]):
+                    c += f" +- {res['learned_std'][idx] * 1e3:.2f}"
             cells.append(c)
         lines.append(f"| {k:g} | " + " | ".join(cells) + " |")
     lines += ["", "Critical load (kg):", "", "| method | " + " | ".join(f"k = {k:g}" for k in ks) + " |",

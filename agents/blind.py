@@ -82,7 +82,9 @@ def best_drive(args) -> dict:
     fixed = cma_optimize(k, m, fixed_budget)
     cyc = best_cycle(k, m, budget=cycle_budget)
     best = cyc if cyc.velocity > fixed.velocity else fixed
-    return {"velocity": best.velocity, "kind": "two-action cycle" if best is cyc else "fixed action",
+    actions = np.asarray(best.action).reshape(1, -1, 5)
+    velocity = float(open_loop_velocity([(k, m)], actions, mark_runaway=True)[0])  # NaN if the load runs away
+    return {"velocity": velocity, "kind": "two-action cycle" if best is cyc else "fixed action",
             "action": np.asarray(best.action).tolist(), "fixed_velocity": fixed.velocity,
             "cycle_velocity": cyc.velocity, "evaluations": fixed.evaluations + cyc.evaluations}
 
@@ -234,11 +236,6 @@ def _f(x) -> str:
 
 
 def write_outputs(res: dict, out: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     write_text(out / "blind.json", json.dumps(json_safe(res), indent=1))
     write_text(out / "blind.md", markdown(res))
     names = [f"policy {i + 1}" for i in range(len(res["policies"]))]
@@ -250,6 +247,21 @@ def write_outputs(res: dict, out: Path) -> None:
     write_csv(out / "critical_loads.csv", ["k", "trapezoid_kg", "best_cycle_kg", *[f"{n}_kg" for n in names]],
               [(k, crit["trapezoid"][i], crit["best cycle"][i], *(crit[p][i] for p in res["policies"]))
                for i, k in enumerate(crit["k"])])
+    plot(res, out)
+
+
+def plot(res: dict, out: str | Path) -> None:
+    """The two PNG figures of a blind benchmark from its results (``blind.json`` loaded, or ``run``'s
+    return value): ``python -c "import json; from agents import blind; d = 'results/blind/seed7';
+    blind.plot(json.load(open(d + '/blind.json')), d)"`` redraws them without simulating."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    names = [f"policy {i + 1}" for i in range(len(res["policies"]))]
+    crit = res["critical_load_kg"]
 
     fig, ax = plt.subplots(figsize=(7, 4.2))
     ax.plot(crit["k"], crit["best cycle"], "-s", ms=3, color="k", label="best two-action cycle found")
@@ -264,15 +276,15 @@ def write_outputs(res: dict, out: Path) -> None:
     save_figure(fig, out / "critical_load_vs_k.png")
     plt.close(fig)
 
-    best = np.array([b["velocity"] for b in res["best"]])
+    best = np.array([np.nan if b["velocity"] is None else b["velocity"] for b in res["best"]], dtype=float)
     fig, ax = plt.subplots(figsize=(7, 4.2))
     ks = np.array([k for k, _ in res["points"]])
     for i, p in enumerate(res["policies"]):
-        v = np.array(res["learned"][p], dtype=float)
+        v = np.array([np.nan if x is None else x for x in res["learned"][p]], dtype=float)
         sel = best >= MOVING_THRESHOLD
         ax.plot(ks[sel], np.nan_to_num(v[sel], nan=0.0) / best[sel], "^", color=f"C{i}",
                 label=f"{names[i]}: {policy_label(p)}")
-    trap = np.array(res["trapezoid"], dtype=float)
+    trap = np.array([np.nan if x is None else x for x in res["trapezoid"]], dtype=float)
     sel = best >= MOVING_THRESHOLD
     ax.plot(ks[sel], np.nan_to_num(trap[sel], nan=0.0) / best[sel], "o", color="0.5", label="trapezoid")
     ax.axhline(1.0, color="k", lw=0.6)

@@ -194,9 +194,9 @@ def test_no_contact_base_stick_without_contact_force():
 def test_batched_results_do_not_depend_on_the_thread_count(rng):
     import numba
 
-    from mdr_drive_env.core.batch import BatchedDriveSimulator
+    from mdr_drive_env.core.batch import MIN_DRIVES_PER_THREAD, BatchedDriveSimulator
 
-    n = 16
+    n = 3 * MIN_DRIVES_PER_THREAD  # enough drives for the parallel kernel on 2 or more threads
     waveforms = np.column_stack([rng.uniform(0, 30e-6, n), rng.integers(5, 196, n) * 1e-5, rng.uniform(0, 6e-6, n),
                                  rng.integers(5, 196, n) * 1e-5, rng.integers(0, 200, n) / 200])
     outs = []
@@ -205,6 +205,10 @@ def test_batched_results_do_not_depend_on_the_thread_count(rng):
         for i in range(n):
             sim.set_params(i, DriveParams.paper(k=0.6 * i / n, cargo_mass=0.02 * (i % 4)))
         outs.append(np.array([sim.step(waveforms, 2e-3).copy() for _ in range(4)]))
+    single = DriveSimulator(DriveParams.paper(k=0.6 * 7 / n, cargo_mass=0.02 * 3), "fast")
+    for t in range(4):  # drive 7 of the batch is a single simulator with its waveform
+        r = single.step_params(*waveforms[7], 2e-3)
+        assert outs[-1][t, 7, K.O_DISPLACEMENT] == r.displacement
     for other in outs[1:]:
         np.testing.assert_array_equal(other, outs[0])
     with pytest.raises(ValueError, match="num_threads"):

@@ -1,9 +1,10 @@
 """N independent drives stepped by one compiled call per period (the fast solver, ``method="nodes"``).
 
 Each drive has its own model (k, load, ...) and waveform; all share the numerics and the node
-positions in g. The drives are spread over ``num_threads`` threads (numba ``prange``); each drive is
-computed by one thread exactly as alone, so results equal N separate :class:`DriveSimulator` runs
-with the same numerics bit for bit, whatever the thread count. Used by the vector environment.
+positions in g. The drives are spread over ``num_threads`` threads (numba ``prange``; at least
+``MIN_DRIVES_PER_THREAD`` drives a thread, fewer drives run serially); each drive is computed by one
+thread exactly as alone, so results equal N separate :class:`DriveSimulator` runs with the same
+numerics bit for bit, whatever the thread count. Used by the vector environment.
 """
 
 from __future__ import annotations
@@ -22,33 +23,57 @@ from . import kernel as K
 # workqueue is fork-safe; it is not thread-safe (call the batched solver from one thread at a time).
 if numba.config.THREADING_LAYER == "default":
     numba.config.THREADING_LAYER = "workqueue"
-from .fast_kernel import advance_period_nodes, node_positions, node_weights, normal_force
+from .fast_kernel import advance_nodes, node_positions, node_weights, normal_force
 from .params import DriveParams, Numerics, numerics_preset
-from .waveform import knots_from_params
+from .waveform import MAX_Z_KNOTS, knots_into
+
+#: Drives per thread below which the serial kernel is faster (thread start-up costs more than it saves).
+MIN_DRIVES_PER_THREAD = 16
 
 # columns of the per-drive parameter table
 P_CT, P_CN, P_K, P_S, P_C0K, P_SLIP, P_MASS, P_LOAD, P_MU1 = range(9)
 N_PARAMS = 9
 
 
+@njit(cache=True)
+def advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out, knots,
+                  trace):
+    """Advance drive e by one period with its waveform row ``waveforms[e] = (x_amplitude,
+    x_rise_time, z_amplitude, z_rise_time, z_phase)`` (m, s, -), allocating nothing (allocations
+    serialise numba's threads): ``knots[e]`` is the drive's scratch for its knots and corners,
+    ``trace`` an empty (0, 7) array."""
+    z_start = state[e, K.S_ZIND] if state[e, K.S_TIME] > 0.0 else -1.0
+    wf = waveforms[e]
+    buf = knots[e]
+    tx, vx = buf[0, :3], buf[1, :3]
+    nz = knots_into(wf[0], wf[1], wf[2], wf[3], wf[4], period, z_start, -1.0, tx, vx, buf[2], buf[3])
+    tz, vz = buf[2, :nz], buf[3, :nz]
+    m = model[e]
+    if state[e, K.S_TIME] == 0.0:  # first period: indenter at its start, pressed to depth vz[0]
+        state[e, K.S_XIND] = vx[0]
+        state[e, K.S_ZIND] = vz[0]
+        state[e, K.S_FZ] = normal_force(vz[0], m[P_CN], m[P_K], m[P_S], m[P_C0K])
+    advance_nodes(u[e], state[e], g, w[e], left[e], p1[e], p3[e], m[P_CT], m[P_CN], m[P_K], m[P_S],
+                  m[P_C0K], m[P_SLIP], tx, vx, tz, vz, dt_max, x_step, z_step, m[P_MASS], m[P_LOAD],
+                  m[P_MU1], 0, trace, out[e], buf[4])
+
+
 @njit(cache=True, parallel=True)
-def advance_batch(u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out):
-    """Advance every drive e by one period with its waveform row
-    ``waveforms[e] = (x_amplitude, x_rise_time, z_amplitude, z_rise_time, z_phase)`` (m, s, -);
-    the drives run in parallel (``prange``), each on one thread."""
+def advance_batch_parallel(u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out,
+                           knots, trace):
+    """Every drive by one period (:func:`advance_drive`), the drives spread over numba's threads."""
     for e in prange(u.shape[0]):
-        trace = np.empty((0, 7))
-        z_start = state[e, K.S_ZIND] if state[e, K.S_TIME] > 0.0 else -1.0
-        wf = waveforms[e]
-        tx, vx, tz, vz = knots_from_params(wf[0], wf[1], wf[2], wf[3], wf[4], period, z_start, -1.0)
-        m = model[e]
-        if state[e, K.S_TIME] == 0.0:  # first period: indenter at its start, pressed to depth vz[0]
-            state[e, K.S_XIND] = vx[0]
-            state[e, K.S_ZIND] = vz[0]
-            state[e, K.S_FZ] = normal_force(vz[0], m[P_CN], m[P_K], m[P_S], m[P_C0K])
-        advance_period_nodes(u[e], state[e], g, w[e], left[e], p1[e], p3[e], m[P_CT], m[P_CN], m[P_K], m[P_S],
-                             m[P_C0K], m[P_SLIP], tx, vx, tz, vz, dt_max, x_step, z_step, m[P_MASS], m[P_LOAD],
-                             m[P_MU1], 0, trace, out[e])
+        advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out, knots,
+                      trace)
+
+
+@njit(cache=True)
+def advance_batch_serial(u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out,
+                         knots, trace):
+    """Every drive by one period (:func:`advance_drive`), one after the other on this thread."""
+    for e in range(u.shape[0]):
+        advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out, knots,
+                      trace)
 
 
 def default_threads() -> int:
@@ -92,6 +117,9 @@ class BatchedDriveSimulator:
         self.p3 = np.zeros((n, nodes))
         self.model = np.zeros((n, N_PARAMS))
         self.out = np.zeros((n, K.OUT_SIZE))
+        # per drive: rows tx, vx, tz, vz and the period's corners (3 + MAX_Z_KNOTS of them)
+        self._knots = np.zeros((n, 5, 3 + MAX_Z_KNOTS))
+        self._empty_trace = np.zeros((0, 7))
         self.params: list[DriveParams | None] = [None] * n
 
     def set_params(self, i: int, params: DriveParams) -> None:
@@ -116,8 +144,13 @@ class BatchedDriveSimulator:
         if any(p is None for p in self.params):
             raise RuntimeError("set_params() every drive before step()")
         num = self.numerics
-        numba.set_num_threads(self.num_threads)
-        advance_batch(self.u, self.state, self.g, self.w, self.left, self.p1, self.p3, self.model,
-                      np.ascontiguousarray(waveforms, dtype=np.float64), float(period), num.time_step,
-                      num.max_x_step, num.max_z_step, self.out)
+        threads = min(self.num_threads, self.n // MIN_DRIVES_PER_THREAD)
+        if threads > 1:
+            numba.set_num_threads(threads)
+            kernel = advance_batch_parallel
+        else:
+            kernel = advance_batch_serial
+        kernel(self.u, self.state, self.g, self.w, self.left, self.p1, self.p3, self.model,
+               np.ascontiguousarray(waveforms, dtype=np.float64), float(period), num.time_step,
+               num.max_x_step, num.max_z_step, self.out, self._knots, self._empty_trace)
         return self.out

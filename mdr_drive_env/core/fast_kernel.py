@@ -93,6 +93,26 @@ def _half_kick(V, drive, f_lim, h, mass):
     return 0.0, imp + drive * h_rest  # sticks: static friction balances the drive
 
 
+@njit(cache=True, inline="always")
+def merge_breaks(tx, tz, out):
+    """The sorted distinct times of the sorted knot times ``tx`` and ``tz`` (``np.unique`` of both,
+    without allocating), written into ``out`` (size >= tx.size + tz.size); returns their number."""
+    i = 0
+    j = 0
+    n = 0
+    while i < tx.size or j < tz.size:
+        if j == tz.size or (i < tx.size and tx[i] <= tz[j]):
+            v = tx[i]
+            i += 1
+        else:
+            v = tz[j]
+            j += 1
+        if n == 0 or v != out[n - 1]:
+            out[n] = v
+            n += 1
+    return n
+
+
 @njit(cache=True)
 def advance_period_nodes(
     u_x,
@@ -122,7 +142,44 @@ def advance_period_nodes(
     trace,
     out,
 ):
-    """Advance ``u_x`` (node values, m) and ``state`` by one period.
+    """Advance ``u_x`` (node values, m) and ``state`` by one period: :func:`advance_nodes` with a
+    buffer for the period's corners allocated here."""
+    advance_nodes(u_x, state, g, w, left, p1, p3, c_t, c_n, k, s, c0k, slip_ratio, tx, vx, tz, vz, dt_max, x_step,
+                  z_step, moving_mass, load, mu1, record_every, trace, out, np.empty(tx.size + tz.size))
+
+
+@njit(cache=True)
+def advance_nodes(
+    u_x,
+    state,
+    g,
+    w,
+    left,
+    p1,
+    p3,
+    c_t,
+    c_n,
+    k,
+    s,
+    c0k,
+    slip_ratio,
+    tx,
+    vx,
+    tz,
+    vz,
+    dt_max,
+    x_step,
+    z_step,
+    moving_mass,
+    load,
+    mu1,
+    record_every,
+    trace,
+    out,
+    breaks_buffer,
+):
+    """Advance ``u_x`` (node values, m) and ``state`` by one period, allocating nothing
+    (``breaks_buffer``: at least ``tx.size + tz.size`` floats of scratch).
 
     The period is cut at every corner of x(t) and z(t); each segment is split into equal steps no
     longer than ``dt_max`` (s) in which the indenter moves at most ``x_step`` (m) in x and
@@ -153,7 +210,7 @@ def advance_period_nodes(
     work_x = 0.0
     work_z = 0.0
     n_rec = 0
-    breaks = np.unique(np.concatenate((tx, tz)))
+    breaks = breaks_buffer[:merge_breaks(tx, tz, breaks_buffer)]
     n_steps_total = 0
     step_in_seg = 0
     n_in_seg = 0

@@ -119,32 +119,44 @@ def _triangle(t, amplitude, rise, period):
     return amplitude * (period - tau) / (period - rise)
 
 
-@njit(cache=True)
-def knots_from_params(x_amplitude, x_rise, z_amplitude, z_rise, z_phase, period, z_start, blend_time):
-    """Compiled core of :func:`period_knots` from plain floats (s, m; ``z_phase`` in [0, 1)).
+#: Most z knots of one period (:func:`knots_into`): 0, T, the two corners and the blend's end.
+MAX_Z_KNOTS = 5
 
-    ``z_start < 0`` means "no previous period" (no blending); ``blend_time <= 0`` means the new z
-    triangle's shorter edge.
-    """
-    tx = np.array([0.0, x_rise, period])
-    vx = np.array([0.0, x_amplitude, 0.0])
+
+@njit(cache=True)
+def knots_into(x_amplitude, x_rise, z_amplitude, z_rise, z_phase, period, z_start, blend_time, tx, vx, tz, vz):
+    """:func:`knots_from_params` into given arrays, allocating nothing (the batched solver calls it
+    from many threads at once): ``tx``, ``vx`` of size 3, ``tz``, ``vz`` of size >= ``MAX_Z_KNOTS``.
+    Returns the number m of z knots (``tz[:m]``, ``vz[:m]``)."""
+    tx[0] = 0.0
+    tx[1] = x_rise
+    tx[2] = period
+    vx[0] = 0.0
+    vx[1] = x_amplitude
+    vx[2] = 0.0
     shift = z_phase * period
-    cand = np.array([0.0, period, shift % period, (shift + z_rise) % period, 0.0])
+    tz[0] = 0.0
+    tz[1] = period
+    tz[2] = shift % period
+    tz[3] = (shift + z_rise) % period
     n = 4
     if z_start >= 0.0:
         tb = blend_time if blend_time > 0.0 else min(z_rise, period - z_rise)
-        cand[4] = min(tb, period)
+        tz[4] = min(tb, period)
         n = 5
-    times = np.sort(cand[:n])
-    tz = np.empty(n)
+    for i in range(1, n):  # sort the candidate times (insertion sort of at most 5)
+        v = tz[i]
+        j = i - 1
+        while j >= 0 and tz[j] > v:
+            tz[j + 1] = tz[j]
+            j -= 1
+        tz[j + 1] = v
     m = 0
     for i in range(n):  # drop duplicates (round-off of the phase shift)
-        if m == 0 or times[i] - tz[m - 1] > 1e-12 * period:
-            tz[m] = times[i]
+        if m == 0 or tz[i] - tz[m - 1] > 1e-12 * period:
+            tz[m] = tz[i]
             m += 1
-    tz = tz[:m]
     tz[m - 1] = period
-    vz = np.empty(m)
     for i in range(m):
         vz[i] = _triangle(tz[i] - shift, z_amplitude, z_rise, period)
     vz[m - 1] = vz[0]  # exactly periodic
@@ -157,7 +169,22 @@ def knots_from_params(x_amplitude, x_rise, z_amplitude, z_rise, z_phase, period,
             vz[i] = min(max(v, 0.0), top)
         vz[0] = z_start
         vz[m - 1] = _triangle(-shift, z_amplitude, z_rise, period)
-    return tx, vx, tz, vz
+    return m
+
+
+@njit(cache=True)
+def knots_from_params(x_amplitude, x_rise, z_amplitude, z_rise, z_phase, period, z_start, blend_time):
+    """Compiled core of :func:`period_knots` from plain floats (s, m; ``z_phase`` in [0, 1)).
+
+    ``z_start < 0`` means "no previous period" (no blending); ``blend_time <= 0`` means the new z
+    triangle's shorter edge.
+    """
+    tx = np.empty(3)
+    vx = np.empty(3)
+    tz = np.empty(MAX_Z_KNOTS)
+    vz = np.empty(MAX_Z_KNOTS)
+    m = knots_into(x_amplitude, x_rise, z_amplitude, z_rise, z_phase, period, z_start, blend_time, tx, vx, tz, vz)
+    return tx, vx, tz[:m], vz[:m]
 
 
 def period_knots(waveform: Waveform, z_start: float | None = None, blend_time: float | None = None):
