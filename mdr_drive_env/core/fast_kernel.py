@@ -114,41 +114,6 @@ def merge_breaks(tx, tz, out):
 
 
 @njit(cache=True)
-def advance_period_nodes(
-    u_x,
-    state,
-    g,
-    w,
-    left,
-    p1,
-    p3,
-    c_t,
-    c_n,
-    k,
-    s,
-    c0k,
-    slip_ratio,
-    tx,
-    vx,
-    tz,
-    vz,
-    dt_max,
-    x_step,
-    z_step,
-    moving_mass,
-    load,
-    mu1,
-    record_every,
-    trace,
-    out,
-):
-    """Advance ``u_x`` (node values, m) and ``state`` by one period: :func:`advance_nodes` with a
-    buffer for the period's corners allocated here."""
-    advance_nodes(u_x, state, g, w, left, p1, p3, c_t, c_n, k, s, c0k, slip_ratio, tx, vx, tz, vz, dt_max, x_step,
-                  z_step, moving_mass, load, mu1, record_every, trace, out, np.empty(tx.size + tz.size))
-
-
-@njit(cache=True)
 def advance_nodes(
     u_x,
     state,

@@ -8,10 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import kernel as K
-from .fast_kernel import advance_period_nodes, node_positions, node_weights, normal_force
+from .fast_kernel import advance_nodes, node_positions, node_weights, normal_force
 from .materials import contact_radius
 from .params import DriveParams, Numerics, numerics_preset
-from .waveform import Waveform, knots_from_params, period_knots
+from .waveform import MAX_Z_KNOTS, Waveform, knots_from_params, period_knots
 
 #: Steps per edge below which a waveform is too fast for the time step.
 MIN_STEPS_PER_EDGE = 10
@@ -95,6 +95,7 @@ class DriveSimulator:
         self.state = np.zeros(K.STATE_SIZE)
         self._out = np.zeros(K.OUT_SIZE)
         self._empty_trace = np.zeros((0, len(K.TRACE_COLUMNS)))
+        self._breaks = np.empty(3 + MAX_Z_KNOTS)  # scratch of the node solver: a period's corners
         self.reset()
 
     def _build_grid(self) -> None:
@@ -268,8 +269,9 @@ class DriveSimulator:
         p, num = self.params, self.numerics
         tail = (p.drive.moving_mass, p.drive.load, p.contact.base_friction_coefficient, int(record_every), trace, out)
         if num.method == "nodes":
-            advance_period_nodes(self.u_x, self.state, *self._model, tx, vx, tz, vz, num.time_step, num.max_x_step,
-                                 num.max_z_step, *tail)
+            breaks = self._breaks if tx.size + tz.size <= self._breaks.size else np.empty(tx.size + tz.size)
+            advance_nodes(self.u_x, self.state, *self._model, tx, vx, tz, vz, num.time_step, num.max_x_step,
+                          num.max_z_step, *tail, breaks)
         else:
             K.advance_period(self.u_x, self.state, *self._model, tx, vx, tz, vz, int(round(tx[-1] / num.time_step)),
                              num.time_step, *tail)
