@@ -102,8 +102,8 @@ def add_model_arguments(p: argparse.ArgumentParser, numerics_default: str = "fas
 def add_numerics_argument(p, default: str) -> None:
     """``--numerics``: one preset name means one solver everywhere (core.params.NUMERICS_PRESETS)."""
     p.add_argument("--numerics", default=default, choices=sorted(NUMERICS_PRESETS),
-                   help="solver preset: fast = the node solver (48 nodes, steps <= 5e-6 s, 0.3 um in x, "
-                        "0.1 um in z; most accurate and fastest, docs/performance.md); default = the paper's grid "
+                   help="solver preset: fast = the node solver (48 nodes, steps <= 5e-6 s, 0.3 µm in x, "
+                        "0.1 µm in z; most accurate and fastest, docs/performance.md); default = the paper's grid "
                         "scheme at dt 1e-6 s, dx 1e-7 m; paper = the grid scheme at the paper's dt 1e-7 s, "
                         f"dx 1e-8 m (default: {default})")
 

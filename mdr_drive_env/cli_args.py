@@ -22,7 +22,8 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
-        if "default" in text or "%(default)" in text or action.default in (None, False, argparse.SUPPRESS):
+        meaningless = action.default is None or action.default is False or action.default == argparse.SUPPRESS
+        if "default" in text or meaningless:  # (0.0 == False: compare by identity)
             return text
         if action.option_strings or action.nargs in (argparse.OPTIONAL, argparse.ZERO_OR_MORE):
             return f"{text} (default: %(default)s)"

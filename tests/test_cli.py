@@ -188,6 +188,7 @@ def test_help_states_each_default_once_and_the_real_one():
             assert block.count("default:") + block.count("default from") <= 1, (name, block)
     sim = " ".join(_all_subparsers()["simulate"].format_help().split())
     assert "(default: fast)" in sim and "(default: 6)" in sim and "(default: as-specified)" in sim
+    assert "in [0, 1) (-) (default: 0.0)" in sim  # a default of 0.0 is a real default, not a switch's False
 
 
 UNITS = ("(m)", "(s)", "(kg)", "(Pa)", "(N)", "(-)", "(m/s^2)")
