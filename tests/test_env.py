@@ -308,3 +308,13 @@ def test_quickstart_runs_and_its_returns_are_in_the_documented_range():
     assert returns["random"] == pytest.approx(-189.0, abs=0.05)
     # 50 periods can earn at most about 1.2 each; a barely trained policy is far from that
     assert np.isfinite(returns["PPO"]) and -1000.0 < returns["PPO"] < 60.0
+
+
+def test_observation_structure_names_the_entries():
+    env = gym.make("MDRDrive-v0", k=0.35, cargo_mass=0.05)
+    obs, info = env.reset(seed=0)
+    s = env.unwrapped.observation_structure
+    assert obs[s["k"]][0] == np.float32(0.35)
+    assert obs[s["load_over_10N"]][0] == np.float32(info["load_force"] / 10.0)
+    covered = sorted(i for sl in s.values() for i in range(*sl.indices(obs.size)))
+    assert covered == list(range(obs.size))  # every entry named once

@@ -14,7 +14,8 @@ from ..core import Contact, Drive, DriveParams, DriveSimulator, Material, numeri
 from ..core.materials import normal_force_analytic
 from ..core.params import VARIANTS
 from ..core.waveform import PAPER_X, PAPER_Z, Waveform
-from .spaces import ActionMap, ObservationLayout, sample_range
+from .sensor import SensorHistory
+from .spaces import ActionMap, ObservationLayout, SensorLayout, sample_range
 
 
 #: Observation bounds as Python floats (ObservationLayout's, for the env's per-step clip).
@@ -31,6 +32,12 @@ def make_env(**kwargs) -> gym.Env:
 
     env = MDRDriveEnv(**kwargs)
     return TimeLimit(env, env.max_periods)
+
+
+def _draw(rng: np.random.Generator, low_high: tuple[float, float]) -> float:
+    """A uniform draw from ``(low, high)``, or ``low`` without a draw if the range is one value (so
+    fixed values leave the seeded stream of draws as it was)."""
+    return low_high[0] if low_high[0] == low_high[1] else float(rng.uniform(*low_high))
 
 
 class MDRDriveEnv(gym.Env):
@@ -85,6 +92,22 @@ class MDRDriveEnv(gym.Env):
     ``F_ref`` is the analytic normal force (paper Eq. 8) at the largest allowed depth
     ``z_amplitude_max`` for the episode's k, so entry 11 is the load against the largest friction
     force the contact can transmit. The first observation after ``reset`` has zeros in 0-9.
+    ``env.unwrapped.observation_structure`` names the entries' slices (``"k"``, ``"dynamics"``, ...),
+    so callers never hard-code indices.
+
+    **Sensor observation** (``observation="sensor"``, and ``MDRDriveSensor-v0``): only what a position
+    encoder on the slider measures, for a drive that knows neither its load nor its material nor its
+    friction. For each of the last ``history`` periods (default 4, newest first): the displacement
+    (/ ``reward_scale``), the mean and the end-of-period velocity (/ (``reward_scale`` / T)), bounds
+    [-100, 100]; then the action of each of those periods, [-1, 1]; last the fraction of the episode
+    elapsed, [0, 1]: ``8 history + 1`` entries (33 by default). Not k, not the load, not the
+    friction coefficients, not the contact forces: a real drive measures none of them (the
+    forces would need a force sensor in the contact, and any scale taken from the contact model
+    would give k away). ``sensor_forces=True`` adds the peak F_x / 10 N and peak F_z / 100 N of each
+    period, bounds [0, 100], for a drive with a force sensor. ``observation_structure`` has
+    ``"measured"``, ``"actions"``, ``"episode_fraction"``. ``info`` still reports the hidden values
+    (``k``, ``cargo_mass``, ``load_force``, ``friction_coefficient``, ``base_friction_coefficient``,
+    ``load_step_period``), for evaluation.
 
     ## Rewards
 
@@ -107,7 +130,15 @@ class MDRDriveEnv(gym.Env):
     episode by ``reset(options={"k": ..., "cargo_mass": ...})`` (or ``"load_ratio"`` instead of
     ``"cargo_mass"``, a value or a range). With ``load_ratio`` the load is drawn instead as a
     fraction of ``mu F_ref`` (observation entry 11), which puts the working range of every k in
-    the same interval (the paper's trapezoid stalls at a ratio of about 0.1 to 0.3).
+    the same interval (the paper's trapezoid stalls at a ratio of 0.18 to 0.33 over k at mu = 0.3).
+    ``friction_coefficient`` and ``base_friction_coefficient`` may be ranges too, drawn per episode
+    (after k, before the load; fixed values draw nothing). With ``load_step_period`` (a period index
+    or a range of them, in [1, max_periods - 1]) the cargo changes once per episode: before the
+    period with that index is simulated, the load jumps to a new value drawn like the first (a cargo
+    picked up or set down); ``info["load_step_period"]`` says when, ``info["cargo_mass"]`` what.
+    ``MDRDriveSensor-v0`` draws k in [0, 0.6], the load ratio in [0, 0.4] (about 1.25 times the
+    trapezoid's critical load), mu in [0.2, 0.4] and mu1 in [0.07, 0.13], without a load step unless
+    ``load_step_period`` is given.
 
     ## Episode End
 
@@ -129,12 +160,16 @@ class MDRDriveEnv(gym.Env):
     ``"as-published"``: h_N doubled, the hypothesis about the paper's code), ``numerics`` (preset name: ``"fast"``, the default node
     solver, see docs/performance.md; ``"default"`` or ``"paper"`` for the reference solver), ``period`` (s), ``max_periods``,
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
-    ``max_rise_fraction``, ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``render_mode``
-    (``"rgb_array"`` or ``"human"``). Bad values raise ``ValueError`` naming the argument.
+    ``max_rise_fraction``, ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
+    (``"full"``, the default, or ``"sensor"``), ``history`` (periods in the sensor observation),
+    ``sensor_forces`` (bool), ``load_step_period`` (int or (low, high), or None), ``render_mode``
+    (``"rgb_array"`` or ``"human"``). ``friction_coefficient`` and ``base_friction_coefficient`` take
+    a float or a (low, high) range. Bad values raise ``ValueError`` naming the argument.
 
     ## Version History
 
-    * v0: initial version.
+    * v0: initial version; later within v0: the sensor observation, friction ranges, load steps and
+      ``MDRDriveSensor-v0`` (the full observation and its defaults are unchanged).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -149,8 +184,8 @@ class MDRDriveEnv(gym.Env):
         reference_depth: float = 1.0,
         rigid_indenter: bool = False,
         indenter_radius: float = 2.5e-3,
-        friction_coefficient: float = 0.3,
-        base_friction_coefficient: float = 0.1,
+        friction_coefficient: float | tuple[float, float] = 0.3,
+        base_friction_coefficient: float | tuple[float, float] = 0.1,
         slider_mass: float = 0.05,
         gravity: float = 9.81,
         cargo_inertia: bool = False,
@@ -165,6 +200,10 @@ class MDRDriveEnv(gym.Env):
         reward_scale: float = 30e-6,
         actuation_penalty: float = 0.0,
         reward_floor: float | None = None,
+        observation: str = "full",
+        history: int = 4,
+        sensor_forces: bool = False,
+        load_step_period: int | tuple[int, int] | None = None,
         render_mode: str | None = None,
     ):
         self.k_range = sample_range("k", k, 0.0, 1.0, high_open=True)
@@ -173,8 +212,10 @@ class MDRDriveEnv(gym.Env):
         self._material = Material(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
                                   reference_depth=reference_depth)
         self.rigid_indenter = bool(rigid_indenter)
-        self._contact = Contact(indenter_radius=indenter_radius, friction_coefficient=friction_coefficient,
-                                base_friction_coefficient=base_friction_coefficient)
+        self.friction_range = sample_range("friction_coefficient", friction_coefficient, 0.0, math.inf)
+        self.base_friction_range = sample_range("base_friction_coefficient", base_friction_coefficient, 0.0, math.inf)
+        self._contact = Contact(indenter_radius=indenter_radius, friction_coefficient=self.friction_range[0],
+                                base_friction_coefficient=self.base_friction_range[0])  # validates the low ends
         self._drive = Drive(slider_mass=slider_mass, gravity=gravity, cargo_inertia=bool(cargo_inertia))
         if variant not in VARIANTS:
             raise ValueError(f"variant={variant!r} is not one of {list(VARIANTS)}")
@@ -201,18 +242,29 @@ class MDRDriveEnv(gym.Env):
                                     z_amplitude_max=z_amplitude_max, min_rise_fraction=min_rise_fraction,
                                     max_rise_fraction=max_rise_fraction, time_step=self.numerics.time_step)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(ActionMap.SIZE,), dtype=np.float32)
-        self.observation_space = spaces.Box(ObservationLayout.low, ObservationLayout.high, dtype=np.float32)
+        if observation not in ("full", "sensor"):
+            raise ValueError(f"observation={observation!r} is not one of ['full', 'sensor']")
+        self.observation = observation
+        self.sensor = SensorHistory(SensorLayout(history, sensor_forces)) if observation == "sensor" else None
+        layout = self.sensor.layout if self.sensor else ObservationLayout
+        self.observation_space = spaces.Box(layout.low, layout.high, dtype=np.float32)
+        self.observation_structure: dict[str, slice] = dict(layout.structure)
+        self.load_step_range = None
+        if load_step_period is not None:
+            self.load_step_range = tuple(int(v) for v in sample_range("load_step_period", load_step_period, 1,
+                                                                      self.max_periods - 1))
         self.sim: DriveSimulator | None = None
         self.last_trace: np.ndarray | None = None
         self._renderer = None
 
     # --- helpers ---
-    def params_for(self, k: float, cargo_mass: float) -> DriveParams:
-        """The physical model for one episode."""
+    def params_for(self, k: float, cargo_mass: float, contact: Contact | None = None) -> DriveParams:
+        """The physical model for one episode (``contact``: this episode's friction, default the low
+        ends of the friction ranges)."""
         graded = dataclasses.replace(self._material, grading_exponent=k)
         return DriveParams(indenter=Material.rigid() if self.rigid_indenter else graded, slider=graded,
-                           contact=self._contact, drive=dataclasses.replace(self._drive, cargo_mass=cargo_mass),
-                           variant=self.variant)
+                           contact=contact or self._contact,
+                           drive=dataclasses.replace(self._drive, cargo_mass=cargo_mass), variant=self.variant)
 
     def sample_episode(self, rng: np.random.Generator, options: dict[str, Any] | None = None):
         """(k, cargo mass, DriveParams) of a new episode: from ``options`` or drawn from the ranges."""
@@ -225,15 +277,26 @@ class MDRDriveEnv(gym.Env):
         k = options.get("k", None)
         m = options.get("cargo_mass", None)
         k = float(rng.uniform(*self.k_range)) if k is None else float(k)
+        contact = self._contact
+        if self.friction_range[0] != self.friction_range[1] or self.base_friction_range[0] != self.base_friction_range[1]:
+            contact = dataclasses.replace(contact, friction_coefficient=_draw(rng, self.friction_range),
+                                          base_friction_coefficient=_draw(rng, self.base_friction_range))
         ratio_range = self.load_ratio_range
         if options.get("load_ratio") is not None:
             ratio_range = sample_range("load_ratio", options["load_ratio"], 0.0, 10.0)
-        if m is None and ratio_range is not None:  # load as a fraction of mu F_ref at this k
-            ratio = float(rng.uniform(*ratio_range))
-            p0 = self.params_for(k, 0.0)
-            m = ratio * p0.contact.friction_coefficient * self.reference_force(p0) / p0.drive.gravity
-        m = float(rng.uniform(*self.cargo_mass_range)) if m is None else float(m)
-        return k, m, self.params_for(k, m)  # validates k and cargo_mass
+        if m is None:
+            m = self.draw_load(rng, k, contact, ratio_range)
+        return k, float(m), self.params_for(k, float(m), contact)  # validates k and cargo_mass
+
+    def draw_load(self, rng: np.random.Generator, k: float, contact: Contact, ratio_range=None) -> float:
+        """A cargo mass (kg) from the load ratio's range (a fraction of this contact's ``mu F_ref``)
+        if the env has one, else from the cargo mass range."""
+        ratio_range = ratio_range or self.load_ratio_range
+        if ratio_range is not None:
+            p0 = self.params_for(k, 0.0, contact)
+            return float(rng.uniform(*ratio_range)) * contact.friction_coefficient * self.reference_force(p0) \
+                / p0.drive.gravity
+        return float(rng.uniform(*self.cargo_mass_range))
 
     def reference_force(self, params: DriveParams) -> float:
         """F_ref (N): the analytic normal force at the largest allowed depth (Eq. 8)."""
@@ -259,6 +322,12 @@ class MDRDriveEnv(gym.Env):
         self.last_reward: float | None = None  # of the last period (None before the first)
         self.last_mean_velocity: float | None = None  # m/s
         self._prev_action = np.zeros(ActionMap.SIZE, dtype=np.float32)
+        self.load_step = None  # (period index, new cargo mass in kg) of this episode's load step
+        if self.load_step_range is not None:
+            period = int(self.np_random.integers(self.load_step_range[0], self.load_step_range[1] + 1))
+            self.load_step = (period, self.draw_load(self.np_random, self.k, self.params.contact))
+        if self.sensor is not None:
+            self.sensor.reset()
         obs = self._observation(None)
         return obs, self._info(None, None)
 
@@ -267,12 +336,19 @@ class MDRDriveEnv(gym.Env):
             raise RuntimeError("call reset() before step()")
         action = np.asarray(action, dtype=np.float64).reshape(ActionMap.SIZE)
         wp = self.action_map.to_params(action)
+        if self.load_step is not None and self.period_index == self.load_step[0]:  # the cargo changes now
+            self.cargo_mass = self.load_step[1]
+            self.params = self.sim.params = self.params.with_cargo_mass(self.cargo_mass)
         record = self.action_map.steps_per_period // 200 if self.render_mode is not None else 0
         result = self.sim.step_params(wp.x_amplitude, wp.x_rise_time, wp.z_amplitude, wp.z_rise_time, wp.z_phase,
                                       wp.period, record_every=record)
         self.last_trace = result.trace
         self.period_index += 1
         self._prev_action = np.minimum(np.maximum(action, -1.0), 1.0).astype(np.float32)  # clip, cheaper
+        if self.sensor is not None:
+            self.sensor.push(result.displacement, result.mean_velocity, result.end_velocity,
+                             result.peak_tangential_force, result.peak_normal_force, self._prev_action,
+                             self.reward_scale, self.action_map.period)
         effort = self.action_map.effort(wp.x_amplitude, wp.z_amplitude)
         reward = self.reward_of(result.displacement, effort)
         obs = self._observation(result)
@@ -299,6 +375,8 @@ class MDRDriveEnv(gym.Env):
         """The observation after period result ``r`` (None after reset). The same numbers as
         ``ObservationLayout.build`` (which the vector env uses), in plain floats: building a
         14-entry array with NumPy costs more than the arithmetic."""
+        if self.sensor is not None:
+            return self.sensor.observation(self.period_index / self.max_periods)
         p = self.params
         mu_fref = p.contact.friction_coefficient * self.force_ref
         if r is None:
@@ -313,7 +391,11 @@ class MDRDriveEnv(gym.Env):
         return np.array([min(max(v, lo), hi) for v, lo, hi in zip(values, low, high)], dtype=np.float32)
 
     def _info(self, r, wp, effort=0.0) -> dict[str, Any]:
+        c = self.params.contact
         info: dict[str, Any] = {"k": self.k, "cargo_mass": self.cargo_mass, "load_force": self.params.drive.load,
+                                "friction_coefficient": c.friction_coefficient,
+                                "base_friction_coefficient": c.base_friction_coefficient,
+                                "load_step_period": None if self.load_step is None else self.load_step[0],
                                 "period_index": self.period_index}
         if r is not None:
             info.update(

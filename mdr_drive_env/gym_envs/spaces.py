@@ -171,6 +171,10 @@ class ObservationLayout:
 
     low = np.array([-100, -100, -100, 0, 0, -1, -1, -1, -1, -1, 0, 0, 0, 0], dtype=np.float32)
     high = np.array([100, 100, 100, 2, 2, 1, 1, 1, 1, 1, 1, 100, 100, 1], dtype=np.float32)
+    #: Where each group of entries sits (read entries by name, never by hard-coded index).
+    structure = {"dynamics": slice(0, 5), "previous_action": slice(5, 10), "k": slice(10, 11),
+                 "load_over_friction": slice(11, 12), "load_over_10N": slice(12, 13),
+                 "episode_fraction": slice(13, 14)}
 
     @classmethod
     def build(cls, dynamics, prev_action, k, load, friction_ref, episode_fraction) -> np.ndarray:
@@ -192,3 +196,48 @@ class ObservationLayout:
         obs[:, 13] = episode_fraction
         np.minimum(np.maximum(obs, cls.low, out=obs), cls.high, out=obs)  # np.clip, without its overhead
         return obs.astype(np.float32)
+
+
+class SensorLayout:
+    """The sensor observation: only what a position encoder on the slider measures, ``history``
+    periods deep (newest first), the actions that produced it, and the elapsed episode fraction.
+
+    Per period: displacement / reward_scale, mean velocity and end velocity / (reward_scale / T),
+    bounds [-100, 100]; with ``forces`` also the peak F_x / 10 N and peak F_z / 100 N (fixed scales:
+    a scale from the contact would reveal k), bounds [0, 100]. Then the 5 action entries of each of
+    the ``history`` periods, [-1, 1]; last the fraction of the episode elapsed, [0, 1].
+    """
+
+    MEASURED = ("displacement", "mean_velocity", "end_velocity")
+    FORCES = ("peak_tangential_force", "peak_normal_force")
+    FORCE_SCALES = (10.0, 100.0)  # N
+
+    def __init__(self, history: int, forces: bool = False):
+        if isinstance(history, bool) or not isinstance(history, (int, np.integer)) or not 1 <= history <= 64:
+            raise ValueError(f"history={history!r} is outside the allowed range [1, 64]")
+        self.history, self.forces = int(history), bool(forces)
+        self.per_period = self.MEASURED + (self.FORCES if self.forces else ())
+        names, low, high = [], [], []
+        for lag in range(self.history):
+            for name in self.per_period:
+                names.append(f"{name}[t-{lag}]")
+                low.append(-100.0 if name in self.MEASURED else 0.0)
+                high.append(100.0)
+        for lag in range(self.history):
+            names += [f"{name}[t-{lag}]" for name in ActionMap.NAMES]
+            low += [-1.0] * ActionMap.SIZE
+            high += [1.0] * ActionMap.SIZE
+        names.append("episode_fraction")
+        low.append(0.0)
+        high.append(1.0)
+        self.names = tuple(names)
+        self.low = np.array(low, dtype=np.float32)
+        self.high = np.array(high, dtype=np.float32)
+
+    @property
+    def structure(self) -> dict[str, slice]:
+        """Where each group of entries sits: ``measured`` (history x per-period entries, newest
+        first), ``actions`` (history x 5), ``episode_fraction``."""
+        m = self.history * len(self.per_period)
+        a = self.history * ActionMap.SIZE
+        return {"measured": slice(0, m), "actions": slice(m, m + a), "episode_fraction": slice(m + a, m + a + 1)}

@@ -47,6 +47,10 @@ class MDRDriveVectorEnv(VectorEnv):
             raise ValueError(f"autoreset_mode={autoreset_mode!r} is not one of ['NextStep', 'SameStep']")
         kwargs.setdefault("numerics", "fast")
         self.template = MDRDriveEnv(**kwargs)  # validates every argument
+        if self.template.sensor is not None or self.template.load_step_range is not None:
+            raise ValueError("the batched vector env has the full observation and fixed loads only; for "
+                             "observation='sensor' or load_step_period use gym.make_vec(..., vectorization_mode="
+                             "'sync' or 'async')")
         if self.template.numerics.method != "nodes":
             raise ValueError(f"numerics={kwargs['numerics']!r}: the vector env needs the fast solver (method='nodes')")
         self.metadata = {**self.metadata, "autoreset_mode": mode}
