@@ -83,6 +83,13 @@ def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: in
     ``mark_runaway``: NaN where the load runs away with the slider (for tables); without it the
     mean is returned there too (a large negative number, as optimisers want).
     """
+    disp, runaway = open_loop_displacements(points, actions, periods, variant)
+    return steady_velocity_of(disp, average, runaway if mark_runaway else None)
+
+
+def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, variant: str = "as-specified"):
+    """Per-period displacements (periods, n) (m) of open-loop drives (see :func:`open_loop_velocity`)
+    and whether each ran away (n,)."""
     actions = np.asarray(actions, dtype=np.float64)
     if actions.ndim < 3:
         actions = np.atleast_2d(actions)[:, None, :]
@@ -96,8 +103,7 @@ def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: in
                        for p in (ACTION_MAP.to_params(a) for a in actions[:, j])]) for j in range(actions.shape[1])]
     disp = np.array([sim.step(cycle[t % len(cycle)], ACTION_MAP.period)[:, K.O_DISPLACEMENT].copy()
                      for t in range(periods)])
-    runaway = runaway_of(disp, sim.out[:, K.O_PEAK_FZ], params) if mark_runaway else None
-    return steady_velocity_of(disp, average, runaway)
+    return disp, runaway_of(disp, sim.out[:, K.O_PEAK_FZ], params)
 
 
 #: Fine load grid (kg) of the critical-load search, as fractions of a k-dependent upper bound.
@@ -210,6 +216,42 @@ def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = 
     return steady_velocity_of(disp, average, runaway if mark_runaway else None)
 
 
+#: Keys of a policy's env kwargs that shape its observation (run.json): evaluation builds the same.
+OBSERVATION_KEYS = ("observation", "history", "sensor_forces")
+
+
+def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS, load_step=None,
+                seed: int = 0, **env_kwargs):
+    """One run of the single env ``MDRDrive-v0`` at (k, cargo mass): closed loop with ``policy``
+    (``obs -> action``), or the trapezoid every period if ``policy`` is None. ``load_step``:
+    (period, cargo mass in kg). Returns (per-period mean velocities (periods,) m/s, actions
+    (periods, 5), whether the load ran away)."""
+    env = gym.make("MDRDrive-v0", k=k, cargo_mass=cargo_mass, max_periods=periods, **env_kwargs)
+    obs, _ = env.reset(seed=seed, options={"load_step": load_step} if load_step else None)
+    trapezoid = env.unwrapped.trapezoid_action()
+    velocities, actions = [], []
+    for _ in range(periods):
+        a = trapezoid if policy is None else np.asarray(policy(obs[None]), dtype=np.float32).reshape(ActionMap.SIZE)
+        obs, _, _, _, info = env.step(a)
+        velocities.append(info["mean_velocity"])
+        actions.append(a)
+    v = np.array(velocities)
+    runaway = runaway_of(v[:, None] * ACTION_MAP.period, [info["peak_normal_force"]], [env.unwrapped.params])
+    return v, np.array(actions), bool(runaway[0])
+
+
+def load_step_type(text: str) -> tuple[int, float]:
+    """argparse type: ``PERIOD:MASS``, the period (>= 1) at which the cargo becomes MASS kg (>= 0)."""
+    try:
+        period, mass = text.split(":")
+        period, mass = int(period), float(mass)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not PERIOD:MASS (e.g. 15:0.2)") from None
+    if period < 1 or not (mass >= 0.0 and np.isfinite(mass)):
+        raise argparse.ArgumentTypeError(f"{text!r}: the period must be >= 1 and the mass >= 0 kg")
+    return period, mass
+
+
 def policy_path(text: str) -> str:
     """argparse type: a trained policy's folder (with model.zip), or a CMA-ES teacher's .npz file."""
     from mdr_drive_env.cli_args import folder_with, input_file
@@ -233,6 +275,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true",
                    help="print JSON: one object for one point (or k), a list for several; velocities in m/s, "
                         "null where the load runs away with the slider; critical loads in kg")
+    from mdr_drive_env.cli_args import int_range
+
+    p.add_argument("--friction-coefficient", type=float, default=None,
+                   help="indenter-slider friction mu, > 0 (-); default: the paper's 0.3")
+    p.add_argument("--base-friction-coefficient", type=float, default=None,
+                   help="slider-base friction mu1, >= 0 (-); default: the paper's 0.1")
+    p.add_argument("--periods", type=int_range(AVERAGE_PERIODS, 100_000), default=EVAL_PERIODS,
+                   help=f"periods per run; the steady velocity is the mean of the last {AVERAGE_PERIODS} (-)")
+    p.add_argument("--load-step", type=load_step_type, default=None, metavar="PERIOD:MASS",
+                   help="the cargo becomes MASS (kg) before period PERIOD (counted from 0) is simulated")
     add_variant_argument(p)
 
 
@@ -289,6 +341,16 @@ def main(args: argparse.Namespace) -> int:
     policy = Policy(args.policy)
     for warning in trained_range_warnings(policy.run, points if not args.critical_load else []):
         print(f"mdr-drive evaluate: warning: {warning}", file=sys.stderr)
+    env_kwargs = {key: policy.run["env_kwargs"][key] for key in OBSERVATION_KEYS
+                  if key in policy.run.get("env_kwargs", {})}
+    friction = {name: getattr(args, name) for name in ("friction_coefficient", "base_friction_coefficient")
+                if getattr(args, name) is not None}
+    if args.load_step is not None and args.load_step[0] >= args.periods:
+        raise ValueError(f"--load-step period {args.load_step[0]} is not before the last of --periods {args.periods}")
+    single_env = bool(env_kwargs or friction or args.load_step or args.periods != EVAL_PERIODS)
+    if args.critical_load and single_env:
+        raise ValueError("--critical-load uses the fixed protocol: without --friction-coefficient, "
+                         "--base-friction-coefficient, --load-step, --periods, and for full-observation policies")
     if args.critical_load:
         learned = critical_loads_grid(ks, lambda pts: policy_velocity(policy, pts, variant=args.variant),
                                       args.variant)
@@ -299,11 +361,29 @@ def main(args: argparse.Namespace) -> int:
         text = [f"k = {r['k']:g}: critical load learned {r['critical_load_learned']:.4f} kg, "
                 f"trapezoid {r['critical_load_trapezoid']:.4f} kg" for r in records]
     else:
-        disp, acts, runaway = policy_rollout(policy, points, variant=args.variant)
-        learned = steady_velocity_of(disp, runaway=runaway)
-        trapezoid = open_loop_velocity(points, trapezoid_action(), mark_runaway=True, variant=args.variant)
+        if single_env:  # one single env per run: sensor policies, other frictions, load steps
+            kw = {**env_kwargs, **friction, "variant": args.variant}
+            runs = [(env_rollout(policy, k, m, args.periods, args.load_step, **kw),
+                     env_rollout(None, k, m, args.periods, args.load_step, **{**kw, "observation": "full"}))
+                    for k, m in points]
+            v_learned = np.array([r[0][0] for r in runs]).T  # (periods, n) m/s
+            v_trap = np.array([r[1][0] for r in runs]).T
+            acts = np.array([r[0][1] for r in runs]).transpose(1, 0, 2)
+            learned = steady_velocity_of(v_learned * ACTION_MAP.period, runaway=[r[0][2] for r in runs])
+            trapezoid = steady_velocity_of(v_trap * ACTION_MAP.period, runaway=[r[1][2] for r in runs])
+        else:
+            disp, acts, runaway = policy_rollout(policy, points, variant=args.variant)
+            learned = steady_velocity_of(disp, runaway=runaway)
+            disp_trap, runaway_trap = open_loop_displacements(points, trapezoid_action(), variant=args.variant)
+            trapezoid = steady_velocity_of(disp_trap, runaway=runaway_trap)
+            v_learned, v_trap = disp / ACTION_MAP.period, disp_trap / ACTION_MAP.period
         records = [_velocity_record(k, m, args.variant, lv, tv, acts[-1, i])
                    for i, ((k, m), lv, tv) in enumerate(zip(points, learned, trapezoid))]
+        for i, r in enumerate(records):
+            r["learned_period_velocity"] = v_learned[:, i].tolist()
+            r["trapezoid_period_velocity"] = v_trap[:, i].tolist()
+            r.update(periods=args.periods, load_step=args.load_step, **friction)
+            r["protocol"] = f"mean over periods {args.periods - AVERAGE_PERIODS + 1}-{args.periods}, m/s"
         text = [f"k = {k:g}, m = {m:g} kg: learned {format_velocity(lv, digits=3)} mm/s, trapezoid "
                 f"{format_velocity(tv, digits=3)} mm/s (mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-"
                 f"{EVAL_PERIODS}, fast numerics)" for (k, m), lv, tv in zip(points, learned, trapezoid)]

@@ -78,3 +78,40 @@ def test_policies_are_named_by_what_they_are_not_by_paths(tmp_path):
     run.mkdir(parents=True)
     (run / "run.json").write_text(json.dumps({"algo": "ppo", "seed": 3}))
     assert policy_label(run) == "PPO seed 3 (ppo_s3)" and str(tmp_path) not in policy_label(run)
+
+
+def test_periods_friction_and_a_load_step(capsys):
+    _, out, _ = _run(["--k", "0.2", "--cargo-mass", "0.05", "--json"], capsys)
+    base = json.loads(out)
+    assert len(base["learned_period_velocity"]) == len(base["trapezoid_period_velocity"]) == 30
+    # the same model through the single-env path (an explicit friction) gives the same trapezoid, bit for bit
+    _, out, _ = _run(["--k", "0.2", "--cargo-mass", "0.05", "--friction-coefficient", "0.3", "--json"], capsys)
+    same = json.loads(out)
+    assert same["trapezoid_period_velocity"] == base["trapezoid_period_velocity"]
+    assert same["learned_mean_velocity"] == pytest.approx(base["learned_mean_velocity"], rel=1e-4)
+    _, out, _ = _run(["--k", "0.2", "--cargo-mass", "0.05", "--periods", "40", "--load-step", "15:0.2", "--json"],
+                     capsys)
+    stepped = json.loads(out)
+    v = stepped["trapezoid_period_velocity"]
+    assert len(v) == 40 and stepped["protocol"] == "mean over periods 31-40, m/s"
+    assert v[:15] == base["trapezoid_period_velocity"][:15]  # before the step: the same run
+    assert v[-1] < 0 < v[14]  # 0.2 kg at k = 0.2 is past the trapezoid's critical load (0.18 kg)
+    code, _, err = _run(["--k", "0.2", "--cargo-mass", "0.05", "--load-step", "30:0.2"], capsys)
+    assert code == 2 and "is not before the last of --periods 30" in err
+
+
+def test_a_sensor_policy_is_evaluated_on_the_sensor_observation(tmp_path, capsys):
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    venv = DummyVecEnv([lambda: gym.make("MDRDriveSensor-v0", history=2)])
+    PPO("MlpPolicy", venv, n_steps=32, batch_size=32, seed=0, device="cpu").learn(32).save(tmp_path / "model.zip")
+    (tmp_path / "run.json").write_text(json.dumps({"algo": "ppo", "seed": 0, "env_kwargs": {
+        "observation": "sensor", "history": 2, "k": [0.0, 0.6], "load_ratio": [0.0, 0.4]}}))
+    code = main(["evaluate", "--policy", str(tmp_path), "--k", "0.3", "--cargo-mass", "0.02",
+                 "--friction-coefficient", "0.25", "--load-step", "10:0.05", "--json"])
+    record = json.loads(capsys.readouterr().out)
+    assert code == 0 and len(record["learned_period_velocity"]) == 30
+    assert record["friction_coefficient"] == 0.25 and record["load_step"] == [10, 0.05]
+    assert all(np.isfinite(record["learned_period_velocity"]))

@@ -131,6 +131,7 @@ class MDRDriveEnv(gym.Env):
     ``"cargo_mass"``, a value or a range). With ``load_ratio`` the load is drawn instead as a
     fraction of ``mu F_ref`` (observation entry 11), which puts the working range of every k in
     the same interval (the paper's trapezoid stalls at a ratio of 0.18 to 0.33 over k at mu = 0.3).
+    ``reset(options={"load_step": (period, cargo_mass)})`` sets one episode's load step (below).
     ``friction_coefficient`` and ``base_friction_coefficient`` may be ranges too, drawn per episode
     (after k, before the load; fixed values draw nothing). With ``load_step_period`` (a period index
     or a range of them, in [1, max_periods - 1]) the cargo changes once per episode: before the
@@ -268,10 +269,11 @@ class MDRDriveEnv(gym.Env):
 
     def sample_episode(self, rng: np.random.Generator, options: dict[str, Any] | None = None):
         """(k, cargo mass, DriveParams) of a new episode: from ``options`` or drawn from the ranges."""
-        options = dict(options or {})
+        options = {key: v for key, v in (options or {}).items() if key != "load_step"}  # reset() reads load_step
         unknown = set(options) - {"k", "cargo_mass", "load_ratio"}
         if unknown:
-            raise ValueError(f"reset options {sorted(unknown)} are not supported (use 'k', 'cargo_mass', 'load_ratio')")
+            raise ValueError(f"reset options {sorted(unknown)} are not supported "
+                             "(use 'k', 'cargo_mass', 'load_ratio', 'load_step')")
         if options.get("cargo_mass") is not None and options.get("load_ratio") is not None:
             raise ValueError("reset options 'cargo_mass' and 'load_ratio' both set the load: give one of them")
         k = options.get("k", None)
@@ -323,7 +325,13 @@ class MDRDriveEnv(gym.Env):
         self.last_mean_velocity: float | None = None  # m/s
         self._prev_action = np.zeros(ActionMap.SIZE, dtype=np.float32)
         self.load_step = None  # (period index, new cargo mass in kg) of this episode's load step
-        if self.load_step_range is not None:
+        if (options or {}).get("load_step") is not None:  # given for this episode: (period, cargo mass in kg)
+            period, mass = options["load_step"]
+            if not (isinstance(period, (int, np.integer)) and 1 <= period <= self.max_periods - 1):
+                raise ValueError(f"reset option load_step period={period!r} is outside the allowed range "
+                                 f"[1, {self.max_periods - 1}]")
+            self.load_step = (int(period), float(self.params.with_cargo_mass(float(mass)).drive.cargo_mass))
+        elif self.load_step_range is not None:
             period = int(self.np_random.integers(self.load_step_range[0], self.load_step_range[1] + 1))
             self.load_step = (period, self.draw_load(self.np_random, self.k, self.params.contact))
         if self.sensor is not None:
