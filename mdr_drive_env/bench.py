@@ -169,13 +169,13 @@ def markdown(res: dict) -> str:
               f"{res['first_call']['compile_first_period_s']:.1f} s (import {res['first_call']['compile_import_s']:.1f} s); "
               f"from numba's cache {res['first_call']['cache_load_first_period_s']:.2f} s "
               f"(import {res['first_call']['cache_load_import_s']:.2f} s)", ""]
-    lines += ["| solver | max error (um) | max error / tolerance | within tolerance | worst case |", "|---|---|---|---|---|"]
+    lines += ["| solver | max error (µm) | max error / tolerance | within tolerance | worst case |", "|---|---|---|---|---|"]
     for preset in ("fast", "default"):
         a = res[f"accuracy_{preset}"]
         w = a["worst_case"]
         lines.append(f"| {preset} | {a['max_abs_error_um']:.4f} | {a['max_error_over_tolerance']:.3f} | "
                      f"{a['fraction_within_tolerance'] * 100:.2f} % | k = {w['k']}, m = {w['cargo_mass']} kg, waveform "
-                     f"{w['waveform']}, period {w['period']}: {w['error_um']:.4f} of {w['reference_um']:.3f} um |")
-    lines.append(f"\nTolerance per period: max(0.15 um, 0.5 % of the paper preset's displacement); "
+                     f"{w['waveform']}, period {w['period']}: {w['error_um']:.4f} of {w['reference_um']:.3f} µm |")
+    lines.append(f"\nTolerance per period: max(0.15 µm, 0.5 % of the paper preset's displacement); "
                  f"{res['accuracy_fast']['cases']} cases x {res['accuracy_fast']['periods']} periods.")
     return "\n".join(lines) + "\n"
