@@ -46,7 +46,7 @@ def main(args: argparse.Namespace) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mdr_drive_env.cli import plot_run
+    from mdr_drive_env.plotting import plot_run
     from mdr_drive_env.core import steady_velocity
     from mdr_drive_env.files import save_figure, write_csv
 
