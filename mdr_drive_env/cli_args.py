@@ -123,13 +123,19 @@ def output_file(*suffixes: str):
     return parse
 
 
-def input_file(text: str) -> str:
-    """argparse type: an existing file."""
+def _existing(text: str, kind: str) -> Path:
+    """``text`` as a path that exists and is a ``kind`` ("file" or "folder"), else ArgumentTypeError."""
     path = Path(text)
     if not path.exists():
-        raise argparse.ArgumentTypeError(f"file '{text}' does not exist")
-    if not path.is_file():
-        raise argparse.ArgumentTypeError(f"'{text}' is not a file")
+        raise argparse.ArgumentTypeError(f"{kind} '{text}' does not exist")
+    if not (path.is_file() if kind == "file" else path.is_dir()):
+        raise argparse.ArgumentTypeError(f"'{text}' is not a {kind}")
+    return path
+
+
+def input_file(text: str) -> str:
+    """argparse type: an existing file."""
+    _existing(text, "file")
     return text
 
 
@@ -137,11 +143,7 @@ def folder_with(*names: str):
     """argparse type: an existing folder that holds every file in ``names``."""
 
     def parse(text: str) -> str:
-        path = Path(text)
-        if not path.exists():
-            raise argparse.ArgumentTypeError(f"folder '{text}' does not exist")
-        if not path.is_dir():
-            raise argparse.ArgumentTypeError(f"'{text}' is not a folder")
+        path = _existing(text, "folder")
         missing = [n for n in names if not (path / n).exists()]
         if missing:
             raise argparse.ArgumentTypeError(f"folder '{text}' has no {', '.join(missing)}")
