@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 PYTEST_ARGS ?=
 
-.PHONY: install test demo reproduce convergence bench train benchmark clean
+.PHONY: install test demo reproduce convergence bench train benchmark blind claims clean
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -49,6 +49,15 @@ train: $(STAMP)
 ## make benchmark: learned (3 seeds) vs trapezoid vs CMA-ES (results/benchmark)
 benchmark: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --policies runs/ppo_res_s0 runs/ppo_res_s1 runs/ppo_res_s2 --out results/benchmark
+
+## make blind: the shipped policy on 24 random points of a fresh seed (results/blind/seed20261123; about 22 minutes)
+blind: $(STAMP)
+	$(VENV)/bin/mdr-drive benchmark --blind 24 --seed 20261123 --policies agents/pretrained/ppo_generalist \
+	    --out results/blind/seed20261123
+
+## make claims: each claim of the paper's text against the model variants (results/paper_claims)
+claims: $(STAMP)
+	$(PY) scripts/paper_claims.py --out results/paper_claims
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info
