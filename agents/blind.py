@@ -89,6 +89,19 @@ def best_drive(args) -> dict:
             "cycle_velocity": cyc.velocity, "evaluations": fixed.evaluations + cyc.evaluations}
 
 
+def reusable_search(path: str | Path, res: dict, scan_ks: int) -> dict:
+    """The earlier ``blind.json`` at ``path`` if it was drawn and searched as ``res`` asks, else
+    ``ValueError`` saying what differs."""
+    previous = json.loads(Path(path).read_text())
+    for key in ("seed", "n", "search"):
+        if previous.get(key) != res[key]:
+            raise ValueError(f"--reuse-search {path}: its {key} {previous.get(key)!r} is not this run's {res[key]!r}")
+    if len(previous["critical_load_kg"]["k"]) != scan_ks:
+        raise ValueError(f"--reuse-search {path}: it scanned {len(previous['critical_load_kg']['k'])} k values, "
+                         f"not --scan-ks {scan_ks}")
+    return previous
+
+
 def cycle_scan_task(args) -> float:
     k, m_trap, iterations, budget = args
     return cycle_critical_load(k, m_trap, iterations, budget)[0]
@@ -137,8 +150,13 @@ def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: di
 
 def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = False, scan_ks: int = 25,
         workers: int | None = None, fixed_budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_SEARCH["budget"],
-        iterations: int = 8) -> dict:
-    """The blind benchmark (module docstring); returns what ``blind.json`` holds."""
+        iterations: int = 8, reuse: str | Path | None = None) -> dict:
+    """The blind benchmark (module docstring); returns what ``blind.json`` holds.
+
+    ``reuse``: a ``blind.json`` of the same seed, size, search budgets and scan, whose points,
+    trapezoid, best drives and critical loads of the trapezoid and the best cycle are taken as they
+    are (the searches are most of the cost); only the policies are run.
+    """
     if quick:
         fixed_budget, cycle_budget, scan_ks, iterations = (QUICK[key] for key in
                                                            ("fixed_budget", "cycle_budget", "scan_ks", "iterations"))
@@ -152,26 +170,35 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
                  "protocol": f"fast numerics; mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}",
                  "policies": list(policies)}
     done: dict = {}
+    previous = reusable_search(reuse, res, scan_ks) if reuse else None
     try:
-        points, crit_at_points = draw_points(n, seed)
-        res["points"] = points
-        trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
-        res["trapezoid"] = trap.tolist()
-        found = _map(best_drive, [(k, m, fixed_budget, cycle_budget) for k, m in points], "best drive per point",
-                     workers, done)
-        res["best"] = found
-        best_v = np.array([f["velocity"] for f in found])
+        if previous:
+            res["search_reused_from"] = str(reuse)
+            points = [tuple(p) for p in previous["points"]]
+            trap = np.array([np.nan if v is None else v for v in previous["trapezoid"]], dtype=float)
+            found = previous["best"]
+        else:
+            points, _ = draw_points(n, seed)
+            trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
+            found = _map(best_drive, [(k, m, fixed_budget, cycle_budget) for k, m in points],
+                         "best drive per point", workers, done)
+        res["points"], res["trapezoid"], res["best"] = points, trap.tolist(), found
+        best_v = np.array([np.nan if f["velocity"] is None else f["velocity"] for f in found], dtype=float)
         loaded = [load_policy(p) for p in policies]
         learned = {}
         for path, pol in zip(policies, loaded):
             disp, _, runaway = policy_rollout(pol, points)
             learned[path] = steady_velocity_of(disp, runaway=runaway)
         res["learned"] = {p: v.tolist() for p, v in learned.items()}
-        ks = [float(k) for k in np.round(np.linspace(*K_RANGE, scan_ks), 6)]
-        crit_trap = trapezoid_critical(ks)
-        done.clear()
-        crit_cycle = _map(cycle_scan_task, [(k, m, iterations, cycle_budget) for k, m in zip(ks, crit_trap)],
-                          "critical load of the best cycle per k", workers, done)
+        if previous:
+            old = previous["critical_load_kg"]
+            ks, crit_trap, crit_cycle = old["k"], np.array(old["trapezoid"]), old["best cycle"]
+        else:
+            ks = [float(k) for k in np.round(np.linspace(*K_RANGE, scan_ks), 6)]
+            crit_trap = trapezoid_critical(ks)
+            done.clear()
+            crit_cycle = _map(cycle_scan_task, [(k, m, iterations, cycle_budget) for k, m in zip(ks, crit_trap)],
+                              "critical load of the best cycle per k", workers, done)
         crit = {"k": ks, "trapezoid": crit_trap.tolist(), "best cycle": crit_cycle}
         for path, pol in zip(policies, loaded):
             c = critical_loads_grid(ks, lambda pts, pol=pol: _policy_velocity(pol, pts))

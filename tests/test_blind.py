@@ -77,3 +77,19 @@ def test_ctrl_c_keeps_the_finished_searches(tmp_path, monkeypatch):
         blind.run([], 4, seed=2, out=tmp_path, quick=True, workers=1)
     partial = json.loads((tmp_path / "partial.json").read_text())
     assert partial["interrupted"] and len(partial["partial_tasks"]) == 2 and len(partial["points"]) == 4
+
+
+def test_a_second_run_reuses_the_searches_of_the_first(tmp_path, monkeypatch, capsys):
+    first = tmp_path / "first"
+    blind.run([str(PRETRAINED)], 3, seed=5, out=first, quick=True, workers=1)
+    monkeypatch.setattr(blind, "best_drive", lambda args: pytest.fail("searched again"))
+    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: pytest.fail("searched again"))
+    assert main(["benchmark", "--blind", "3", "--seed", "5", "--quick", "--workers", "1", "--policies",
+                 str(PRETRAINED), "--reuse-search", str(first / "blind.json"), "--out", str(tmp_path / "second")]) == 0
+    a = json.loads((first / "blind.json").read_text())
+    b = json.loads((tmp_path / "second" / "blind.json").read_text())
+    for key in ("points", "trapezoid", "best", "learned", "critical_load_kg", "statistics"):
+        assert a[key] == b[key], key
+    assert main(["benchmark", "--blind", "3", "--seed", "6", "--quick", "--reuse-search", str(first / "blind.json"),
+                 "--out", str(tmp_path / "third")]) == 2
+    assert "its seed 5 is not this run's 6" in capsys.readouterr().err
