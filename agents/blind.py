@@ -180,6 +180,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
         else:
             points, _ = draw_points(n, seed)
             trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
+            res["points"], res["trapezoid"] = points, trap.tolist()  # kept in partial.json on Ctrl-C
             found = _map(best_drive, [(k, m, fixed_budget, cycle_budget) for k, m in points],
                          "best drive per point", workers, done)
         res["points"], res["trapezoid"], res["best"] = points, trap.tolist(), found
