@@ -288,11 +288,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_variant_argument(p)
 
 
-def trained_range_warnings(run: dict, points) -> list[str]:
-    """Warnings for points outside the k and load-ratio ranges the policy was trained on (run.json)."""
+def trained_range_warnings(run: dict, points, friction: dict | None = None) -> list[str]:
+    """Warnings for points outside the k and load-ratio ranges the policy was trained on (run.json),
+    and for friction coefficients (``friction``: option name -> value) it was not trained with."""
     env = run.get("env_kwargs", {})
     k_range = env.get("k")
     warnings = []
+    defaults = {"friction_coefficient": 0.3, "base_friction_coefficient": 0.1}  # the env's
+    for name, value in (friction or {}).items():
+        trained = env.get(name, defaults[name])
+        low, high = (trained, trained) if np.ndim(trained) == 0 else trained
+        if not low <= value <= high:
+            warnings.append(f"{name.replace('_', ' ')} {value:g} is outside the trained "
+                            f"{'value' if low == high else 'range'} {low:g}" + ("" if low == high else f"-{high:g}"))
     if isinstance(k_range, (list, tuple)) and len(k_range) == 2:
         outside = sorted({k for k, _ in points if not k_range[0] <= k <= k_range[1]})
         if outside:
@@ -339,12 +347,12 @@ def main(args: argparse.Namespace) -> int:
 
             raise with_option_name(e, FIELD_OPTIONS) from None
     policy = Policy(args.policy)
-    for warning in trained_range_warnings(policy.run, points if not args.critical_load else []):
-        print(f"mdr-drive evaluate: warning: {warning}", file=sys.stderr)
     env_kwargs = {key: policy.run["env_kwargs"][key] for key in OBSERVATION_KEYS
                   if key in policy.run.get("env_kwargs", {})}
     friction = {name: getattr(args, name) for name in ("friction_coefficient", "base_friction_coefficient")
                 if getattr(args, name) is not None}
+    for warning in trained_range_warnings(policy.run, points if not args.critical_load else [], friction):
+        print(f"mdr-drive evaluate: warning: {warning}", file=sys.stderr)
     if args.load_step is not None and args.load_step[0] >= args.periods:
         raise ValueError(f"--load-step period {args.load_step[0]} is not before the last of --periods {args.periods}")
     single_env = bool(env_kwargs or friction or args.load_step or args.periods != EVAL_PERIODS)

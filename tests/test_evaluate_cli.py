@@ -115,3 +115,27 @@ def test_a_sensor_policy_is_evaluated_on_the_sensor_observation(tmp_path, capsys
     assert code == 0 and len(record["learned_period_velocity"]) == 30
     assert record["friction_coefficient"] == 0.25 and record["load_step"] == [10, 0.05]
     assert all(np.isfinite(record["learned_period_velocity"]))
+
+
+def test_warns_at_a_friction_it_was_not_trained_with(capsys):
+    code, out, err = _run(["--k", "0.2", "--cargo-mass", "0.1", "--friction-coefficient", "0.25", "--json"], capsys)
+    assert code == 0 and "friction coefficient 0.25 is outside the trained value 0.3" in err
+    code, out, err = _run(["--k", "0.2", "--cargo-mass", "0.1", "--friction-coefficient", "0.3", "--json"], capsys)
+    assert "friction" not in err
+
+
+def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
+    import shutil
+
+    from agents.model_card import ship
+
+    card_dir = tmp_path / "card"
+    shutil.copytree(PRETRAINED, card_dir)
+    blind_json = tmp_path / "blind.json"
+    blind_json.write_text(json.dumps({"n": 24, "seed": 99, "statistics": {card_dir.as_posix(): {
+        "points_below_trapezoid": 0, "points_scored": 20, "fraction_of_best_mean": 0.885,
+        "fraction_of_best_min": 0.327, "critical_load_over_best_cycle": [0.937, 1.0],
+        "critical_load_over_best_cycle_min": 0.937, "critical_load_over_trapezoid": [1.188, 1.526]}}}))
+    text = ship(card_dir, card_dir, blind_json).read_text()  # in place: nothing to copy
+    assert "runaway (runaway)" in text and "-1170" not in text  # k = 0.2, 0.4 kg runs away
+    assert "--seed 99" in text and "mean 0.885, minimum 0.327" in text and "## Limits" in text
