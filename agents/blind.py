@@ -40,6 +40,7 @@ from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
     critical_loads_grid,
+    csv_velocity,
     format_velocity,
     load_policy,
     open_loop_velocity,
@@ -269,8 +270,8 @@ def write_outputs(res: dict, out: Path) -> None:
     names = [f"policy {i + 1}" for i in range(len(res["policies"]))]
     write_csv(out / "points.csv", ["k", "cargo_mass_kg", "trapezoid_m_s", "best_m_s", "best_kind", *
                                    [f"{n}_m_s" for n in names]],
-              [(k, m, _cell(res["trapezoid"][i]), res["best"][i]["velocity"], res["best"][i]["kind"],
-                *(_cell(res["learned"][p][i]) for p in res["policies"])) for i, (k, m) in enumerate(res["points"])])
+              [(k, m, csv_velocity(res["trapezoid"][i]), res["best"][i]["velocity"], res["best"][i]["kind"],
+                *(csv_velocity(res["learned"][p][i]) for p in res["policies"])) for i, (k, m) in enumerate(res["points"])])
     crit = res["critical_load_kg"]
     write_csv(out / "critical_loads.csv", ["k", "trapezoid_kg", "best_cycle_kg", *[f"{n}_kg" for n in names]],
               [(k, crit["trapezoid"][i], crit["best cycle"][i], *(crit[p][i] for p in res["policies"]))
@@ -325,6 +326,3 @@ def plot(res: dict, out: str | Path) -> None:
     save_figure(fig, out / "fraction_of_best.png")
     plt.close(fig)
 
-
-def _cell(v):
-    return "runaway" if v is None or (isinstance(v, float) and np.isnan(v)) else v

@@ -16,6 +16,7 @@ from .evaluate import (
     EVAL_PERIODS,
     PRETRAINED,
     Policy,
+    csv_velocity,
     format_velocity,
     open_loop_velocity,
     policy_label,
@@ -105,7 +106,7 @@ def main(args: argparse.Namespace) -> int:
     save_figure(fig, out / "policy_vs_trapezoid.png")
     plt.close(fig)
     write_csv(out / "policy_vs_trapezoid.csv", ["k", "cargo_mass_kg", "learned_m_s", "trapezoid_m_s"],
-              [(k, m, "runaway" if np.isnan(v) else v, "runaway" if np.isnan(t) else t)
+              [(k, m, csv_velocity(float(v)), csv_velocity(float(t)))
                for (k, m), v, t in zip(plot_points, learned[n_table:], trap[n_table:])])
     print(f"\nplots and CSV in {out}/ ; done in {time.perf_counter() - t0:.1f} s")
     return 0

@@ -69,6 +69,11 @@ def format_velocity(v: float, width: int = 0, digits: int = 2) -> str:
     return f"{'runaway' if np.isnan(v) else f'{v * 1e3:.{digits}f}':>{width}}"
 
 
+def csv_velocity(v):
+    """A velocity (m/s) as a CSV cell: the number, or "runaway" for NaN or None (no steady velocity)."""
+    return "runaway" if v is None or (isinstance(v, float) and np.isnan(v)) else v
+
+
 def trapezoid_action() -> np.ndarray:
     """The env action of the paper's waveform (Fig. 2)."""
     return ACTION_MAP.to_action(Waveform.paper())

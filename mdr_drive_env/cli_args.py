@@ -4,14 +4,13 @@
 * :class:`HelpFormatter`: appends ``(default: X)`` to an option's help only when the help does
   not state its default already and X means something (not None, not a switch's False).
 * argparse ``type=`` functions that check a value or a path when the command line is read, before
-  any work: numbers in a range, input files and folders that must exist, output files and folders
+  any work: integers in a range, input files and folders that must exist, output files and folders
   that must be creatable.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 from pathlib import Path
@@ -42,40 +41,19 @@ class Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def _number(text: str, kind) -> float | int:
-    try:
-        value = kind(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not {'an integer' if kind is int else 'a number'}") from None
-    if kind is float and not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
-    return value
-
-
 def int_range(low: int, high: int | None = None):
     """argparse type: an integer in ``[low, high]`` (``high=None``: no upper bound)."""
 
     def parse(text: str) -> int:
-        value = _number(text, int)
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
         if value < low or (high is not None and value > high):
             raise argparse.ArgumentTypeError(f"{value} is outside the allowed range [{low}, {high or 'inf'}]")
         return value
 
     parse.__name__ = "integer"
-    return parse
-
-
-def float_range(low: float = -math.inf, high: float = math.inf, *, low_open: bool = False):
-    """argparse type: a finite float in ``[low, high]`` (``(low, high]`` with ``low_open``)."""
-
-    def parse(text: str) -> float:
-        value = _number(text, float)
-        if (value <= low if low_open else value < low) or value > high:
-            interval = f"{'(' if low_open else '['}{low:g}, {high:g}]"
-            raise argparse.ArgumentTypeError(f"{value!r} is outside the allowed range {interval}")
-        return value
-
-    parse.__name__ = "number"
     return parse
 
 
