@@ -10,14 +10,14 @@ PYTEST_ARGS ?=
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q -c constraints.txt -e ".[train,dev]"
+	$(PY) -m pip install -q -c constraints.txt -e ".[train,ray,dev]"
 	touch $(STAMP)
 
 install: $(STAMP)
 
 ## make test: the whole test suite (a few minutes on 2 cores)
 test: $(STAMP)
-	$(PY) -m pytest -q -n 2 $(PYTEST_ARGS)
+	$(PY) -m pytest -q -n 2 --dist loadgroup $(PYTEST_ARGS)
 
 ## make demo: the main job: the paper's drive, then the shipped policy against the trapezoid
 demo: $(STAMP)

@@ -28,6 +28,7 @@ from .core import (
 from .core.simulator import check_numerics
 from .core.params import VARIANTS
 from .plotting import plot_run
+from .sweep import add_executor_arguments
 from .core.waveform import PAPER_X, PAPER_Z
 
 #: One home for what a model option is called on the command line: dataclass field -> option.
@@ -277,8 +278,10 @@ def cmd_simulate(a: argparse.Namespace) -> int:
 def cmd_reproduce(a: argparse.Namespace) -> int:
     from .reproduce import reproduce
 
-    summary = reproduce(a.out, numerics=a.numerics, periods=a.periods, workers=a.workers, quick=a.quick,
-                        variant=a.variant)
+    from .sweep import executor_from
+
+    summary = reproduce(a.out, numerics=a.numerics, periods=a.periods, quick=a.quick, variant=a.variant,
+                        executor=executor_from(a), resume=a.resume)
     print(json.dumps(summary, indent=2))
     print(f"figures and CSVs in {a.out}/")
     return 0
@@ -350,8 +353,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_numerics_argument(r, "paper")
     add_variant_argument(r)
     r.add_argument("--periods", type=positive_int, default=10, help="periods shown in Figs. 3 and 4 (-)")
-    r.add_argument("--workers", type=positive_int, default=None,
-                   help="processes (-); default: the cores available")
+    add_executor_arguments(r)
     r.add_argument("--quick", action="store_true", help="a small subset of the cases (for CI)")
     r.set_defaults(func=cmd_reproduce)
 

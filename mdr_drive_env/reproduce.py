@@ -14,17 +14,16 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import os
+import shutil
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from .core import DriveParams, DriveSimulator, Waveform, concat_traces, steady_velocity
 from .core import kernel as K
 from .files import save_figure, write_csv, write_text
+from .sweep import Executor, TaskStore
 
 FIG3_MASSES = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
 FIG4_KS = (0.0, 0.2, 0.3)
@@ -69,24 +68,20 @@ def velocity_cell(velocity: float, state: str) -> float | str:
     return "" if state == "runaway" else velocity
 
 
-def _map(fn, cases, desc, workers):
-    if workers <= 1:
-        return [fn(c) for c in tqdm(cases, desc=desc, unit="run")]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        return list(tqdm(pool.map(fn, cases), total=len(cases), desc=desc, unit="run"))
-
-
 def reproduce(out: str | Path = "results/paper", numerics: str = "paper", periods: int = 10,
-              workers: int | None = None, quick: bool = False, variant: str = "as-specified") -> dict:
+              workers: int | None = None, quick: bool = False, variant: str = "as-specified",
+              executor: Executor | None = None, resume: bool = False) -> dict:
     """Run every case, write ``fig3.png``, ``fig4.png``, ``fig5.png``, ``sensitivity.png`` + CSVs.
 
     Args:
         out: output folder.
         numerics: numerics preset (``paper`` is the paper's dt = 1e-7 s, dx = 1e-8 m).
         periods: drive periods shown in Figs. 3-4.
-        workers: processes (default: the cores available).
+        workers: processes (default: the cores available), if no ``executor`` is given.
         quick: a CI-sized subset (fewer k and masses).
         variant: the model variant (``core.params.VARIANTS``).
+        executor: runs the simulations (``mdr_drive_env.sweep``: local processes or Ray).
+        resume: reuse the simulations an interrupted run into ``out`` finished (``out/.tasks``).
     Returns: a summary dict (also written as ``summary.json``).
     """
     import json
@@ -95,7 +90,14 @@ def reproduce(out: str | Path = "results/paper", numerics: str = "paper", period
         return DriveParams.paper(k=k, cargo_mass=m, variant=variant)
 
     out = Path(out)
-    workers = workers or len(os.sched_getaffinity(0))
+    executor = executor or Executor(workers=workers)
+    tasks = out / ".tasks"
+    if not resume:
+        shutil.rmtree(tasks, ignore_errors=True)
+
+    def _map(fn, cases, desc):
+        return executor.map(fn, cases, desc, store=TaskStore(tasks / desc.replace(" ", "_").replace(".", "")))
+
     start = time.perf_counter()
     fig3_masses = FIG3_MASSES[::2] if quick else FIG3_MASSES
     fig5_ks = FIG5_KS[::6] if quick else FIG5_KS
@@ -106,23 +108,19 @@ def reproduce(out: str | Path = "results/paper", numerics: str = "paper", period
     record_every = max(1, int(round(2e-5 / _dt(numerics))))  # a trace point every 20 us
 
     # Fig. 3: X(t), k = 0, m = 0 .. 1 kg
-    traces3 = _map(_trace_case, [(model(0.0, m), periods, numerics, record_every) for m in fig3_masses], "Fig. 3",
-                   workers)
+    traces3 = _map(_trace_case, [(model(0.0, m), periods, numerics, record_every) for m in fig3_masses], "Fig. 3")
     # Fig. 4: X(t), F_x(t), m = 0.1 kg, k = 0, 0.2, 0.3
-    traces4 = _map(_trace_case, [(model(k, 0.1), periods, numerics, record_every) for k in FIG4_KS], "Fig. 4",
-                   workers)
+    traces4 = _map(_trace_case, [(model(k, 0.1), periods, numerics, record_every) for k in FIG4_KS], "Fig. 4")
     # Fig. 5: <V> (6th period, and settled) vs k and m
     right_cases = [(k, m) for m in fig5_masses for k in fig5_ks]
     left_cases = [(k, m) for k in left_ks for m in left_masses]
     fig4_cases = [(k, 0.1) for k in FIG4_KS]
-    v5 = _map(fig5_case, [(model(k, m), numerics) for k, m in right_cases + left_cases + fig4_cases], "Fig. 5",
-              workers)
+    v5 = _map(fig5_case, [(model(k, m), numerics) for k, m in right_cases + left_cases + fig4_cases], "Fig. 5")
     v_right, v_left = v5[: len(right_cases)], v5[len(right_cases):len(right_cases) + len(left_cases)]
     v_fig4 = v5[len(right_cases) + len(left_cases):]
     # sensitivity of <V> at k = 0.3, m = 0.1 kg to h_N, h_T
     sens_cases = [(s, s) for s in scales] + [(s, 1.0) for s in scales] + [(1.0, s) for s in scales]
-    v_sens = _map(fig5_case, [(scaled_h(model(0.3, 0.1), sn, st), numerics) for sn, st in sens_cases],
-                  "sensitivity", workers)
+    v_sens = _map(fig5_case, [(scaled_h(model(0.3, 0.1), sn, st), numerics) for sn, st in sens_cases], "sensitivity")
 
     # --- CSVs ---
     t3 = traces3[0][:, K.T_TIME]
@@ -157,7 +155,10 @@ def reproduce(out: str | Path = "results/paper", numerics: str = "paper", period
                                          for k, tr in zip(FIG4_KS, traces4)},
         "fig3_final_position_m": {f"{m:g}": float(tr[-1, K.T_SLIDER_X]) for m, tr in zip(fig3_masses, traces3)},
     }
+    if executor.is_ray:
+        summary["executor"] = f"ray ({executor.ray_address})"
     write_text(out / "summary.json", json.dumps(summary, indent=2))
+    shutil.rmtree(tasks, ignore_errors=True)  # every output is written: the per-task results are spent
     return summary
 
 
