@@ -172,6 +172,7 @@ def write_report(out: str | Path, stem: str, lines: list[str], rows, t0: float) 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import input_file, int_range, output_dir, positive_int
+    from mdr_drive_env.sweep import add_executor_arguments
 
     p.add_argument("--policies", nargs="*", default=[], type=policy_path,
                    help="policy folders (one per training seed), or CMA-ES teacher .npz files played as their "
@@ -185,8 +186,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     b.add_argument("--seed", type=int, default=None, help="seed of the blind points (-); required with --blind")
     b.add_argument("--scan-ks", type=int_range(2), default=25,
                    help="k values of the critical-load scan, evenly spaced in [0, 0.6] (-)")
-    b.add_argument("--workers", type=positive_int, default=None,
-                   help="processes for the searches (-); default: the cores available")
+    add_executor_arguments(b)
     b.add_argument("--reuse-search", default=None, metavar="BLIND.json", type=input_file,
                    help="take the points, the trapezoid and the searches from an earlier blind.json of the same "
                         "seed, size and budgets; only the policies run")
@@ -202,8 +202,10 @@ def main(args: argparse.Namespace) -> int:
                              "decisions, report on another)")
         out = args.out or f"results/blind/seed{args.seed}"
         budget = {"fixed_budget": args.cma_budget} if args.cma_budget else {}
+        from mdr_drive_env.sweep import executor_from
+
         res = blind.run(args.policies, args.blind, args.seed, out, quick=args.quick, scan_ks=args.scan_ks,
-                        workers=args.workers, reuse=args.reuse_search, **budget)
+                        reuse=args.reuse_search, executor=executor_from(args), resume=args.resume, **budget)
         print((Path(out) / "blind.md").read_text())
         print(f"tables and figures in {out}/")
         return 0

@@ -19,21 +19,22 @@ over the best cycle's at every scanned k. Keep one seed for your own decisions a
 another: a result on the seed you tuned on is not a blind result.
 
 Writes ``blind.json``, ``blind.md``, ``points.csv``, ``critical_loads.csv`` and two PNG plots.
-Ctrl-C keeps what is done in ``partial.json``.
+The searches run on ``mdr_drive_env.sweep`` (``--workers``, or a Ray cluster with
+``--ray-address``); each finished search is kept in ``OUT/.tasks`` as it completes, so after Ctrl-C
+(or a lost node) ``--resume`` runs only the searches that are missing.
 """
 
 from __future__ import annotations
 
 import json
-import os
+import shutil
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from mdr_drive_env.files import json_safe, save_figure, write_csv, write_text
+from mdr_drive_env.sweep import Executor, TaskStore
 
 from .baselines import CMA_BUDGET, CYCLE_SEARCH, best_cycle, cma_optimize, cycle_critical_load
 from .evaluate import (
@@ -108,20 +109,6 @@ def cycle_scan_task(args) -> float:
     return cycle_critical_load(k, m_trap, iterations, budget)[0]
 
 
-def _map(fn, tasks, desc: str, workers: int, done: dict) -> list:
-    """``fn`` over ``tasks`` with a progress bar; results kept in ``done`` (task index -> result) as
-    they arrive, so an interrupt keeps them."""
-    if workers <= 1:
-        for i, t in enumerate(tqdm(tasks, desc=desc, unit="task")):
-            done[i] = fn(t)
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(fn, t): i for i, t in enumerate(tasks)}
-            for f in tqdm(as_completed(futures), total=len(tasks), desc=desc, unit="task"):
-                done[futures[f]] = f.result()
-    return [done[i] for i in range(len(tasks))]
-
-
 def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: dict, ks) -> dict:
     """The blind statistics of one policy (velocities in m/s; NaN is a runaway)."""
     moving = (trap > 0) | (learned > 0)
@@ -151,18 +138,24 @@ def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: di
 
 def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = False, scan_ks: int = 25,
         workers: int | None = None, fixed_budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_SEARCH["budget"],
-        iterations: int = 8, reuse: str | Path | None = None) -> dict:
+        iterations: int = 8, reuse: str | Path | None = None, executor: Executor | None = None,
+        resume: bool = False) -> dict:
     """The blind benchmark (module docstring); returns what ``blind.json`` holds.
 
     ``reuse``: a ``blind.json`` of the same seed, size, search budgets and scan, whose points,
     trapezoid, best drives and critical loads of the trapezoid and the best cycle are taken as they
-    are (the searches are most of the cost); only the policies are run.
+    are (the searches are most of the cost); only the policies are run. ``executor`` runs the
+    searches (default: ``workers`` local processes); ``resume`` reuses the searches an interrupted
+    run into ``out`` finished.
     """
     if quick:
         fixed_budget, cycle_budget, scan_ks, iterations = (QUICK[key] for key in
                                                            ("fixed_budget", "cycle_budget", "scan_ks", "iterations"))
-    workers = workers or len(os.sched_getaffinity(0))
+    executor = executor or Executor(workers=workers)
     out = Path(out)
+    tasks = out / ".tasks"
+    if not resume:
+        shutil.rmtree(tasks, ignore_errors=True)
     t0 = time.perf_counter()
     res: dict = {"seed": seed, "n": n, "domain": {"k": list(K_RANGE), "load": f"0-{LOAD_FACTOR}x trapezoid critical"},
                  "search": {"fixed_action_cma_evaluations": fixed_budget,
@@ -170,51 +163,46 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
                             "cycle_critical_load_bisection_steps": iterations},
                  "protocol": f"fast numerics; mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}",
                  "policies": list(policies)}
-    done: dict = {}
     previous = reusable_search(reuse, res, scan_ks) if reuse else None
-    try:
-        if previous:
-            res["search_reused_from"] = str(reuse)
-            points = [tuple(p) for p in previous["points"]]
-            trap = np.array([np.nan if v is None else v for v in previous["trapezoid"]], dtype=float)
-            found = previous["best"]
-        else:
-            points, _ = draw_points(n, seed)
-            trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
-            res["points"], res["trapezoid"] = points, trap.tolist()  # kept in partial.json on Ctrl-C
-            found = _map(best_drive, [(k, m, fixed_budget, cycle_budget) for k, m in points],
-                         "best drive per point", workers, done)
-        res["points"], res["trapezoid"], res["best"] = points, trap.tolist(), found
-        best_v = np.array([np.nan if f["velocity"] is None else f["velocity"] for f in found], dtype=float)
-        loaded = [load_policy(p) for p in policies]
-        learned = {}
-        for path, pol in zip(policies, loaded):
-            disp, _, runaway = policy_rollout(pol, points)
-            learned[path] = steady_velocity_of(disp, runaway=runaway)
-        res["learned"] = {p: v.tolist() for p, v in learned.items()}
-        if previous:
-            old = previous["critical_load_kg"]
-            ks, crit_trap, crit_cycle = old["k"], np.array(old["trapezoid"]), old["best cycle"]
-        else:
-            ks = [float(k) for k in np.round(np.linspace(*K_RANGE, scan_ks), 6)]
-            crit_trap = trapezoid_critical(ks)
-            done.clear()
-            crit_cycle = _map(cycle_scan_task, [(k, m, iterations, cycle_budget) for k, m in zip(ks, crit_trap)],
-                              "critical load of the best cycle per k", workers, done)
-        crit = {"k": ks, "trapezoid": crit_trap.tolist(), "best cycle": crit_cycle}
-        for path, pol in zip(policies, loaded):
-            c = critical_loads_grid(ks, lambda pts, pol=pol: _policy_velocity(pol, pts))
-            crit[path] = [c[k] for k in ks]
-        res["critical_load_kg"] = crit
-        res["statistics"] = {p: statistics(trap, best_v, learned[p], {**crit, "policy": crit[p]}, ks)
-                             for p in policies}
-    except KeyboardInterrupt:
-        res["interrupted"] = True
-        res["partial_tasks"] = {str(i): v for i, v in done.items()}
-        write_text(out / "partial.json", json.dumps(json_safe(res), indent=1))
-        raise
+    if previous:
+        res["search_reused_from"] = str(reuse)
+        points = [tuple(p) for p in previous["points"]]
+        trap = np.array([np.nan if v is None else v for v in previous["trapezoid"]], dtype=float)
+        found = previous["best"]
+    else:
+        points, _ = draw_points(n, seed)
+        trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
+        found = executor.map(best_drive, [(k, m, fixed_budget, cycle_budget) for k, m in points],
+                             "best drive per point", store=TaskStore(tasks / "best_drive"))
+    res["points"], res["trapezoid"], res["best"] = points, trap.tolist(), found
+    best_v = np.array([np.nan if f["velocity"] is None else f["velocity"] for f in found], dtype=float)
+    loaded = [load_policy(p) for p in policies]
+    learned = {}
+    for path, pol in zip(policies, loaded):
+        disp, _, runaway = policy_rollout(pol, points)
+        learned[path] = steady_velocity_of(disp, runaway=runaway)
+    res["learned"] = {p: v.tolist() for p, v in learned.items()}
+    if previous:
+        old = previous["critical_load_kg"]
+        ks, crit_trap, crit_cycle = old["k"], np.array(old["trapezoid"]), old["best cycle"]
+    else:
+        ks = [float(k) for k in np.round(np.linspace(*K_RANGE, scan_ks), 6)]
+        crit_trap = trapezoid_critical(ks)
+        crit_cycle = executor.map(cycle_scan_task,
+                                  [(k, m, iterations, cycle_budget) for k, m in zip(ks, crit_trap)],
+                                  "critical load of the best cycle per k", store=TaskStore(tasks / "cycle_scan"))
+    crit = {"k": ks, "trapezoid": crit_trap.tolist(), "best cycle": crit_cycle}
+    for path, pol in zip(policies, loaded):
+        c = critical_loads_grid(ks, lambda pts, pol=pol: _policy_velocity(pol, pts))
+        crit[path] = [c[k] for k in ks]
+    res["critical_load_kg"] = crit
+    res["statistics"] = {p: statistics(trap, best_v, learned[p], {**crit, "policy": crit[p]}, ks)
+                         for p in policies}
     res["wall_time_s"] = round(time.perf_counter() - t0, 1)
+    if executor.is_ray:
+        res["executor"] = f"ray ({executor.ray_address})"
     write_outputs(res, out)
+    shutil.rmtree(tasks, ignore_errors=True)  # every output is written: the per-task results are spent
     return res
 
 

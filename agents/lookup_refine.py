@@ -20,13 +20,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
-from tqdm import tqdm
+
+from mdr_drive_env.sweep import Executor, add_executor_arguments, executor_from
 
 from .evaluate import open_loop_velocity, policy_velocity, trapezoid_action
 from .residual import TeacherLookup
@@ -93,12 +92,12 @@ def sweep_ks(rng: np.random.Generator, n: int, sampling: str = "uniform") -> np.
 
 def refine(data: dict, probe_points: int = 384, rounds: int = 3, max_new: int = 128, seed: int = 100,
            workers: int | None = None, budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_BUDGET,
-           sweeps: int = 0, sweep_sampling: str = "uniform"):
+           sweeps: int = 0, sweep_sampling: str = "uniform", executor=None):
     """Rounds of probing the lookup and adding CMA-ES points where it fails. Returns (new data, summary
     per round). ``max_new``: most CMA-ES searches per round at probe points (the worst failures
     first); ``sweeps``: critical-load sweeps per round at random k (``sweep_failures``), searched
     in addition, at k drawn by ``sweep_ks(..., sweep_sampling)``."""
-    workers = workers or len(os.sched_getaffinity(0))
+    executor = executor or Executor(workers=workers)
     rng = np.random.default_rng(seed)
     summary = []
     for r in range(rounds):
@@ -118,8 +117,7 @@ def refine(data: dict, probe_points: int = 384, rounds: int = 3, max_new: int = 
             targets, floor = targets + stalls, floor + [0.0] * len(stalls)
         jobs = [(p, budget, cycle_budget) for p in targets]
         desc = f"refine round {r + 1}/{rounds}"
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            found = list(tqdm(pool.map(_optimize, jobs), total=len(jobs), desc=desc, unit="point"))
+        found = executor.map(_optimize, jobs, desc)
         keep = [j for j, (_, v) in enumerate(found) if v > floor[j]]
         if keep:
             data = _merge(data, np.array([targets[j] for j in keep]), np.array([found[j][0] for j in keep]),
@@ -146,14 +144,19 @@ def main(argv=None) -> int:
                     help="k of the sweeps: uniform, or denser at both ends of the k range (chebyshev)")
     ap.add_argument("--seed", type=int, default=100, help="seed of the probe points (-)")
     ap.add_argument("--out", default="runs/teacher_refined.npz", help="output .npz")
+    add_executor_arguments(ap, resume=False)  # each round's searches depend on the round before
     a = ap.parse_args(argv)
+    try:
+        executor = executor_from(a)
+    except ValueError as e:
+        ap.error(str(e))
     t0 = time.perf_counter()
     data, command, earlier = load_for_update(
         a.teacher, f"python -m agents.lookup_refine {' '.join(argv or sys.argv[1:])}")
     extra = {key: data.pop(key) for key in list(data) if key not in ("points", "actions", "velocities", "obs",
                                                                         "targets")}
     data, summary = refine(data, a.probe_points, a.rounds, a.max_new, a.seed, sweeps=a.sweeps,
-                           sweep_sampling=a.sweep_sampling)
+                           sweep_sampling=a.sweep_sampling, executor=executor)
     data.update(extra, refine=np.array(json.dumps(summary)))
     save(a.out, data, command, earlier + time.perf_counter() - t0)
     return 0

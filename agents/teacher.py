@@ -25,16 +25,14 @@ teacher during training (``teacher_steps_per_rollout`` in the config).
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from tqdm import tqdm
 
 import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
+from mdr_drive_env.sweep import Executor, TaskStore, add_executor_arguments, executor_from
 
 from .baselines import CMA_BUDGET, PUSH_CLAMP, cma_optimize
 from .evaluate import open_loop_velocity, trapezoid_action
@@ -91,23 +89,20 @@ def _optimize(args):
 
 def build(n: int = 160, periods: int = 50, seed: int = 0, workers: int | None = None, env_kwargs=None,
           budget: int = CMA_BUDGET, n_stall: int = 192, cycle_budget: int = CYCLE_BUDGET,
-          n_transition: int = 0) -> dict:
+          n_transition: int = 0, executor=None, store=None) -> dict:
     """Teacher dataset: points, their drives (n, 2, 5) and steady velocities, and the (observation,
     action) pairs of their rollouts.
 
     Points: ``n`` of the training distribution, ``n_stall`` near the trapezoid's stall
     (``STALL_RANGE``) and ``n_transition`` below it (``TRANSITION_RANGE``: where the best drive
-    changes from a fixed waveform to a cycle, so the policy learns where to switch)."""
+    changes from a fixed waveform to a cycle, so the policy learns where to switch). The searches run
+    on ``executor`` (``mdr_drive_env.sweep``; default ``workers`` local processes), each kept in
+    ``store`` as it finishes."""
     points = sample_points(n, seed=seed) + (sample_stall_points(n_stall, seed=seed + 1) if n_stall else [])
     if n_transition:
         points += sample_stall_points(n_transition, factor_range=TRANSITION_RANGE, seed=seed + 2)
-    workers = workers or len(os.sched_getaffinity(0))
     jobs = [(p, budget, cycle_budget) for p in points]
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            found = list(tqdm(pool.map(_optimize, jobs), total=len(jobs), desc="CMA-ES teacher", unit="point"))
-    else:
-        found = [_optimize(j) for j in tqdm(jobs, desc="CMA-ES teacher", unit="point")]
+    found = (executor or Executor(workers=workers)).map(_optimize, jobs, "CMA-ES teacher", store=store)
     cycles = np.array([f[0] for f in found])
     data = {"points": np.array(points), "actions": cycles, "velocities": np.array([f[1] for f in found])}
     return record_rollouts(data, periods=periods, seed=seed, env_kwargs=env_kwargs)
@@ -355,6 +350,7 @@ def main(argv=None) -> int:
     ap.add_argument("--refine", default=None, metavar="TEACHER.npz",
                     help="skip CMA-ES: apply the --neighbours exchange to an existing teacher")
     ap.add_argument("--out", default="runs/teacher.npz", help="output .npz")
+    add_executor_arguments(ap)
     a = ap.parse_args(argv)
     if a.refine and a.neighbours <= 0:
         ap.error("--refine applies the exchange: give --neighbours N with N > 0")
@@ -366,8 +362,15 @@ def main(argv=None) -> int:
     if a.refine:
         data, command, earlier = load_for_update(a.refine, command)
     else:
+        store = TaskStore(Path(a.out).parent / ".tasks" / Path(a.out).stem)
+        if not a.resume:
+            store.clear()
+        try:
+            executor = executor_from(a)
+        except ValueError as e:
+            ap.error(str(e))
         data = build(a.points, seed=a.seed, n_stall=a.stall_points, cycle_budget=a.cycle_budget,
-                     n_transition=a.transition_points)
+                     n_transition=a.transition_points, executor=executor, store=store)
         earlier = 0.0
     if a.neighbours > 0:
         t1 = time.perf_counter()
@@ -376,6 +379,8 @@ def main(argv=None) -> int:
         data["exchange"] = np.array(json.dumps(summary))
         print("neighbour exchange:", json.dumps(summary))
     save(a.out, data, command, earlier + time.perf_counter() - t0)
+    if not a.refine:
+        store.clear()
     return 0
 
 

@@ -8,15 +8,14 @@ half an hour of CPU), keyed by the waveforms they were computed for.
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from .core import DriveParams, DriveSimulator, Waveform, numerics_preset
+from .files import atomic_path
 from .gym_envs.spaces import ActionMap
+from .sweep import Executor, TaskStore
 
 ACCURACY_KS = (0.0, 0.2, 0.3, 0.5, 0.9)
 ACCURACY_MASSES = (0.0, 0.05, 0.1, 0.2, 0.4)
@@ -46,20 +45,20 @@ def _run(args) -> np.ndarray:
 
 
 def grid_displacements(numerics, actions: np.ndarray, periods: int = ACCURACY_PERIODS, workers: int | None = None,
-                       desc: str = "accuracy grid", progress: bool = True) -> np.ndarray:
-    """Per-period displacements (m), shape (len(ks), len(masses), len(actions), periods)."""
+                       desc: str = "accuracy grid", progress: bool = True, executor: Executor | None = None,
+                       store: TaskStore | None = None) -> np.ndarray:
+    """Per-period displacements (m), shape (len(ks), len(masses), len(actions), periods); the cases
+    run on ``executor`` (default: ``workers`` local processes), kept in ``store`` as they finish."""
     cases = [(k, m, a, numerics, periods) for k in ACCURACY_KS for m in ACCURACY_MASSES for a in actions]
-    workers = workers or len(os.sched_getaffinity(0))
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            out = list(tqdm(pool.map(_run, cases, chunksize=4), total=len(cases), desc=desc, disable=not progress))
-    else:
-        out = [_run(c) for c in tqdm(cases, desc=desc, disable=not progress)]
+    executor = executor or Executor(workers=workers, progress=progress)
+    out = executor.map(_run, cases, desc, store=store)
     return np.array(out).reshape(len(ACCURACY_KS), len(ACCURACY_MASSES), len(actions), periods)
 
 
-def reference_displacements(cache: str | Path, recompute: bool = False, workers: int | None = None) -> np.ndarray:
-    """The `paper` preset's displacements on the accuracy grid, from ``cache`` or computed (slow)."""
+def reference_displacements(cache: str | Path, recompute: bool = False, workers: int | None = None,
+                            executor: Executor | None = None) -> np.ndarray:
+    """The `paper` preset's displacements on the accuracy grid, from ``cache`` or computed (slow; each
+    finished case is kept beside the cache, so an interrupted computation continues where it stopped)."""
     actions, _ = accuracy_waveforms()
     cache = Path(cache)
     if cache.exists() and not recompute:
@@ -68,11 +67,14 @@ def reference_displacements(cache: str | Path, recompute: bool = False, workers:
         if (np.array_equal(data["actions"], actions) and np.array_equal(data["waveforms"], waveforms) and tuple(data["ks"]) == ACCURACY_KS
                 and tuple(data["masses"]) == ACCURACY_MASSES and data["displacement"].shape[-1] == ACCURACY_PERIODS):
             return data["displacement"]
-    disp = grid_displacements(numerics_preset("paper"), actions, workers=workers, desc="reference (paper preset)")
-    cache.parent.mkdir(parents=True, exist_ok=True)
+    store = TaskStore(cache.parent / ".tasks" / cache.stem)
+    disp = grid_displacements(numerics_preset("paper"), actions, workers=workers, desc="reference (paper preset)",
+                              executor=executor, store=store)
     waveforms = np.array([list(ActionMap().to_params(a)) for a in accuracy_waveforms()[0]])
-    np.savez_compressed(cache, displacement=disp, actions=actions, waveforms=waveforms, ks=np.array(ACCURACY_KS),
-                        masses=np.array(ACCURACY_MASSES))
+    with atomic_path(cache) as tmp:
+        np.savez_compressed(tmp, displacement=disp, actions=actions, waveforms=waveforms, ks=np.array(ACCURACY_KS),
+                            masses=np.array(ACCURACY_MASSES))
+    store.clear()
     return disp
 
 

@@ -290,7 +290,9 @@ def cmd_reproduce(a: argparse.Namespace) -> int:
 def cmd_bench(a: argparse.Namespace) -> int:
     from .bench import run
 
-    res = run(a.out, quick=a.quick)
+    from .sweep import executor_from
+
+    res = run(a.out, quick=a.quick, executor=executor_from(a))
     print((Path(a.out) / "bench_speed.md").read_text())
     return 0 if res["accuracy_fast"]["max_error_over_tolerance"] <= 1.0 else 1
 
@@ -363,6 +365,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--out", default="results/bench", type=output_dir,
                    help="output folder (bench_speed.json, bench_speed.md)")
     b.add_argument("--quick", action="store_true", help="shorter timing blocks")
+    add_executor_arguments(b, resume=False)  # the reference's finished cases are always kept until it is written
     b.set_defaults(func=cmd_bench)
 
     for name, help_text, description in AGENT_COMMANDS:  # implemented in agents/ (the train extra)

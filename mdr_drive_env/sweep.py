@@ -47,11 +47,10 @@ def available_cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
-def task_key(fn: Callable, task: Any) -> str:
-    """A fingerprint of (the function's qualified name, the task): a stored result is reused only for
-    the very same task."""
-    name = f"{fn.__module__}.{getattr(fn, '__qualname__', fn)}"
-    return hashlib.sha256(pickle.dumps((name, task), protocol=4)).hexdigest()
+def task_key(task: Any) -> str:
+    """A fingerprint of a task: a stored result is reused only for the very same task (the store's
+    folder names the sweep, so the function)."""
+    return hashlib.sha256(pickle.dumps(task, protocol=4)).hexdigest()
 
 
 class TaskStore:
@@ -152,7 +151,7 @@ class Executor:
         """``[fn(t) for t in tasks]``, in task order, with a progress bar; tasks already in ``store``
         (same fingerprint) are not run again."""
         tasks = list(tasks)
-        keys = [task_key(fn, t) for t in tasks]
+        keys = [task_key(t) for t in tasks]
         results: dict[int, Any] = {}
         if store is not None:
             for i, key in enumerate(keys):

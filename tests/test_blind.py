@@ -62,7 +62,7 @@ def test_blind_needs_a_seed_and_a_seed_needs_blind(capsys):
     assert "give --blind N too" in capsys.readouterr().err
 
 
-def test_ctrl_c_keeps_the_finished_searches(tmp_path, monkeypatch):
+def test_ctrl_c_keeps_the_finished_searches_and_resume_runs_only_the_rest(tmp_path, monkeypatch):
     calls = []
     real = blind.best_drive
 
@@ -74,9 +74,15 @@ def test_ctrl_c_keeps_the_finished_searches(tmp_path, monkeypatch):
 
     monkeypatch.setattr(blind, "best_drive", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        blind.run([], 4, seed=2, out=tmp_path, quick=True, workers=1)
-    partial = json.loads((tmp_path / "partial.json").read_text())
-    assert partial["interrupted"] and len(partial["partial_tasks"]) == 2 and len(partial["points"]) == 4
+        blind.run([], 4, seed=2, out=tmp_path / "a", quick=True, workers=1)
+    assert len(list((tmp_path / "a" / ".tasks" / "best_drive").glob("*.pkl"))) == 2
+    calls.clear()
+    monkeypatch.setattr(blind, "best_drive", lambda args: calls.append(args) or real(args))
+    resumed = blind.run([], 4, seed=2, out=tmp_path / "a", quick=True, workers=1, resume=True)
+    assert len(calls) == 2  # the two searches the interrupt left, not the two it kept
+    assert not (tmp_path / "a" / ".tasks").exists()
+    fresh = blind.run([], 4, seed=2, out=tmp_path / "b", quick=True, workers=1)
+    assert resumed["best"] == fresh["best"] and resumed["critical_load_kg"] == fresh["critical_load_kg"]
 
 
 def test_a_second_run_reuses_the_searches_of_the_first(tmp_path, monkeypatch, capsys):
