@@ -299,6 +299,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import folder_with, input_file, output_dir, positive_int
+    from mdr_drive_env.sweep import add_executor_arguments
 
     def warm_start_type(text: str) -> str:
         if text.startswith("cma:"):
@@ -333,9 +334,32 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="initial policy: as is, mean at the trapezoid, or cloned from a CMA-ES teacher "
                         "(python -m agents.teacher); default from the config")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    m = p.add_argument_group("several seeds as one sweep (agents/seeds.py): OUT/s<seed> per seed")
+    m.add_argument("--seeds", type=int, nargs="+", default=None, metavar="SEED",
+                   help="train one run per seed (instead of --seed) into OUT/s<SEED>; seeds already trained "
+                        "there are kept unless --force (-)")
+    add_executor_arguments(m, resume=False)
 
 
 def main(args: argparse.Namespace) -> int:
+    if args.seeds:
+        from mdr_drive_env.sweep import executor_from
+
+        from .seeds import train_seeds
+
+        if args.resume:
+            raise ValueError("--resume continues one run; with --seeds, run the same command again to train "
+                             "the seeds that are missing")
+        out = args.out or f"runs/{args.algo}"
+        folders = train_seeds(args.seeds, out, executor_from(args), force=args.force, algo=args.algo,
+                              steps=args.steps, n_envs=args.n_envs, k=args.k, cargo_mass=args.cargo_mass,
+                              load_ratio=args.load_ratio, config=args.config, eval_freq=args.eval_freq,
+                              checkpoint_freq=args.checkpoint_freq, warm_start=args.warm_start,
+                              torch_threads=args.torch_threads)
+        for seed, folder in folders.items():
+            run = json.loads((folder / "run.json").read_text())
+            print(f"seed {seed}: {folder} ({run['total_timesteps']} steps, {run['wall_time_s']} s)")
+        return 0
     out = args.out or f"runs/{args.algo}_s{args.seed}"
     record = train(args.algo, args.steps, args.seed, out, args.n_envs, args.k, args.cargo_mass, args.load_ratio,
                    args.config,

@@ -147,9 +147,11 @@ class Executor:
             import_ray()
             check_ray_address(self.ray_address)
 
-    def map(self, fn: Callable, tasks: Sequence, desc: str, store: TaskStore | None = None) -> list:
+    def map(self, fn: Callable, tasks: Sequence, desc: str, store: TaskStore | None = None,
+            on_result: Callable[[int, Any], None] | None = None) -> list:
         """``[fn(t) for t in tasks]``, in task order, with a progress bar; tasks already in ``store``
-        (same fingerprint) are not run again."""
+        (same fingerprint) are not run again. ``on_result(index, result)`` is called here as each
+        task's result arrives (e.g. to write it out)."""
         tasks = list(tasks)
         keys = [task_key(t) for t in tasks]
         results: dict[int, Any] = {}
@@ -164,6 +166,8 @@ class Executor:
             results[i] = value
             if store is not None:
                 store.save(i, keys[i], value)
+            if on_result is not None:
+                on_result(i, value)
 
         t0 = time.perf_counter()
         with tqdm(total=len(tasks), initial=len(results), desc=desc, unit="task", disable=not self.progress) as bar:

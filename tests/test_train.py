@@ -101,3 +101,19 @@ def test_the_best_model_has_its_own_normalisation_and_one_torch_thread(tmp_path)
     assert (out / "best" / "best_model.zip").exists() and (out / "best" / "vecnormalize.pkl").exists()
     PPO.load(out / "best" / "best_model.zip", device="cpu")
     assert VecNormalize.load(str(out / "best" / "vecnormalize.pkl"), _venv()).obs_rms.mean.shape == (14,)
+
+
+def test_several_seeds_train_as_one_sweep_and_a_rerun_keeps_them(tmp_path, capsys):
+    from mdr_drive_env.cli import main
+
+    args = ["train", "--seeds", "0", "1", "--steps", "256", "--n-envs", "4", "--eval-freq", "100000",
+            "--no-progress", "--workers", "2", "--out", str(tmp_path)]
+    assert main(args) == 0
+    for s in (0, 1):
+        run = json.loads((tmp_path / f"s{s}" / "run.json").read_text())
+        assert run["seed"] == s and (tmp_path / f"s{s}" / "vecnormalize.pkl").exists()
+    first = (tmp_path / "s0" / "model.zip").read_bytes()
+    capsys.readouterr()
+    assert main(args) == 0
+    assert "seed 0 is already trained" in capsys.readouterr().out
+    assert (tmp_path / "s0" / "model.zip").read_bytes() == first
