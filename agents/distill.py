@@ -1,0 +1,299 @@
+"""The student: a plain SB3 PPO policy distilled from the teacher's drive field by DAgger.
+
+The student is an ``MlpPolicy`` on the env's own 14 observations, normalised by a ``VecNormalize``
+whose statistics are those of the observations it was trained on; at play time nothing but the
+network acts (``PPO.load`` + ``VecNormalize.load`` + ``model.predict``). Training (Ross et al. 2011):
+
+1. round 0: the teacher plays its drives at random (k, load) points of the training domain; every
+   observation is recorded with the teacher's action there;
+2. rounds 1 ... R: the student plays at fresh random points; every observation it meets is
+   labelled with the action the teacher would play next (the teacher's drive at that episode's
+   (k, load), in the cycle phase that follows the student's previous action: ``cycle_action``);
+   the student is refitted on everything gathered so far.
+
+The teacher's drive at an episode's point is the best of the field's interpolation and its
+surrounding grid drives played at that very point (``DriveField.best``). The fit is a squared
+error on the policy's mean action, except that where the teacher's action lies on the box's edge
+an output beyond the edge costs nothing (SB3 clips the action to the box when acting): the
+optimal drives use the full stroke or depth in most components, and only the others need to be
+precise (an action error of 0.01 costs 3 % of the velocity on average).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from tqdm import tqdm
+
+import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
+
+from .drive_field import DriveField, cycle_action
+from .evaluate import steady_velocity_of
+from mdr_drive_env.gym_envs.spaces import ObservationLayout
+
+ENV_ID = "MDRDrive-v0"
+#: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
+EDGE = 0.999
+
+
+@dataclass(frozen=True)
+class DistillConfig:
+    """DAgger distillation of the drive field into a PPO MlpPolicy.
+
+    Attributes:
+        net_arch: hidden layer sizes of the policy network (the value network keeps SB3's 64, 64).
+        activation: ``"relu"`` or ``"tanh"``.
+        points: random (k, load) episodes the teacher plays (-).
+        periods: periods per episode of the rollouts (-).
+        no_load_share: share of the points without load (-).
+        load_factor: loads are drawn up to this times the trapezoid's critical load (-).
+        steps: gradient steps of the fit on the teacher's episodes (-).
+        rounds: DAgger rounds after it: the student plays ``points`` new episodes, they are added,
+            and the fit continues for ``round_steps`` (-).
+        round_steps: gradient steps per DAgger round (-).
+        batch: minibatch size (-).
+        learning_rate: Adam step size, decaying linearly to zero over each fit (-).
+        perturbed_share: share of the samples whose previous action is perturbed in each epoch (-).
+        log_std: the policy's log standard deviation after distillation (for PPO fine-tuning) (-).
+        torch_threads: torch threads of the fit (-).
+    """
+
+    net_arch: tuple[int, ...] = (512, 512, 512)
+    activation: str = "relu"
+    points: int = 4096
+    periods: int = 8
+    no_load_share: float = 0.1
+    load_factor: float = 1.7
+    steps: int = 60_000
+    rounds: int = 0
+    round_steps: int = 10_000
+    batch: int = 256
+    learning_rate: float = 1e-3
+    perturbed_share: float = 0.5
+    log_std: float = -3.0
+    torch_threads: int = 1
+
+    def __post_init__(self) -> None:
+        if self.activation not in ("relu", "tanh"):
+            raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
+        for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads"):
+            value = getattr(self, name)
+            low = 0 if name == "rounds" else 1
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, inf)")
+        if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
+            raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
+        for name, low, high in (("no_load_share", 0.0, 1.0), ("perturbed_share", 0.0, 1.0), ("load_factor", 0.0, 5.0),
+                                ("learning_rate", 0.0, 1.0)):
+            value = getattr(self, name)
+            if not low <= value <= high or (name in ("load_factor", "learning_rate") and value == 0.0):
+                raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, {high}]")
+
+
+def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig) -> list:
+    """``n`` (k, cargo mass kg) points: k uniform over the field's range, the load uniform from 0 to
+    ``load_factor`` times the trapezoid's critical load (interpolated from the field's grid), a
+    share without load."""
+    ks = rng.uniform(field_.ks[0], field_.ks[-1], n)
+    crit = np.interp(ks, field_.ks, field_.trapezoid_critical)
+    loads = rng.uniform(0.0, config.load_factor, n) * crit
+    loads[rng.uniform(size=n) < config.no_load_share] = 0.0
+    return [(float(k), float(m)) for k, m in zip(ks, loads)]
+
+
+def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0):
+    """Play at each point: the teacher's drive (``act`` None) or ``act(obs) -> actions``. Returns the
+    observations (periods * n, 14), the teacher's drive of each observation's episode (periods * n,
+    2, 5) and the displacements (periods, n) m."""
+    n = len(points)
+    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods)
+    prev_slice = venv.template.observation_structure["previous_action"]
+    obs, _ = venv.reset(seed=seed, options={"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]})
+    all_obs, disp = [], []
+    for _ in range(periods):
+        all_obs.append(obs.copy())
+        action = cycle_action(drives, obs[:, prev_slice]) if act is None else act(obs)
+        obs, _, _, _, info = venv.step(np.clip(np.asarray(action).reshape(n, 5), -1.0, 1.0).astype(np.float32))
+        disp.append(info["displacement"])
+    return np.concatenate(all_obs), np.tile(drives, (periods, 1, 1)), np.array(disp)
+
+
+def perturb_previous_actions(obs: np.ndarray, drives: np.ndarray, rng: np.random.Generator, share: float,
+                             prev_slice: slice) -> np.ndarray:
+    """``obs`` with the previous action of a ``share`` of the samples replaced: half by one of the
+    drive's own actions plus Gaussian noise (std 0.02-0.3), half uniform in the box. The label
+    follows from the drive (``cycle_action``), so such samples are free, and they teach the student
+    to come back to its cycle from wherever its last action went (a network fitted only on exact
+    cycles maps a previous action between the two halfway between them, and the cycle decays)."""
+    out = obs.copy()
+    pick = np.flatnonzero(rng.uniform(size=len(obs)) < share)
+    near = rng.uniform(size=len(pick)) < 0.5
+    which = rng.integers(0, 2, len(pick))
+    scale = rng.choice([0.02, 0.1, 0.3], len(pick))[:, None]
+    noisy = drives[pick, which] + rng.normal(size=(len(pick), 5)) * scale
+    out[pick, prev_slice] = np.clip(np.where(near[:, None], noisy, rng.uniform(-1.0, 1.0, (len(pick), 5))), -1.0, 1.0)
+    return out
+
+
+def edge_loss(mean, target):
+    """Squared error, except beyond the box's edge where the target is on it (SB3 clips there)."""
+    import torch
+
+    upper, lower = target >= EDGE, target <= -EDGE
+    clipped = torch.where(upper, torch.clamp(mean, max=1.0), torch.where(lower, torch.clamp(mean, min=-1.0), mean))
+    return torch.mean((clipped - torch.clamp(target, -1.0, 1.0)) ** 2)
+
+
+@dataclass
+class Student:
+    """The PPO model being distilled and its VecNormalize (observation statistics fixed after round 0)."""
+
+    model: object
+    venv: object
+    history: list = field(default_factory=list)
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        action, _ = self.model.predict(self.venv.normalize_obs(obs), deterministic=True)
+        return action
+
+
+def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparameters: dict) -> Student:
+    """An untrained PPO MlpPolicy over the batched training env in a VecNormalize."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    from .vec_env import BatchedVecEnv
+
+    hyper = dict(hyperparameters)
+    n_envs = int(hyper.pop("n_envs", 16))
+    venv = VecNormalize(VecMonitor(BatchedVecEnv(n_envs, seed=seed, **env_kwargs)), norm_obs=True, norm_reward=True,
+                        gamma=hyper.get("gamma", 0.99))
+    activation = {"relu": torch.nn.ReLU, "tanh": torch.nn.Tanh}[config.activation]
+    policy_kwargs = {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]}, "activation_fn": activation,
+                     "log_std_init": config.log_std}
+    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs, **hyper)
+    return Student(model, venv)
+
+
+def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
+        progress: bool = True) -> float:
+    """Fit the student's mean action to the teacher's (``cycle_action`` of each sample's drive after
+    its previous action) on normalised ``obs``, ``steps`` Adam steps with the learning rate decaying
+    linearly to zero; returns the last epoch's mean loss.
+
+    Every epoch, each entry of the slider's motion and the episode's elapsed fraction is taken from
+    another sample: the teacher's action does not depend on them, and with the entries as recorded
+    the student read the drive off the slider's velocity, which its own drive then changed. And a
+    ``config.perturbed_share`` of the samples get another previous action
+    (``perturb_previous_actions``)."""
+    import torch
+
+    from .teacher import policy_mean
+
+    structure = ObservationLayout.structure
+    shuffled = [*range(*structure["dynamics"].indices(14)), *range(*structure["episode_fraction"].indices(14))]
+    prev_slice = structure["previous_action"]
+    policy = student.model.policy
+    params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
+    opt = torch.optim.Adam(params, lr=config.learning_rate)
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: max(1.0 - s / steps, 0.0))
+    rng = np.random.default_rng(seed)
+    gen = torch.Generator().manual_seed(seed)
+    policy.set_training_mode(True)
+    done, total = 0, 0.0
+    bar = tqdm(total=steps, desc="distill: fit", unit="step", disable=not progress, mininterval=2.0)
+    while done < steps:
+        x = perturb_previous_actions(obs, drives, rng, config.perturbed_share, prev_slice)
+        y = torch.as_tensor(cycle_action(drives, x[:, prev_slice]), dtype=torch.float32)
+        for column in shuffled:
+            x[:, column] = x[rng.permutation(len(x)), column]
+        x = torch.as_tensor(student.venv.normalize_obs(x.astype(np.float64)), dtype=torch.float32)
+        perm = torch.randperm(len(x), generator=gen)
+        total, seen = 0.0, 0
+        for i in range(0, len(x), config.batch):
+            if done >= steps:
+                break
+            idx = perm[i:i + config.batch]
+            loss = edge_loss(policy_mean(policy, x[idx]), y[idx])
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            sched.step()
+            total, seen, done = total + float(loss.detach()) * len(idx), seen + len(idx), done + 1
+            bar.update()
+        bar.set_postfix(loss=f"{total / max(seen, 1):.2e}")
+    bar.close()
+    policy.set_training_mode(False)
+    return total / max(seen, 1)
+
+
+def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs: dict | None = None,
+            hyperparameters: dict | None = None, validation_points=None, progress: bool = True) -> Student:
+    """Fit a new PPO student to the drive field's teacher (module docstring), then ``config.rounds``
+    DAgger rounds; prints each stage and, with ``validation_points``, the student's velocity as a
+    fraction of the teacher's there."""
+    import torch
+
+    torch.set_num_threads(config.torch_threads)
+    rng = np.random.default_rng(seed)
+    student = make_student(config, seed, env_kwargs or {}, hyperparameters or {})
+    val = None
+    if validation_points:
+        val = (validation_points, field_.best(validation_points)[1])
+    obs_all, drive_all = [], []
+    for r in range(config.rounds + 1):
+        t0 = time.perf_counter()
+        points = draw_points(field_, config.points, rng, config)
+        drives, _ = field_.best(points)
+        obs, sample_drives, _ = rollout(points, drives, None if r == 0 else student.act, config.periods,
+                                        seed=seed + r)
+        obs_all.append(obs)
+        drive_all.append(sample_drives)
+        if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
+            student.venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
+            student.venv.obs_rms.var = obs.astype(np.float64).var(axis=0)
+            student.venv.obs_rms.count = float(len(obs))
+        loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
+                   config.steps if r == 0 else config.round_steps, config, seed + r, progress)
+        record = {"round": r, "samples": int(sum(len(o) for o in obs_all)), "loss": loss,
+                  "wall_time_s": round(time.perf_counter() - t0, 1)}
+        if val is not None:
+            record.update(validation_fraction(student, *val))
+        student.history.append(record)
+        print(" ".join(f"{key}={value:.4g}" if isinstance(value, float) else f"{key}={value}"
+                       for key, value in record.items()), flush=True)
+    return student
+
+
+def validation_fraction(student: Student, points, v_teacher: np.ndarray, moving: float = 2e-3) -> dict:
+    """The student's steady velocity over the teacher's where the teacher moves >= ``moving`` m/s."""
+    _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30)
+    v = steady_velocity_of(disp)
+    keep = v_teacher >= moving
+    frac = v[keep] / v_teacher[keep]
+    return {"val_mean_fraction": float(frac.mean()), "val_min_fraction": float(frac.min()),
+            "val_below_teacher": int((v < v_teacher - 0.05e-3).sum())}
+
+
+def save_student(student: Student, out: str | Path, record: dict) -> None:
+    """model.zip, vecnormalize.pkl and run.json (``record``) into ``out``, each written atomically."""
+    import json
+
+    from mdr_drive_env.files import atomic_path, write_text
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / "model.zip") as tmp:
+        student.model.save(tmp)
+    with atomic_path(out / "vecnormalize.pkl") as tmp:
+        student.venv.save(str(tmp))
+    write_text(out / "run.json", json.dumps(record, indent=2))
+
+
+__all__ = ["DistillConfig", "Student", "distill", "draw_points", "edge_loss", "rollout", "save_student",
+           "asdict"]

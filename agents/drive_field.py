@@ -1,0 +1,249 @@
+"""The teacher: the best open-loop drive found on a grid of (k, load), as a field one can query anywhere.
+
+The best drive at one (k, load) point is what CMA-ES finds over fixed actions and over two-action
+cycles (``agents.baselines``). Searched point by point from the same start, neighbouring points
+land in different local optima (the steady velocity is a rugged function of the action: an action
+error of 0.02 already costs 7 % of the velocity on average, ``docs/results.md``), so a network
+fitted to such points averages drives that each work and gets one that does not. The field is
+searched so that neighbours stay neighbours:
+
+- a grid of ``k`` values times load fractions ``s = load / trapezoid's critical load at k`` (the
+  load range that matters scales by orders of magnitude over k, its fraction does not);
+- along each k, loads from light to heavy, every search starting from the lighter point's drive
+  (continuation) as well as from the trapezoid and the push/clamp cycle (``PUSH_CLAMP``), keeping
+  the best;
+- then every point tries its grid neighbours' drives and keeps a better one (``exchange``), and
+  every cycle is written in the phase (which of its two actions comes first) closest to its
+  neighbour's, so interpolation does not mix a push period with a clamp period.
+
+``DriveField.candidates(k, load)`` returns, for any point, the bilinear interpolation of the four
+surrounding grid drives and those four drives; ``DriveField.best(points)`` plays all of them at the
+points (batched) and keeps the best: the label the student is trained on (``agents.distill``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mdr_drive_env.files import atomic_path
+
+from .baselines import PUSH_CLAMP, best_cma_run, cma_optimize
+from .evaluate import open_loop_velocity, trapezoid_action
+
+
+@dataclass(frozen=True)
+class FieldConfig:
+    """The teacher's grid and search budgets.
+
+    Attributes:
+        k_values: grid values of the grading exponent k, spread evenly over ``k_range`` (-).
+        k_range: (low, high) of k (-).
+        load_fractions: grid values of the load, spread evenly from 0 to ``max_load_fraction`` times
+            the trapezoid's critical load at each k (-).
+        max_load_fraction: heaviest grid load / the trapezoid's critical load (-).
+        fixed_budget: CMA-ES evaluations of the fixed-action search per point (-).
+        cycle_budget: CMA-ES evaluations of the two-action search per start and point (-).
+        sigma0: CMA-ES initial step size of both searches (action units).
+    """
+
+    k_values: int = 13
+    k_range: tuple[float, float] = (0.0, 0.6)
+    load_fractions: int = 12
+    max_load_fraction: float = 1.3
+    fixed_budget: int = 300
+    cycle_budget: int = 700
+    sigma0: float = 0.25
+
+    def __post_init__(self) -> None:
+        for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, inf)")
+        lo, hi = self.k_range
+        if not 0.0 <= lo < hi <= 1.0:
+            raise ValueError(f"k_range={self.k_range!r} must satisfy 0 <= low < high <= 1")
+        if not 0.0 < self.max_load_fraction <= 5.0:
+            raise ValueError(f"max_load_fraction={self.max_load_fraction!r} is outside the allowed range (0, 5]")
+        if not 0.0 < self.sigma0 <= 1.0:
+            raise ValueError(f"sigma0={self.sigma0!r} is outside the allowed range (0, 1]")
+
+    @property
+    def ks(self) -> np.ndarray:
+        return np.linspace(*self.k_range, self.k_values)
+
+    @property
+    def fractions(self) -> np.ndarray:
+        return np.linspace(0.0, self.max_load_fraction, self.load_fractions)
+
+
+def search_point(k: float, load: float, previous: np.ndarray | None, config: FieldConfig,
+                 seed: int = 0) -> tuple[np.ndarray, float]:
+    """The best drive (2, 5) found at (k, load kg) and its steady velocity (m/s): CMA-ES over fixed
+    actions (from the lighter point's first action, or the trapezoid) and over two-action cycles
+    (from the lighter point's drive, the trapezoid and the push/clamp cycle)."""
+    fixed = cma_optimize(k, load, config.fixed_budget, sigma0=config.sigma0, seed=seed,
+                         x0=None if previous is None else previous[0])
+    starts = ([] if previous is None else [previous]) + [np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP]
+    cycle = best_cma_run(k, load, starts, config.cycle_budget, popsize=16, sigma0=config.sigma0, cycle=2,
+                         seed=seed)
+    if cycle.velocity > fixed.velocity:
+        return np.asarray(cycle.action, dtype=np.float64), cycle.velocity
+    return np.tile(fixed.action, (2, 1)), fixed.velocity
+
+
+def search_slice(args) -> tuple[np.ndarray, np.ndarray]:
+    """Drives (n_loads, 2, 5) and velocities (n_loads,) along one k, light to heavy (continuation)."""
+    k, loads, config, seed = args
+    drives, velocities, previous = [], [], None
+    for j, load in enumerate(loads):
+        drive, v = search_point(float(k), float(load), previous, config, seed=seed + j)
+        drives.append(drive)
+        velocities.append(v)
+        previous = drive
+    return np.array(drives), np.array(velocities)
+
+
+def align_phase(drive: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """``drive`` (2, 5) or its swapped cycle, whichever is closer to ``reference`` (2, 5)."""
+    swapped = drive[::-1]
+    return swapped if np.abs(swapped - reference).sum() < np.abs(drive - reference).sum() else drive
+
+
+class DriveField:
+    """Grid drives (n_k, n_s, 2, 5), their velocities (m/s) and the trapezoid's critical load (kg) per k."""
+
+    def __init__(self, ks, fractions, trapezoid_critical, drives, velocities, meta: dict | None = None):
+        self.ks = np.asarray(ks, dtype=np.float64)
+        self.fractions = np.asarray(fractions, dtype=np.float64)
+        self.trapezoid_critical = np.asarray(trapezoid_critical, dtype=np.float64)
+        self.drives = np.asarray(drives, dtype=np.float64)
+        self.velocities = np.asarray(velocities, dtype=np.float64)
+        self.meta = dict(meta or {})
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def search(cls, config: FieldConfig, seed: int = 0, executor=None, store=None) -> "DriveField":
+        """Search the grid, one task per k slice on ``executor`` (``mdr_drive_env.sweep``; default
+        the cores available), each slice kept in ``store`` as it finishes; then
+        exchange drives between neighbours."""
+        from mdr_drive_env.sweep import Executor
+
+        from .blind import trapezoid_critical
+
+        t0 = time.perf_counter()
+        ks, fractions = config.ks, config.fractions
+        crit = trapezoid_critical([float(k) for k in ks])
+        tasks = [(float(k), fractions * c, config, seed + 1000 * i) for i, (k, c) in enumerate(zip(ks, crit))]
+        found = (executor or Executor()).map(search_slice, tasks, "teacher: k slices",
+                                                                    store=store)
+        field = cls(ks, fractions, crit, np.array([f[0] for f in found]), np.array([f[1] for f in found]),
+                    {"config": asdict(config), "seed": seed})
+        field.exchange()
+        field.align()
+        field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
+        return field
+
+    def point(self, i: int, j: int) -> tuple[float, float]:
+        """(k, load kg) of grid node (i, j)."""
+        return float(self.ks[i]), float(self.fractions[j] * self.trapezoid_critical[i])
+
+    def exchange(self) -> int:
+        """Every node plays its four grid neighbours' drives and keeps the best; returns how many changed."""
+        nk, ns = self.velocities.shape
+        points, drives, owner = [], [], []
+        for i in range(nk):
+            for j in range(ns):
+                for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                    if 0 <= i + di < nk and 0 <= j + dj < ns:
+                        points.append(self.point(i, j))
+                        drives.append(self.drives[i + di, j + dj])
+                        owner.append((i, j))
+        v = open_loop_velocity(points, np.array(drives))
+        changed = 0
+        for (i, j), drive, vel in zip(owner, drives, v):
+            if vel > self.velocities[i, j] * (1.0 + 1e-3) + 1e-6:
+                self.drives[i, j], self.velocities[i, j] = drive, vel
+                changed += 1
+        self.meta["exchanged"] = changed
+        return changed
+
+    def align(self) -> None:
+        """Write every cycle in the phase closest to its lighter neighbour's (along each k), and each
+        k's unloaded cycle in the phase closest to the previous k's."""
+        nk, ns = self.velocities.shape
+        for i in range(nk):
+            if i:
+                self.drives[i, 0] = align_phase(self.drives[i, 0], self.drives[i - 1, 0])
+            for j in range(1, ns):
+                self.drives[i, j] = align_phase(self.drives[i, j], self.drives[i, j - 1])
+
+    # ------------------------------------------------------------------ queries
+    def _cell(self, k: float, load: float):
+        """Indices and weights of the grid cell around (k, load): (i, j, wk, ws)."""
+        k = float(np.clip(k, self.ks[0], self.ks[-1]))
+        i = int(min(np.searchsorted(self.ks, k, side="right") - 1, len(self.ks) - 2))
+        wk = (k - self.ks[i]) / (self.ks[i + 1] - self.ks[i])
+        crit = (1.0 - wk) * self.trapezoid_critical[i] + wk * self.trapezoid_critical[i + 1]
+        s = float(np.clip(load / crit if crit > 0.0 else 0.0, self.fractions[0], self.fractions[-1]))
+        j = int(min(np.searchsorted(self.fractions, s, side="right") - 1, len(self.fractions) - 2))
+        ws = (s - self.fractions[j]) / (self.fractions[j + 1] - self.fractions[j])
+        return i, j, wk, ws
+
+    def candidates(self, k: float, load: float) -> np.ndarray:
+        """(5, 2, 5): the bilinear interpolation of the surrounding grid drives (each aligned to the
+        cell's first corner), then the four corner drives."""
+        i, j, wk, ws = self._cell(k, load)
+        corners = [self.drives[i, j], self.drives[i + 1, j], self.drives[i, j + 1], self.drives[i + 1, j + 1]]
+        aligned = [corners[0]] + [align_phase(c, corners[0]) for c in corners[1:]]
+        w = [(1 - wk) * (1 - ws), wk * (1 - ws), (1 - wk) * ws, wk * ws]
+        mixed = sum(wi * c for wi, c in zip(w, aligned))
+        return np.array([mixed, *aligned])
+
+    def best(self, points, prefer_interpolation: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+        """The teacher's drive (n, 2, 5) and its velocity (n,) at each (k, load kg) point: the best of
+        :meth:`candidates` played at the point, the interpolation unless a corner is better by more
+        than ``prefer_interpolation`` (relative), so neighbouring labels stay smooth."""
+        cands = np.array([self.candidates(k, m) for k, m in points])  # (n, 5, 2, 5)
+        n, c = cands.shape[:2]
+        v = open_loop_velocity([p for p in points for _ in range(c)], cands.reshape(n * c, 2, 5)).reshape(n, c)
+        pick = np.argmax(v, axis=1)
+        keep = v[np.arange(n), pick] <= v[:, 0] + prefer_interpolation * np.abs(v[:, 0])
+        pick[keep] = 0
+        return cands[np.arange(n), pick], v[np.arange(n), pick]
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: str | Path) -> None:
+        import json
+
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, ks=self.ks, fractions=self.fractions,
+                                    trapezoid_critical=self.trapezoid_critical, drives=self.drives,
+                                    velocities=self.velocities, meta=np.array(json.dumps(self.meta)))
+
+    @classmethod
+    def load(cls, path: str | Path) -> "DriveField":
+        import json
+
+        with np.load(path) as f:
+            return cls(f["ks"], f["fractions"], f["trapezoid_critical"], f["drives"], f["velocities"],
+                       json.loads(str(f["meta"])))
+
+
+def cycle_action(drives: np.ndarray, previous_actions: np.ndarray) -> np.ndarray:
+    """The action each drive (n, 2, 5) plays after ``previous_actions`` (n, 5): its second action
+    after a period closer to its first, else its first (also after a zero action, an episode's
+    start); a fixed drive (both actions equal) plays its action."""
+    prev = np.asarray(previous_actions, dtype=np.float64)
+    first, second = drives[:, 0], drives[:, 1]
+    after_first = (np.abs(prev - first).sum(1) < np.abs(prev - second).sum(1)) & (np.abs(prev).sum(1) > 0)
+    return np.where(after_first[:, None], second, first)
+
+
+__all__ = ["DriveField", "FieldConfig", "align_phase", "cycle_action", "search_point"]

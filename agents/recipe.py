@@ -1,0 +1,137 @@
+"""The shipped policy's recipe, teacher to student, as one function driven by one YAML file.
+
+    python -m agents.recipe agents/configs/recipe.yaml --out runs/recipe     # make train
+    python -m agents.recipe agents/configs/recipe.yaml --out runs/recipe --ray-address auto
+
+Stages (each one's wall time is printed and kept in ``recipe.json``):
+
+1. **teacher**: the best open-loop drives on a grid of k and load (``agents.drive_field``), one
+   task per k slice on the sweep executor (local processes or Ray), kept in ``OUT/.tasks`` as they
+   finish (``--resume`` continues an interrupted search); written to ``OUT/teacher_field.npz``.
+2. **student**: a plain SB3 PPO ``MlpPolicy`` fitted to the teacher by DAgger
+   (``agents.distill``); written to ``OUT/policy/`` as ``model.zip``, ``vecnormalize.pkl`` and
+   ``run.json``, which ``PPO.load`` + ``VecNormalize.load`` play, ``mdr-drive evaluate`` and
+   ``benchmark`` judge, and ``mdr-drive train --resume OUT/policy`` fine-tunes with PPO.
+
+An existing ``OUT`` is refused unless ``--resume`` (teacher tasks reused, the student refitted) or
+``--force``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from mdr_drive_env.files import write_text
+from mdr_drive_env.sweep import Executor, TaskStore, add_executor_arguments, executor_from
+
+from .distill import DistillConfig, distill, save_student
+from .drive_field import DriveField, FieldConfig
+from .train import ENV_ID, HELD_OUT_POINTS, versions
+
+DEFAULT_CONFIG = Path(__file__).parent / "configs" / "recipe.yaml"
+
+
+def load_recipe(path: str | Path) -> dict:
+    """The recipe YAML as {"seed", "teacher": FieldConfig, "distill": DistillConfig, "ppo", "env_kwargs"};
+    unknown keys are a ``ValueError`` naming them."""
+    data = yaml.safe_load(Path(path).read_text())
+    expected = {"seed", "teacher", "distill", "ppo", "env_kwargs"}
+    if set(data) != expected:
+        raise ValueError(f"{path}: sections {sorted(data)} are not {sorted(expected)}")
+    try:
+        teacher = FieldConfig(**{key: tuple(v) if isinstance(v, list) else v for key, v in data["teacher"].items()})
+        student = DistillConfig(**{key: tuple(v) if isinstance(v, list) else v for key, v in data["distill"].items()})
+    except TypeError as e:
+        raise ValueError(f"{path}: {e}") from None
+    return {"seed": int(data["seed"]), "teacher": teacher, "distill": student, "ppo": dict(data["ppo"]),
+            "env_kwargs": dict(data["env_kwargs"])}
+
+
+def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
+        force: bool = False, progress: bool = True) -> dict:
+    """Run the recipe into ``out``; returns what ``recipe.json`` holds."""
+    recipe = load_recipe(config_path)
+    out = Path(out)
+    if out.exists() and any(out.iterdir()) and not (resume or force):
+        raise ValueError(f"{out} is not empty: continue with --resume, or overwrite with --force")
+    executor = executor or Executor()
+    store = TaskStore(out / ".tasks" / "teacher")
+    if not resume:
+        store.clear()
+    seed, stages = recipe["seed"], {}
+    command = " ".join(["python -m agents.recipe", *sys.argv[1:]]) if sys.argv[0].endswith("recipe.py") else \
+        " ".join(sys.argv)
+
+    t0 = time.perf_counter()
+    field = DriveField.search(recipe["teacher"], seed=seed, executor=executor, store=store)
+    field.save(out / "teacher_field.npz")
+    stages["teacher_s"] = round(time.perf_counter() - t0, 1)
+    print(f"recipe: teacher {stages['teacher_s']:.0f} s: {field.velocities.size} grid points, "
+          f"{field.meta.get('exchanged', 0)} drives taken from a neighbour", flush=True)
+
+    t1 = time.perf_counter()
+    student = distill(field, recipe["distill"], seed=seed, env_kwargs=recipe["env_kwargs"],
+                      hyperparameters=recipe["ppo"], progress=progress)
+    stages["student_s"] = round(time.perf_counter() - t1, 1)
+    ppo = dict(recipe["ppo"])
+    record = {
+        "algo": "ppo", "seed": seed, "env_id": ENV_ID, "env_kwargs": recipe["env_kwargs"],
+        "hyperparameters": {**ppo, "normalize": True, "warm_start": "none",
+                            "policy_kwargs": {"net_arch": {"pi": list(recipe["distill"].net_arch), "vf": [64, 64]},
+                                              "activation_fn": recipe["distill"].activation,
+                                              "log_std_init": recipe["distill"].log_std}},
+        "distilled_from": {"teacher": str(out / "teacher_field.npz"), "recipe": str(config_path),
+                           "distill": {key: getattr(recipe["distill"], key) for key in
+                                       recipe["distill"].__dataclass_fields__},
+                           "history": student.history},
+        "command": command, "versions": versions(), "torch_threads": recipe["distill"].torch_threads,
+        "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": stages["student_s"], "steps_per_s_this_run": 0.0,
+        "resumes": 0, "held_out_points": HELD_OUT_POINTS, "interrupted": False,
+    }
+    save_student(student, out / "policy", record)
+    stages["total_s"] = round(time.perf_counter() - t0, 1)
+    print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
+          flush=True)
+    summary = {"config": str(config_path), "command": command, "seed": seed, "stage_wall_time_s": stages,
+               "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
+               "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},
+               "teacher_mean_velocity_m_s": float(np.mean(field.velocities))}
+    write_text(out / "recipe.json", json.dumps(summary, indent=2))
+    shutil.rmtree(out / ".tasks", ignore_errors=True)  # the teacher is written: its task files are spent
+    return summary
+
+
+def main(argv=None) -> int:
+    from mdr_drive_env.cli_args import Parser, input_file, output_dir
+
+    ap = Parser(prog="python -m agents.recipe", description=__doc__,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
+                    help="recipe YAML (default: agents/configs/recipe.yaml)")
+    ap.add_argument("--out", default="runs/recipe", type=output_dir, help="output folder (default: runs/recipe)")
+    ap.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
+    ap.add_argument("--no-progress", action="store_true", help="no progress bars")
+    add_executor_arguments(ap)
+    a = ap.parse_args(argv)
+    try:
+        run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force, progress=not a.no_progress)
+    except ValueError as e:
+        print(f"python -m agents.recipe: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"python -m agents.recipe: interrupted; the teacher's finished slices are kept, continue with "
+              f"--resume --out {a.out}", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
