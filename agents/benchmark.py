@@ -175,8 +175,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.sweep import add_executor_arguments
 
     p.add_argument("--policies", nargs="*", default=[], type=policy_path,
-                   help="policy folders (one per training seed), or CMA-ES teacher .npz files played as their "
-                        "lookup (agents.residual.TeacherLookup)")
+                   help="policy folders (model.zip, vecnormalize.pkl, run.json), e.g. one per training seed")
     p.add_argument("--out", default=None, type=output_dir,
                    help="output folder (default: results/benchmark, or results/blind/seed<S> with --blind)")
     p.add_argument("--quick", action="store_true", help="a CI-sized grid and CMA-ES budget")

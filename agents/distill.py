@@ -139,6 +139,12 @@ def perturb_previous_actions(obs: np.ndarray, drives: np.ndarray, rng: np.random
     return out
 
 
+def policy_mean(policy, obs):
+    """The Gaussian mean action of an SB3 PPO policy on (normalised) observations, as a torch tensor
+    (SB3 clips it to the box when acting)."""
+    return policy.get_distribution(obs).distribution.mean
+
+
 def edge_loss(mean, target):
     """Squared error, except beyond the box's edge where the target is on it (SB3 clips there)."""
     import torch
@@ -192,8 +198,6 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
     ``config.perturbed_share`` of the samples get another previous action
     (``perturb_previous_actions``)."""
     import torch
-
-    from .teacher import policy_mean
 
     structure = ObservationLayout.structure
     shuffled = [*range(*structure["dynamics"].indices(14)), *range(*structure["episode_fraction"].indices(14))]

@@ -164,22 +164,8 @@ class Policy:
                 vn = pickle.load(f)
             self.obs_rms, self.clip_obs, self.epsilon = vn.obs_rms, vn.clip_obs, vn.epsilon
         self.run = run
-        self.lookup = None  # a residual policy on the teacher's lookup (agents/residual.py)
-        if run.get("hyperparameters", {}).get("residual_scale"):
-            from .residual import LOOKUP_FILE, TeacherLookup
-
-            self.lookup = TeacherLookup.load(path / LOOKUP_FILE)
-            self.residual_scale = float(run["hyperparameters"]["residual_scale"])
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        if self.lookup is not None:
-            from .residual import augment, env_action
-
-            obs, base, weight = augment(np.atleast_2d(obs), self.lookup)
-            return env_action(base, self._act(obs), self.residual_scale * weight)
-        return self._act(obs)
-
-    def _act(self, obs: np.ndarray) -> np.ndarray:
         if self.obs_rms is not None:
             obs = np.clip((obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
                           -self.clip_obs, self.clip_obs).astype(np.float32)
@@ -188,12 +174,7 @@ class Policy:
 
 
 def load_policy(path: str | Path):
-    """``obs -> action`` from a path: a trained policy's folder (``Policy``), or a CMA-ES teacher's
-    ``.npz`` (``python -m agents.teacher``), played as its lookup (``agents.residual.TeacherLookup``)."""
-    if str(path).endswith(".npz"):
-        from .residual import TeacherLookup
-
-        return TeacherLookup.from_teacher(dict(np.load(path)))
+    """``obs -> action`` of the trained policy in folder ``path`` (``Policy``)."""
     return Policy(path)
 
 
@@ -258,10 +239,10 @@ def load_step_type(text: str) -> tuple[int, float]:
 
 
 def policy_path(text: str) -> str:
-    """argparse type: a trained policy's folder (with model.zip), or a CMA-ES teacher's .npz file."""
-    from mdr_drive_env.cli_args import folder_with, input_file
+    """argparse type: a trained policy's folder (with model.zip)."""
+    from mdr_drive_env.cli_args import folder_with
 
-    return input_file(text) if text.endswith(".npz") else folder_with("model.zip")(text)
+    return folder_with("model.zip")(text)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

@@ -1,6 +1,6 @@
 """Ship a trained policy: copy model, VecNormalize statistics and run record, and write its model card.
 
-    python -m agents.model_card runs/ppo_s0 agents/pretrained/ppo_generalist
+    python -m agents.model_card runs/recipe/policy agents/pretrained/ppo_generalist [BLIND.json]
 
 The card's evaluation table is computed here, from the shipped files, with the benchmark protocol.
 """
@@ -12,7 +12,6 @@ import shutil
 import sys
 from pathlib import Path
 
-import numpy as np
 
 from mdr_drive_env.files import write_text
 
@@ -43,29 +42,41 @@ def evaluation_table(policy_dir: str | Path) -> str:
     return "\n".join(lines)
 
 
-#: The teacher command of teachers built before they recorded their own.
-OLD_TEACHER_COMMAND = "python -m agents.teacher --points 160 --stall-points 192 --cycle-budget 2500"
+def training_note(run: dict) -> str:
+    """How the policy was made: distilled from a teacher (``agents.recipe``) or trained by PPO/SAC."""
+    distilled = run.get("distilled_from")
+    if distilled:
+        d = distilled["distill"]
+        last = distilled["history"][-1] if distilled.get("history") else {}
+        return (f"distilled (`agents/distill.py`) from the drive-field teacher `{distilled['teacher']}` "
+                f"(`agents/drive_field.py`), recipe `{distilled['recipe']}`: a {'x'.join(map(str, d['net_arch']))} "
+                f"{d['activation']} network fitted for {d['steps']:,} steps to the teacher's actions on "
+                f"{d['points']:,} random episodes (DAgger rounds after it: {d['rounds']}); final fit loss "
+                f"{last.get('loss', float('nan')):.2e}. No PPO update yet ({run['total_timesteps']:,} environment "
+                f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below")
+    return (f"{run['algo'].upper()}, {run['total_timesteps']:,} environment steps (drive periods), "
+            f"warm start {run['hyperparameters'].get('warm_start', 'none')}")
 
 
-def teacher_note(run: dict) -> str:
-    hyper = run["hyperparameters"]
-    warm = hyper.get("warm_start", "none")
-    if not warm.startswith("cma:"):
-        return f"`{warm}`"
-    mse = hyper.get("warm_start_mse", float("nan"))
-    about, command = "", OLD_TEACHER_COMMAND
-    if Path(warm[4:]).exists():  # describe the teacher from its own file
-        data = np.load(warm[4:])
-        acts = data["actions"]
-        cycles = int(np.sum(np.abs(acts[:, 0] - acts[:, 1]).max(axis=1) > 0)) if acts.ndim == 3 else 0
-        command = str(data["command"]) if "command" in data else command
-        about = (f": {len(data['points'])} (k, load) points, {cycles} of them best driven by a two-action cycle, "
-                 f"built in {float(data['wall_time_s']):.0f} s on 2 cores")
-    steps = hyper.get("teacher_steps_per_rollout")
-    regulariser = f", with {steps} supervised steps towards the teacher after every rollout" if steps else ""
-    return (f"behaviour cloning of the CMA-ES teacher `{warm[4:]}` (`{command}`{about}), fit MSE {mse:.4f}, "
-            f"exploration noise log std {hyper.get('cloned_log_std', 'unchanged')} after cloning, then PPO"
-            f"{regulariser}")
+LOAD_SNIPPET = """```python
+import gymnasium as gym
+import numpy as np
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+import mdr_drive_env  # registers MDRDrive-v0
+
+venv = DummyVecEnv([lambda: gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1)])
+venv = VecNormalize.load("{dir}/vecnormalize.pkl", venv)
+venv.training, venv.norm_reward = False, False      # play: statistics frozen, raw rewards
+model = PPO.load("{dir}/model.zip", device="cpu")
+obs, velocities = venv.reset(), []
+for period in range(30):
+    action, _ = model.predict(obs, deterministic=True)
+    obs, reward, done, info = venv.step(action)
+    velocities.append(info[0]["mean_velocity"])
+print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
+```"""
 
 
 def blind_section(blind_json: str | Path, policy_key: str) -> str:
@@ -87,56 +98,55 @@ def blind_section(blind_json: str | Path, policy_key: str) -> str:
 
 
 def ship(src: str | Path, dst: str | Path, blind_json: str | Path | None = None) -> Path:
-    """Copy the run in ``src`` to ``dst`` (nothing to copy if they are the same folder) and write
-    its card; with ``blind_json``, the card quotes the policy's blind results from it."""
+    """Copy the policy in ``src`` (``model.zip``, ``vecnormalize.pkl``, ``run.json``) to ``dst``
+    (nothing to copy if they are the same folder) and write its card; with ``blind_json``, the card
+    quotes the policy's blind results from it."""
     src, dst = Path(src), Path(dst)
     dst.mkdir(parents=True, exist_ok=True)
-    files = FILES + (("teacher_lookup.npz",) if (src / "teacher_lookup.npz").exists() else ())
     if src.resolve() != dst.resolve():
-        for name in files:
+        for name in FILES:
             shutil.copy2(src / name, dst / name)
     run = json.loads((dst / "run.json").read_text())
-    size_kb = sum((dst / n).stat().st_size for n in files) / 1024
-    lookup_limit = ("\n* It plays a residual on its teacher's lookup, so it runs only through "
-                    "`agents.evaluate.Policy`: `PPO.load` reads `model.zip`, but its observation has 19 entries "
-                    "(the env's 14 and the lookup's action)." if len(files) > len(FILES) else "")
-    lookup_note = (", `teacher_lookup.npz` (the teacher's drives: the policy plays a residual on them, "
-                   "`agents/residual.py`)" if len(files) > len(FILES) else "")
-    card = f"""# {dst.name}: a generalist PPO waveform policy for MDRDrive-v0
+    size_kb = sum((dst / n).stat().st_size for n in FILES) / 1024
+    hyper = {k: v for k, v in run["hyperparameters"].items() if k != "policy_kwargs"}
+    card = f"""# {dst.name}: a waveform policy for MDRDrive-v0
 
-One policy for every grading exponent and load in its training range: it observes k and the load
-(observation entries 10-12) and sets each period's waveform within the paper's actuator limits.
+One plain Stable-Baselines3 PPO policy for every grading exponent and load in its training range:
+it observes k and the load (observation entries 10-12) with the rest of the env's 14 observations
+and sets each period's waveform within the paper's actuator limits. Nothing but the network acts.
 
-* Produced by: `{run['command']}`
-* Algorithm: {run['algo'].upper()}, seed {run['seed']}, {run['total_timesteps']:,} environment steps (drive
-  periods), {run['wall_time_s']:.0f} s wall time on this 2-core machine ({run['steps_per_s_this_run']:,.0f} steps/s,
-  torch threads {run['torch_threads']}), warm start: {run['hyperparameters'].get('warm_start', 'none')}
-* Warm start: {teacher_note(run)}
-* Training distribution (env kwargs): `{json.dumps(run['env_kwargs'])}`
-* Hyperparameters: `{json.dumps({k: v for k, v in run['hyperparameters'].items() if k != 'policy_kwargs'})}`,
-  policy `{json.dumps(run['hyperparameters'].get('policy_kwargs', {}))}`
+## Load it
+
+{LOAD_SNIPPET.format(dir=dst.as_posix())}
+
+(`tests/test_shipped_policy.py` runs this snippet.) Or: `mdr-drive evaluate --policy {dst.as_posix()} --k 0.2
+--cargo-mass 0.1 --json`; `mdr-drive train --resume {dst.as_posix()}` fine-tunes it with PPO (copy the
+folder first: a resumed run writes into it).
+
+## How it was made
+
+* Command: `{run['command']}`
+* Training: {training_note(run)}
+* Training range (env kwargs): `{json.dumps(run['env_kwargs'])}`
+* PPO settings: `{json.dumps(hyper)}`, policy `{json.dumps(run['hyperparameters'].get('policy_kwargs', {}))}`
 * Versions: `{json.dumps(run['versions'])}`
 * Files: `model.zip` (SB3), `vecnormalize.pkl` (observation normalisation, needed to run it),
-  `run.json`{lookup_note}; {size_kb:.0f} KiB in all.
-
-Use: `mdr-drive evaluate --policy {dst.as_posix()} --k 0.2 --cargo-mass 0.1 --json`, or in Python
-`agents.evaluate.Policy("{dst.as_posix()}")(obs)`.
+  `run.json`; {size_kb:.0f} KiB in all.
 
 ## Limits
 
 * Trained for the ranges above with the paper's friction (mu = 0.3, mu1 = 0.1) and material; `mdr-drive
-  evaluate` warns outside the trained k and loads and at other friction coefficients.{lookup_limit}
+  evaluate` warns outside the trained k and loads and at other friction coefficients.
 * It observes k and the load: a drive that knows neither needs a sensor-only policy (`MDRDriveSensor-v0`).
+* Its drives are the teacher's: a grid search with a stated budget (docs/results.md), not a proven optimum.
 
 ## Evaluation
 
-Steady slider velocity in mm/s, learned (trapezoid), mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS} of a
-fresh drive, computed by `python -m agents.model_card {src.as_posix()} {dst.as_posix()}` from the shipped files:
+Steady slider velocity in mm/s, policy (trapezoid), mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS} of a
+fresh drive, computed by `python -m agents.model_card {src.as_posix()} {dst.as_posix()}` from the shipped files.
+"runaway": the load accelerates the slider backwards without bound.
 
 {evaluation_table(dst)}
-
-The full comparison with CMA-ES and other training seeds is in docs/results.md
-(`mdr-drive benchmark`). "runaway": the load accelerates the slider backwards without bound.
 
 {blind_section(blind_json, dst.as_posix()) if blind_json else ""}"""
     write_text(dst / "MODEL_CARD.md", card)

@@ -29,25 +29,20 @@ from .evaluate import trapezoid_action
 
 CONFIG_DIR = Path(__file__).parent / "configs"
 ENV_ID = "MDRDrive-v0"
-#: Keys of the YAML file's top level that train.py reads (with ``warm_start``); see load_config.
-RECIPE_KEYS = ("cloned_log_std", "teacher_steps_per_rollout", "teacher_velocity_floor", "residual_scale",
-               "residual_gate_velocity")
 #: Config keys of agents/train.py itself: recorded in run.json, not passed to SB3.
-NOT_SB3_KEYS = ("warm_start", "warm_start_mse", *RECIPE_KEYS)
+NOT_SB3_KEYS = ("warm_start",)
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
 HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0.25))
 
 
 def load_config(algo: str, path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start`` and
-    ``RECIPE_KEYS`` (not RL Zoo keys) are returned among the hyperparameters."""
+    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start`` (not
+    an RL Zoo key) is returned among the hyperparameters."""
     path = Path(path) if path else CONFIG_DIR / f"{algo}.yaml"
     data = yaml.safe_load(path.read_text())
     if ENV_ID not in data:
         raise ValueError(f"{path}: no '{ENV_ID}' section")
-    extra = {key: data[key] for key in RECIPE_KEYS if key in data}
-    extra["warm_start"] = data.get("warm_start", "none")
-    return {**data[ENV_ID], **extra}, dict(data.get("env_kwargs", {}))
+    return {**data[ENV_ID], "warm_start": data.get("warm_start", "none")}, dict(data.get("env_kwargs", {}))
 
 
 def _range(values: list[float] | None, default):
@@ -58,35 +53,16 @@ def _range(values: list[float] | None, default):
     return float(values[0]) if len(values) == 1 else (float(values[0]), float(values[1]))
 
 
-def _residual(venv, residual):
-    """``venv`` wrapped by ``agents.residual.TeacherResidual`` if ``residual`` is (lookup, scale)."""
-    if residual is None:
-        return venv
-    from .residual import TeacherResidual
-
-    return TeacherResidual(venv, *residual)
-
-
-def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any], teacher: dict | None = None,
-                   velocity_floor: float | None = None, residual=None):
-    """The batched training env with a monitor; with a teacher and a velocity floor (m/s), rewards
-    are scaled per episode (``agents.reward_scale``), so the agent and ``rollout/ep_rew_mean`` see
-    the scaled rewards (the evaluation env's are not scaled). ``residual``: (lookup, scale) of a
-    residual policy (``agents.residual``)."""
+def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any]):
+    """The batched training env with a monitor."""
     from stable_baselines3.common.vec_env import VecMonitor
 
     from .vec_env import BatchedVecEnv
 
-    factor = None
-    if teacher is not None and velocity_floor:
-        from .reward_scale import TeacherRewardFactor
-
-        factor = TeacherRewardFactor(teacher, float(velocity_floor))
-    return VecMonitor(_residual(BatchedVecEnv(n_envs, seed=seed, episode_reward_factor=factor, **env_kwargs),
-                                residual))
+    return VecMonitor(BatchedVecEnv(n_envs, seed=seed, **env_kwargs))
 
 
-def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS, residual=None):
+def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS):
     """One single env per held-out (k, cargo mass) point (fixed per env)."""
     import gymnasium as gym
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
@@ -94,9 +70,7 @@ def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS, residual=N
     import mdr_drive_env  # noqa: F401  registers the env
 
     kw = {key: v for key, v in env_kwargs.items() if key not in ("k", "cargo_mass", "load_ratio")}
-    # the same wrapper stack as the training env, so VecNormalize statistics can be synchronised
-    return VecMonitor(_residual(DummyVecEnv([lambda k=k, m=m: gym.make(ENV_ID, k=k, cargo_mass=m, **kw)
-                                             for k, m in points]), residual))
+    return VecMonitor(DummyVecEnv([lambda k=k, m=m: gym.make(ENV_ID, k=k, cargo_mass=m, **kw) for k, m in points]))
 
 
 def warm_start_at(model, action: np.ndarray) -> None:
@@ -217,20 +191,10 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     if not resume:
         hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
     warm = hyper.get("warm_start", "none")
-    teacher = dict(np.load(warm[4:])) if warm.startswith("cma:") else None
-    residual, policy_teacher = None, teacher
-    if hyper.get("residual_scale"):  # a residual policy on the teacher's lookup (agents/residual.py)
-        from .residual import LOOKUP_FILE, TeacherLookup, moving_teacher, residual_data
-
-        if teacher is None:
-            raise ValueError("residual_scale needs a CMA-ES teacher: warm_start cma:<teacher.npz>")
-        residual = (TeacherLookup.from_teacher(teacher, hyper.get("residual_gate_velocity")),
-                    float(hyper["residual_scale"]))
-        residual[0].save(out / LOOKUP_FILE)
-        policy_teacher = residual_data(moving_teacher(teacher), *residual)
-    venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs, teacher,
-                          hyper.get("teacher_velocity_floor"), residual)
-    eval_env = make_eval_env(env_kwargs, residual=residual)
+    if warm not in ("none", "trapezoid"):
+        raise ValueError(f"warm_start={warm!r} is not one of ['none', 'trapezoid']")
+    venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs)
+    eval_env = make_eval_env(env_kwargs)
     if resume:
         venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
         model = algos[algo].load(out / "model.zip", env=venv, device="cpu")
@@ -241,13 +205,6 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
                             verbose=verbose, **{key: v for key, v in hyper.items() if key not in NOT_SB3_KEYS})
         if warm == "trapezoid":
             warm_start_at(model, trapezoid_action())
-        elif warm.startswith("cma:"):  # behaviour cloning of a CMA-ES teacher (agents/teacher.py)
-            from .teacher import clone_into
-
-            hyper["warm_start_mse"] = clone_into(model, policy_teacher, model.get_env(), seed=seed,
-                                                   log_std=hyper.get("cloned_log_std"))
-        elif warm != "none":
-            raise ValueError(f"warm_start={warm!r} is not one of ['none', 'trapezoid', 'cma:<teacher.npz>']")
     if normalize or resume:
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     callbacks = [
@@ -257,11 +214,6 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
                      best_model_save_path=str(out / "best"), log_path=str(out), deterministic=True,
                      callback_on_new_best=_save_normalisation_callback(out / "best" / "vecnormalize.pkl")),
     ]
-    teacher_steps = hyper.get("teacher_steps_per_rollout")
-    if teacher_steps and teacher is not None:  # keep pulling towards the teacher of the warm start
-        from .teacher import teacher_regulariser
-
-        callbacks.append(teacher_regulariser(policy_teacher, int(teacher_steps), seed=seed))
     start_steps = model.num_timesteps
     t0 = time.perf_counter()
 
@@ -301,13 +253,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import folder_with, input_file, output_dir, positive_int
     from mdr_drive_env.sweep import add_executor_arguments
 
-    def warm_start_type(text: str) -> str:
-        if text.startswith("cma:"):
-            input_file(text[4:])
-        elif text not in ("none", "trapezoid"):
-            raise argparse.ArgumentTypeError(f"{text!r} is not one of none, trapezoid, cma:FILE")
-        return text
-
     p.add_argument("--algo", choices=["ppo", "sac"], default="ppo", help="SB3 algorithm")
     p.add_argument("--k", type=float, nargs="+", default=None,
                    help="grading exponent k, one value or a low high range sampled per episode (-)")
@@ -330,9 +275,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--resume", default=None, metavar="DIR", type=folder_with("model.zip", "run.json"), help="continue the run in DIR (same step counter)")
     p.add_argument("--eval-freq", type=positive_int, default=20_000, help="evaluate on held-out points every N steps (-)")
     p.add_argument("--checkpoint-freq", type=positive_int, default=100_000, help="checkpoint every N steps (-)")
-    p.add_argument("--warm-start", default=None, metavar="none|trapezoid|cma:FILE", type=warm_start_type,
-                   help="initial policy: as is, mean at the trapezoid, or cloned from a CMA-ES teacher "
-                        "(python -m agents.teacher); default from the config")
+    p.add_argument("--warm-start", default=None, choices=("none", "trapezoid"),
+                   help="initial policy: as is, or its mean at the trapezoid; default from the config (the "
+                        "shipped policy is distilled from a teacher instead: python -m agents.recipe)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     m = p.add_argument_group("several seeds as one sweep (agents/seeds.py): OUT/s<seed> per seed")
     m.add_argument("--seeds", type=int, nargs="+", default=None, metavar="SEED",

@@ -21,26 +21,19 @@ class BatchedVecEnv(VecEnv):
     Args:
         num_envs: number of drives.
         seed: base seed (sub-env i gets ``seed + i``).
-        episode_reward_factor: optional ``first observations (n, 14) -> factors (n,)``; every reward
-            of an episode is multiplied by its factor, then the env's ``reward_floor`` (if any) is
-            applied again (``agents.reward_scale``).
         **env_kwargs: keyword arguments of ``MDRDrive-v0`` (``numerics`` must be the fast solver).
     """
 
-    def __init__(self, num_envs: int, seed: int | None = None, episode_reward_factor=None, **env_kwargs: Any):
+    def __init__(self, num_envs: int, seed: int | None = None, **env_kwargs: Any):
         self.venv = gym.make_vec("MDRDrive-v0", num_envs=num_envs, vectorization_mode="vector_entry_point",
                                  autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
         super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
         self._seed = seed
         self._actions: np.ndarray | None = None
-        self._factor_of = episode_reward_factor
-        self._factor = np.ones(num_envs, dtype=np.float32)
 
     def reset(self) -> np.ndarray:
         obs, _ = self.venv.reset(seed=self._seed)
         self._seed = None  # seed only the first reset, as SB3 does
-        if self._factor_of is not None:
-            self._factor = self._factor_of(obs)
         return obs
 
     def step_async(self, actions: np.ndarray) -> None:
@@ -49,12 +42,6 @@ class BatchedVecEnv(VecEnv):
     def step_wait(self):
         obs, rewards, terminated, truncated, info = self.venv.step(self._actions)
         dones = terminated | truncated
-        if self._factor_of is not None:
-            rewards = rewards * self._factor
-            if self.venv.template.reward_floor is not None:
-                rewards = np.maximum(rewards, self.venv.template.reward_floor)
-            if dones.any():  # auto-reset: obs holds the next episodes' first observations
-                self._factor[dones] = self._factor_of(obs[dones])
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         for key, value in info.items():
             if key.startswith("_") or key in ("final_obs", "final_info"):

@@ -7,7 +7,7 @@ steady velocity found (the trapezoid counts as a candidate)
 * over fixed waveforms (one action every period): CMA-ES from the trapezoid and from 4 random
   starts, 2,000 evaluations each, popsize 16;
 * over cycles of two actions played in turn (period t uses action t mod 2, a 10-dimensional
-  search): CMA-ES from the "push/clamp" pair of ``agents.teacher``, from the trapezoid twice and
+  search): CMA-ES from the "push/clamp" pair of ``agents.baselines``, from the trapezoid twice and
   from a random pair, 4,000 evaluations each, popsize 20.
 
 A closed-loop policy can play such a cycle, since it observes its previous action. Writes
@@ -25,7 +25,7 @@ from tqdm import tqdm
 from agents.baselines import best_cma_run
 from agents.benchmark import GRID_KS, critical_loads_grid, write_report
 from agents.evaluate import open_loop_velocity, trapezoid_action
-from agents.teacher import PUSH_CLAMP
+from agents.baselines import PUSH_CLAMP
 
 
 def best_drive(k: float, m: float, cycle: int, starts: list, budget: int, popsize: int, seed: int = 0):

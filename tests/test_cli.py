@@ -111,7 +111,7 @@ def test_bad_values_are_one_line_errors_naming_the_option(argv, needle, capsys):
     ["evaluate", "--policy", "{tmp}", "--k", "0.1", "--cargo-mass", "0.1"],
     ["demo", "--out", "{file}"],
     ["train", "--config", "{tmp}/missing.yaml"],
-    ["train", "--warm-start", "cma:{tmp}/missing.npz"],
+    ["train", "--warm-start", "cma:{tmp}/missing.npz"],  # no longer a choice: one line too
     ["train", "--resume", "{tmp}"],
     ["train", "--out", "{file}"],
     ["benchmark", "--policies", "{tmp}/missing"],
