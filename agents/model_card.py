@@ -139,6 +139,9 @@ folder first: a resumed run writes into it).
   evaluate` warns outside the trained k and loads and at other friction coefficients.
 * It observes k and the load: a drive that knows neither needs a sensor-only policy (`MDRDriveSensor-v0`).
 * Its drives are the teacher's: a grid search with a stated budget (docs/results.md), not a proven optimum.
+* Where the teacher's best drive jumps from one optimum to another, the network plays a mixture of
+  the two, which can stall or go backwards at isolated (k, load) points (docs/results.md, Limits):
+  check a working point with `mdr-drive evaluate` before relying on it.
 
 ## Evaluation
 
