@@ -33,6 +33,7 @@ import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
 
 from .drive_field import DriveField, cycle_action
 from .evaluate import steady_velocity_of
+from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
 
 ENV_ID = "MDRDrive-v0"
@@ -81,17 +82,13 @@ class DistillConfig:
         if self.activation not in ("relu", "tanh"):
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads"):
-            value = getattr(self, name)
-            low = 0 if name == "rounds" else 1
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, inf)")
+            check_int(name, getattr(self, name), 0 if name == "rounds" else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
-        for name, low, high in (("no_load_share", 0.0, 1.0), ("perturbed_share", 0.0, 1.0), ("load_factor", 0.0, 5.0),
-                                ("learning_rate", 0.0, 1.0)):
-            value = getattr(self, name)
-            if not low <= value <= high or (name in ("load_factor", "learning_rate") and value == 0.0):
-                raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, {high}]")
+        check_range("no_load_share", self.no_load_share, 0.0, 1.0)
+        check_range("perturbed_share", self.perturbed_share, 0.0, 1.0)
+        check_range("load_factor", self.load_factor, 0.0, 5.0, low_open=True)
+        check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig) -> list:

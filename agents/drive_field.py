@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import atomic_path
 
 from .baselines import PUSH_CLAMP, best_cma_run, cma_optimize
@@ -48,6 +49,8 @@ class FieldConfig:
         fixed_budget: CMA-ES evaluations of the fixed-action search per point (-).
         cycle_budget: CMA-ES evaluations of the two-action search per start and point (-).
         sigma0: CMA-ES initial step size of both searches (action units).
+        consolidate_tolerance: after the search, nodes take their neighbours' most shared drive if it
+            loses at most this fraction of their velocity (``DriveField.consolidate``; 0: off) (-).
     """
 
     k_values: int = 13
@@ -57,19 +60,17 @@ class FieldConfig:
     fixed_budget: int = 300
     cycle_budget: int = 700
     sigma0: float = 0.25
+    consolidate_tolerance: float = 0.0
 
     def __post_init__(self) -> None:
         for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, inf)")
+            check_int(name, getattr(self, name), low)
         lo, hi = self.k_range
         if not 0.0 <= lo < hi <= 1.0:
             raise ValueError(f"k_range={self.k_range!r} must satisfy 0 <= low < high <= 1")
-        if not 0.0 < self.max_load_fraction <= 5.0:
-            raise ValueError(f"max_load_fraction={self.max_load_fraction!r} is outside the allowed range (0, 5]")
-        if not 0.0 < self.sigma0 <= 1.0:
-            raise ValueError(f"sigma0={self.sigma0!r} is outside the allowed range (0, 1]")
+        check_range("max_load_fraction", self.max_load_fraction, 0.0, 5.0, low_open=True)
+        check_range("consolidate_tolerance", self.consolidate_tolerance, 0.0, 1.0, high_open=True)
+        check_range("sigma0", self.sigma0, 0.0, 1.0, low_open=True)
 
     @property
     def ks(self) -> np.ndarray:
@@ -143,6 +144,8 @@ class DriveField:
         field = cls(ks, fractions, crit, np.array([f[0] for f in found]), np.array([f[1] for f in found]),
                     {"config": asdict(config), "seed": seed})
         field.exchange()
+        if config.consolidate_tolerance > 0.0:
+            field.consolidate(config.consolidate_tolerance)
         field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
@@ -169,6 +172,49 @@ class DriveField:
                 self.drives[i, j], self.velocities[i, j] = drive, vel
                 changed += 1
         self.meta["exchanged"] = changed
+        return changed
+
+    def consolidate(self, tolerance: float, passes: int = 4) -> int:
+        """Spread drives between grid neighbours so that the teacher's drive changes at fewer places:
+        in each pass, every node plays its four neighbours' drives and takes the one most of them
+        share (ties: the fastest) if it reaches at least ``1 - tolerance`` of the node's velocity
+        before consolidation (any drive at least as fast, where nothing moved). Returns the nodes
+        changed. A student fitted to a teacher whose drive jumps between optima plays a mixture of
+        them near each jump, and a mixture of two optima is not one."""
+        if not 0.0 <= tolerance < 1.0:
+            raise ValueError(f"tolerance={tolerance!r} is outside the allowed range [0, 1)")
+        nk, ns = self.velocities.shape
+        original = self.velocities.copy()
+        changed = 0
+        for _ in range(passes):
+            points, drives, owner = [], [], []
+            for i in range(nk):
+                for j in range(ns):
+                    for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                        if 0 <= i + di < nk and 0 <= j + dj < ns and not np.array_equal(
+                                self.drives[i + di, j + dj], self.drives[i, j]):
+                            points.append(self.point(i, j))
+                            drives.append(self.drives[i + di, j + dj])
+                            owner.append((i, j))
+            if not points:
+                break
+            v = open_loop_velocity(points, np.array(drives))
+            options: dict = {}
+            for node, drive, vel in zip(owner, drives, v):
+                v0 = original[node]
+                if vel >= (v0 * (1.0 - tolerance) if v0 > 0.0 else v0):
+                    options.setdefault(node, []).append((drive, vel))
+            changes = 0
+            for (i, j), found in options.items():
+                votes = [sum(np.array_equal(d, e) for e, _ in found) for d, _ in found]
+                drive, vel = max(zip(found, votes), key=lambda x: (x[1], x[0][1]))[0]
+                self.drives[i, j], self.velocities[i, j] = drive, vel
+                changes += 1
+            changed += changes
+            if not changes:
+                break
+        self.meta["consolidated"] = {"tolerance": tolerance, "changed": changed,
+                                     "distinct_drives": int(len(np.unique(self.drives.reshape(nk * ns, -1), axis=0)))}
         return changed
 
     def align(self) -> None:

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import heapq
 import json
-import pickle
 import sys
 import time
 from pathlib import Path
@@ -42,6 +41,20 @@ def timed_call(args):
     return time.perf_counter() - t0, result
 
 
+def same(a, b) -> bool:
+    """Whether two results are equal value for value (floats exactly, NaN equal to NaN; pickles of
+    equal results can differ in how they share objects, so they are not compared)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b or (a != a and b != b)
+    return a == b
+
+
 def makespan(costs: list[float], cpus: int) -> float:
     """Wall time (s) of tasks with these costs, longest first onto ``cpus`` workers."""
     loads = [0.0] * min(cpus, len(costs))
@@ -53,10 +66,14 @@ def makespan(costs: list[float], cpus: int) -> float:
 
 def reproduce_sweep(n: int):
     from mdr_drive_env.core import DriveParams
-    from mdr_drive_env.reproduce import FIG5_KS, FIG5_MASSES, fig5_case
+    from mdr_drive_env.reproduce import (FIG4_KS, FIG5_KS, FIG5_LEFT_KS, FIG5_LEFT_MASSES, FIG5_MASSES,
+                                         SENSITIVITY_SCALES, fig5_case)
 
     cases = [(k, m) for m in FIG5_MASSES[::4] for k in FIG5_KS[::6]][:n]
-    full = len(FIG5_KS) * len(FIG5_MASSES) + 60  # Fig. 5 both panels and the sensitivity, about
+    # the full reproduction's fig5_case tasks: both panels of Fig. 5, Fig. 4's points, the sensitivity
+    # (plus 9 traces of Figs. 3-4, not counted)
+    full = (len(FIG5_KS) * len(FIG5_MASSES) + len(FIG5_LEFT_KS) * len(FIG5_LEFT_MASSES) + len(FIG4_KS)
+            + 3 * len(SENSITIVITY_SCALES))
     return fig5_case, [(DriveParams.paper(k=k, cargo_mass=m), "paper") for k, m in cases], full
 
 
@@ -95,9 +112,8 @@ def measure(name: str, fn, tasks, full: int, executors: dict[str, Executor]) -> 
         results[label] = [r for _, r in timed]
         if label == "1 worker":
             costs = [c for c, _ in timed]
-    same = all(pickle.dumps(r) == pickle.dumps(results["1 worker"]) for r in results.values())
     labels = list(executors)
-    out["same_results"] = same
+    out["same_results"] = all(same(r, results["1 worker"]) for r in results.values())
     out["speedup"] = out["wall_s"][labels[0]] / out["wall_s"][labels[-1]]
     out["task_s"] = {"mean": float(np.mean(costs)), "max": float(np.max(costs)), "sum": float(np.sum(costs))}
     out["driver_overhead_per_task_s"] = max(0.0, (out["wall_s"][labels[0]] - sum(costs)) / len(tasks))

@@ -35,6 +35,12 @@ def check_range(
         raise ValueError(f"{name}={value!r} is outside the allowed range {interval}")
 
 
+def check_int(name: str, value, low: int = 0) -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``value`` is an integer (not a bool) >= ``low``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < low:
+        raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, inf)")
+
+
 def is_real_number(value) -> bool:
     """True for a real number (Python or NumPy, int or float), False for bools and everything else."""
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
