@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from mdr_drive_env.files import json_safe
+from mdr_drive_env.files import json_safe, write_text
 
 from .baselines import CMA_BUDGET, cma_optimize
 from .evaluate import (  # noqa: F401  (CRITICAL_GRID, first_stall, upper_mass: re-exported for scripts/)
@@ -57,9 +57,33 @@ def critical_load_cma(k: float, hi: float, budget: int, iterations: int = 8) -> 
     return lo
 
 
+def cma_point_task(args) -> tuple[float, list]:
+    """CMA-ES's best fixed action at one grid point: (its steady velocity, NaN for a runaway; the action)."""
+    k, m, budget = args
+    r = cma_optimize(k, m, budget)
+    return float(open_loop_velocity([(k, m)], r.action, mark_runaway=True)[0]), r.action.tolist()
+
+
+def cma_critical_task(args) -> float:
+    k, upper, budget, iterations = args
+    return critical_load_cma(k, upper, budget, iterations)
+
+
 def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool = False,
-        cma_budget: int | None = None) -> dict:
+        cma_budget: int | None = None, executor=None, resume: bool = False) -> dict:
+    """The fixed-grid benchmark into ``out``; the CMA-ES searches run on ``executor``
+    (``mdr_drive_env.sweep``, default the local cores), kept in ``out/.tasks`` until the outputs are
+    written (``resume`` reuses those of an interrupted run)."""
+    import shutil
+
+    from mdr_drive_env.sweep import Executor, TaskStore
+
     from .plots import plot_all
+
+    executor = executor or Executor()
+    tasks = Path(out) / ".tasks"
+    if not resume:
+        shutil.rmtree(tasks, ignore_errors=True)
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -72,11 +96,9 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
 
     trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
     rows += [("trapezoid", "", k, m, v) for (k, m), v in zip(points, trap)]
-    cma_v, cma_actions = [], []
-    for k, m in tqdm(points, desc="CMA-ES per point", unit="point"):
-        r = cma_optimize(k, m, budget)
-        cma_v.append(float(open_loop_velocity([(k, m)], r.action, mark_runaway=True)[0]))  # NaN: runaway
-        cma_actions.append(r.action.tolist())
+    found = executor.map(cma_point_task, [(k, m, budget) for k, m in points], "CMA-ES per point",
+                         store=TaskStore(tasks / "cma_points"))
+    cma_v, cma_actions = [f[0] for f in found], [f[1] for f in found]
     rows += [("cma-es", "", k, m, v) for (k, m), v in zip(points, cma_v)]
     loaded = [load_policy(p) for p in tqdm(policies, desc="load policies")]
     learned = []
@@ -96,8 +118,10 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     crit = {"trapezoid": critical_loads_grid(ks, lambda pts: open_loop_velocity(pts, trapezoid_action()))}
     for path, pol in tqdm(list(zip(policies, loaded)), desc="critical loads (policies)"):
         crit[path] = critical_loads_grid(ks, lambda pts, pol=pol: policy_velocity(pol, pts))
-    crit["cma-es"] = {k: critical_load_cma(k, 2.0 * max(crit["trapezoid"][k], 1e-4), budget, 4 if quick else 8)
-                      for k in tqdm(ks, desc="critical loads (CMA-ES)")}
+    cma_crit = executor.map(cma_critical_task, [(k, 2.0 * max(crit["trapezoid"][k], 1e-4), budget, 4 if quick else 8)
+                                                 for k in ks], "critical loads (CMA-ES)",
+                            store=TaskStore(tasks / "cma_critical"))
+    crit["cma-es"] = dict(zip(ks, cma_crit))
 
     learned = np.array(learned) if learned else np.zeros((0, len(points)))
     res.update({
@@ -109,9 +133,10 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     })
     res["summary"] = summarize(res, ks)
     res["wall_time_s"] = round(time.perf_counter() - t0, 1)
-    (out / "benchmark.json").write_text(json.dumps(json_safe(res), indent=1))
-    (out / "benchmark.md").write_text(markdown(res, ks, masses))
+    write_text(out / "benchmark.json", json.dumps(json_safe(res), indent=1))
+    write_text(out / "benchmark.md", markdown(res, ks, masses))
     plot_all(res, ks, masses, out)
+    shutil.rmtree(tasks, ignore_errors=True)  # every output is written: the per-task results are spent
     return res
 
 
@@ -179,13 +204,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default=None, type=output_dir,
                    help="output folder (default: results/benchmark, or results/blind/seed<S> with --blind)")
     p.add_argument("--quick", action="store_true", help="a CI-sized grid and CMA-ES budget")
+    add_executor_arguments(p)  # the CMA-ES searches, of the grid and of --blind
     b = p.add_argument_group("blind benchmark (agents/blind.py): random points of the training domain")
     b.add_argument("--blind", type=positive_int, default=None, metavar="N",
                    help="draw N (k, load) points with --seed instead of the fixed grid (-)")
     b.add_argument("--seed", type=int, default=None, help="seed of the blind points (-); required with --blind")
     b.add_argument("--scan-ks", type=int_range(2), default=25,
                    help="k values of the critical-load scan, evenly spaced in [0, 0.6] (-)")
-    add_executor_arguments(b)
     b.add_argument("--reuse-search", default=None, metavar="BLIND.json", type=input_file,
                    help="take the points, the trapezoid and the searches from an earlier blind.json of the same "
                         "seed, size and budgets; only the policies run")
@@ -211,7 +236,9 @@ def main(args: argparse.Namespace) -> int:
     if args.seed is not None:
         raise ValueError("--seed draws blind points: give --blind N too (the fixed grid has no seed)")
     out = args.out or "results/benchmark"
-    res = run(args.policies, out, args.quick, args.cma_budget)
+    from mdr_drive_env.sweep import executor_from
+
+    res = run(args.policies, out, args.quick, args.cma_budget, executor=executor_from(args), resume=args.resume)
     print((Path(out) / "benchmark.md").read_text())
     print(f"wall time {res['wall_time_s']} s; figures and tables in {out}/")
     return 0
