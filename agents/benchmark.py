@@ -12,7 +12,6 @@ policies (one batched run), by bisection for CMA-ES (which re-optimises at every
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import time
 from pathlib import Path
@@ -20,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from mdr_drive_env.files import json_safe, write_text
+from mdr_drive_env.files import json_safe, write_csv, write_text
 
 from .baselines import CMA_BUDGET, cma_optimize
 from .evaluate import (  # noqa: F401  (CRITICAL_GRID, first_stall, upper_mass: re-exported for scripts/)
@@ -109,11 +108,8 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
         learned.append(v)
         waveforms[path] = acts[-2:].transpose(1, 0, 2).tolist()  # periods 29 and 30 of each point
         rows += [("learned", path, k, m, x) for (k, m), x in zip(points, v)]
-    with open(out / "velocities.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["method", "policy", "k", "cargo_mass_kg", "steady_velocity_m_s", "state"])
-        w.writerows([(*r[:4], "" if np.isnan(r[4]) else r[4], "runaway" if np.isnan(r[4]) else "steady")
-                     for r in rows])
+    write_csv(out / "velocities.csv", ["method", "policy", "k", "cargo_mass_kg", "steady_velocity_m_s", "state"],
+              [(*r[:4], "" if np.isnan(r[4]) else r[4], "runaway" if np.isnan(r[4]) else "steady") for r in rows])
 
     crit = {"trapezoid": critical_loads_grid(ks, lambda pts: open_loop_velocity(pts, trapezoid_action()))}
     for path, pol in tqdm(list(zip(policies, loaded)), desc="critical loads (policies)"):
@@ -190,8 +186,8 @@ def write_report(out: str | Path, stem: str, lines: list[str], rows, t0: float) 
     text = "\n".join(lines) + f"\n\nwall time {time.perf_counter() - t0:.0f} s\n"
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / f"{stem}.md").write_text(text)
-    (out / f"{stem}.json").write_text(json.dumps(rows, indent=1))
+    write_text(out / f"{stem}.md", text)
+    write_text(out / f"{stem}.json", json.dumps(rows, indent=1))
     return text
 
 

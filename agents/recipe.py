@@ -8,8 +8,8 @@ Stages (each one's wall time is printed and kept in ``recipe.json``):
 1. **teacher**: the best open-loop drives on a grid of k and load (``agents.drive_field``), one
    task per k slice on the sweep executor (local processes or Ray), kept in ``OUT/.tasks`` as they
    finish (``--resume`` continues an interrupted search); written to ``OUT/teacher_field.npz``.
-2. **student**: a plain SB3 PPO ``MlpPolicy`` fitted to the teacher by DAgger
-   (``agents.distill``); written to ``OUT/policy/`` as ``model.zip``, ``vecnormalize.pkl`` and
+2. **student**: a plain SB3 PPO ``MlpPolicy`` fitted to the teacher's actions on its episodes, with
+   optional DAgger rounds (``agents.distill``); written to ``OUT/policy/`` as ``model.zip``, ``vecnormalize.pkl`` and
    ``run.json``, which ``PPO.load`` + ``VecNormalize.load`` play, ``mdr-drive evaluate`` and
    ``benchmark`` judge, and ``mdr-drive train --resume OUT/policy`` fine-tunes with PPO.
 

@@ -1,6 +1,6 @@
 """Speed-up of the sweeps from 1 to N workers, and their expected wall time on larger clusters.
 
-    python scripts/scaling.py --out results/scaling          # about 10 minutes on 2 cores
+    python scripts/scaling.py --out results/scaling          # about 6 minutes on 2 cores
     python scripts/scaling.py --ray-address auto --out ...   # the same sweeps on a Ray cluster
 
 Three sweeps, each a representative slice of the real one, run first on 1 worker, then on
