@@ -2,8 +2,7 @@
 
 The best drive at one (k, load) point is what CMA-ES finds over fixed actions and over two-action
 cycles (``agents.baselines``). Searched point by point from the same start, neighbouring points
-land in different local optima (the steady velocity is a rugged function of the action: an action
-error of 0.02 already costs 7 % of the velocity on average, ``docs/results.md``), so a network
+land in different local optima (the steady velocity is a rugged function of the action), so a network
 fitted to such points averages drives that each work and gets one that does not. The field is
 searched so that neighbours stay neighbours:
 
