@@ -75,14 +75,12 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     written (``resume`` reuses those of an interrupted run)."""
     import shutil
 
-    from mdr_drive_env.sweep import Executor, TaskStore
+    from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
     from .plots import plot_all
 
     executor = executor or Executor()
-    tasks = Path(out) / ".tasks"
-    if not resume:
-        shutil.rmtree(tasks, ignore_errors=True)
+    tasks = task_folder(out, resume)
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

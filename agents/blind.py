@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from mdr_drive_env.files import json_safe, save_figure, write_csv, write_text
-from mdr_drive_env.sweep import Executor, TaskStore
+from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from .baselines import CMA_BUDGET, CYCLE_SEARCH, best_cycle, cma_optimize, cycle_critical_load
 from .evaluate import (
@@ -153,9 +153,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
                                                            ("fixed_budget", "cycle_budget", "scan_ks", "iterations"))
     executor = executor or Executor(workers=workers)
     out = Path(out)
-    tasks = out / ".tasks"
-    if not resume:
-        shutil.rmtree(tasks, ignore_errors=True)
+    tasks = task_folder(out, resume)
     t0 = time.perf_counter()
     res: dict = {"seed": seed, "n": n, "domain": {"k": list(K_RANGE), "load": f"0-{LOAD_FACTOR}x trapezoid critical"},
                  "search": {"fixed_action_cma_evaluations": fixed_budget,

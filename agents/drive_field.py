@@ -153,20 +153,26 @@ class DriveField:
         """(k, load kg) of grid node (i, j)."""
         return float(self.ks[i]), float(self.fractions[j] * self.trapezoid_critical[i])
 
-    def exchange(self) -> int:
-        """Every node plays its four grid neighbours' drives and keeps the best; returns how many changed."""
+    def _neighbour_trials(self) -> tuple[list, list, np.ndarray]:
+        """Every node's four grid neighbours' drives (those that differ from its own), played at the
+        node in one batched call: (nodes (i, j), drives, velocities m/s)."""
         nk, ns = self.velocities.shape
-        points, drives, owner = [], [], []
+        drives, owner = [], []
         for i in range(nk):
             for j in range(ns):
                 for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-                    if 0 <= i + di < nk and 0 <= j + dj < ns:
-                        points.append(self.point(i, j))
+                    if 0 <= i + di < nk and 0 <= j + dj < ns and not np.array_equal(
+                            self.drives[i + di, j + dj], self.drives[i, j]):
                         drives.append(self.drives[i + di, j + dj])
                         owner.append((i, j))
-        v = open_loop_velocity(points, np.array(drives))
+        if not owner:
+            return [], [], np.zeros(0)
+        return owner, drives, open_loop_velocity([self.point(i, j) for i, j in owner], np.array(drives))
+
+    def exchange(self) -> int:
+        """Every node plays its four grid neighbours' drives and keeps the best; returns how many changed."""
         changed = 0
-        for (i, j), drive, vel in zip(owner, drives, v):
+        for (i, j), drive, vel in zip(*self._neighbour_trials()):
             if vel > self.velocities[i, j] * (1.0 + 1e-3) + 1e-6:
                 self.drives[i, j], self.velocities[i, j] = drive, vel
                 changed += 1
@@ -186,18 +192,9 @@ class DriveField:
         original = self.velocities.copy()
         changed = 0
         for _ in range(passes):
-            points, drives, owner = [], [], []
-            for i in range(nk):
-                for j in range(ns):
-                    for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-                        if 0 <= i + di < nk and 0 <= j + dj < ns and not np.array_equal(
-                                self.drives[i + di, j + dj], self.drives[i, j]):
-                            points.append(self.point(i, j))
-                            drives.append(self.drives[i + di, j + dj])
-                            owner.append((i, j))
-            if not points:
+            owner, drives, v = self._neighbour_trials()
+            if not owner:
                 break
-            v = open_loop_velocity(points, np.array(drives))
             options: dict = {}
             for node, drive, vel in zip(owner, drives, v):
                 v0 = original[node]

@@ -30,7 +30,7 @@ import numpy as np
 import yaml
 
 from mdr_drive_env.files import write_text
-from mdr_drive_env.sweep import Executor, TaskStore, add_executor_arguments, executor_from
+from mdr_drive_env.sweep import Executor, TaskStore, add_executor_arguments, executor_from, task_folder
 
 from .distill import DistillConfig, distill, save_student
 from .drive_field import DriveField, FieldConfig
@@ -63,9 +63,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     if out.exists() and any(out.iterdir()) and not (resume or force):
         raise ValueError(f"{out} is not empty: continue with --resume, or overwrite with --force")
     executor = executor or Executor()
-    store = TaskStore(out / ".tasks" / "teacher")
-    if not resume:
-        store.clear()
+    store = TaskStore(task_folder(out, resume) / "teacher")
     seed, stages = recipe["seed"], {}
     command = " ".join(["python -m agents.recipe", *sys.argv[1:]]) if sys.argv[0].endswith("recipe.py") else \
         " ".join(sys.argv)

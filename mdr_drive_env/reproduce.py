@@ -23,7 +23,7 @@ import numpy as np
 from .core import DriveParams, DriveSimulator, Waveform, concat_traces, steady_velocity
 from .core import kernel as K
 from .files import save_figure, write_csv, write_text
-from .sweep import Executor, TaskStore
+from .sweep import Executor, TaskStore, task_folder
 
 FIG3_MASSES = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
 FIG4_KS = (0.0, 0.2, 0.3)
@@ -91,9 +91,7 @@ def reproduce(out: str | Path = "results/paper", numerics: str = "paper", period
 
     out = Path(out)
     executor = executor or Executor(workers=workers)
-    tasks = out / ".tasks"
-    if not resume:
-        shutil.rmtree(tasks, ignore_errors=True)
+    tasks = task_folder(out, resume)
 
     def _map(fn, cases, desc):
         return executor.map(fn, cases, desc, store=TaskStore(tasks / desc.replace(" ", "_").replace(".", "")))

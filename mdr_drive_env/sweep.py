@@ -81,6 +81,15 @@ class TaskStore:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
+def task_folder(out: str | Path, resume: bool) -> Path:
+    """``out/.tasks``, where a command keeps its sweeps' finished tasks (one ``TaskStore`` per sweep);
+    emptied first unless ``resume``. The command removes it once every output is written."""
+    folder = Path(out) / ".tasks"
+    if not resume:
+        shutil.rmtree(folder, ignore_errors=True)
+    return folder
+
+
 def import_ray():
     """The ``ray`` module, or ``ValueError`` saying which extra installs it."""
     # something may accept TCP at an address without being Ray: give up after a few seconds, not
@@ -265,5 +274,5 @@ def executor_from(args) -> Executor:
     return ex
 
 
-__all__ = ["Executor", "TaskStore", "add_executor_arguments", "available_cores", "check_ray_address", "connect",
+__all__ = ["Executor", "TaskStore", "task_folder", "add_executor_arguments", "available_cores", "check_ray_address", "connect",
            "executor_from", "task_key"]
