@@ -163,7 +163,7 @@ class DriveField:
                 for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
                     if 0 <= i + di < nk and 0 <= j + dj < ns and not np.array_equal(
                             self.drives[i + di, j + dj], self.drives[i, j]):
-                        drives.append(self.drives[i + di, j + dj])
+                        drives.append(self.drives[i + di, j + dj].copy())  # not a view: the node may change first
                         owner.append((i, j))
         if not owner:
             return [], [], np.zeros(0)
