@@ -20,9 +20,9 @@ def register_envs() -> None:
     from gymnasium.envs.registration import register, registry
 
     if "MDRDriveSensor-v0" not in registry:
-        register(id="MDRDriveSensor-v0", entry_point="mdr_drive_env.gym_envs.mdr_drive:make_env",
-                 vector_entry_point="mdr_drive_env.gym_envs:MDRDriveVectorEnv",  # which says to use sync/async
-                 kwargs=dict(SENSOR_DEFAULTS))
+        # the defaults are applied by the entry points, so that a cargo_mass given replaces load_ratio
+        register(id="MDRDriveSensor-v0", entry_point="mdr_drive_env.gym_envs.mdr_drive:make_sensor_env",
+                 vector_entry_point="mdr_drive_env.gym_envs.vector:make_sensor_vector_env")  # says: sync/async
     if "MDRDrive-v0" not in registry:
         register(id="MDRDrive-v0", entry_point="mdr_drive_env.gym_envs.mdr_drive:make_env",
                  vector_entry_point="mdr_drive_env.gym_envs:MDRDriveVectorEnv")

@@ -109,3 +109,11 @@ def test_sensor_forces_add_two_entries_a_period():
     assert obs.shape == (2 * 5 + 2 * 5 + 1,)
     assert measured[0, 3] == np.float32(info["peak_tangential_force"] / 10.0)
     assert measured[0, 4] == np.float32(info["peak_normal_force"] / 100.0)
+
+
+def test_a_cargo_mass_given_to_the_sensor_id_replaces_its_load_range():
+    env = gym.make("MDRDriveSensor-v0", k=0.2, cargo_mass=0.1)
+    for seed in range(3):
+        assert env.reset(seed=seed)[1]["cargo_mass"] == 0.1  # not drawn from the default load_ratio range
+    drawn = {gym.make("MDRDriveSensor-v0").reset(seed=seed)[1]["cargo_mass"] for seed in range(3)}
+    assert len(drawn) == 3

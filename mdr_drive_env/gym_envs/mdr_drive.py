@@ -34,6 +34,23 @@ def make_env(**kwargs) -> gym.Env:
     return TimeLimit(env, env.max_periods)
 
 
+def sensor_kwargs(kwargs: dict) -> dict:
+    """``MDRDriveSensor-v0``'s keywords: ``mdr_drive_env.SENSOR_DEFAULTS`` for every one the caller
+    leaves out; a ``cargo_mass`` given sets the load (the default ``load_ratio`` range then does not
+    apply, so ``gym.make("MDRDriveSensor-v0", cargo_mass=0.1)`` has that cargo)."""
+    from .. import SENSOR_DEFAULTS
+
+    defaults = dict(SENSOR_DEFAULTS)
+    if kwargs.get("cargo_mass") is not None:
+        defaults.pop("load_ratio")
+    return {**defaults, **kwargs}
+
+
+def make_sensor_env(**kwargs) -> gym.Env:
+    """The registered entry point of ``MDRDriveSensor-v0``: :func:`make_env` with :func:`sensor_kwargs`."""
+    return make_env(**sensor_kwargs(kwargs))
+
+
 def _draw(rng: np.random.Generator, low_high: tuple[float, float]) -> float:
     """A uniform draw from ``(low, high)``, or ``low`` without a draw if the range is one value (so
     fixed values leave the seeded stream of draws as it was)."""
@@ -107,7 +124,10 @@ class MDRDriveEnv(gym.Env):
     period, bounds [0, 100], for a drive with a force sensor. ``observation_structure`` has
     ``"measured"``, ``"actions"``, ``"episode_fraction"``. ``info`` still reports the hidden values
     (``k``, ``cargo_mass``, ``load_force``, ``friction_coefficient``, ``base_friction_coefficient``,
-    ``load_step_period``), for evaluation.
+    ``load_step_period``), for evaluation, and ``env.unwrapped.privileged_observation()`` returns
+    the full observation of the current state (with the load of the coming period, the new one when
+    a load step falls on it): what a privileged teacher is told while a sensor policy learns
+    (``agents/adapt.py``, docs/adaptation.md).
 
     ## Rewards
 
@@ -324,6 +344,7 @@ class MDRDriveEnv(gym.Env):
         self.last_reward: float | None = None  # of the last period (None before the first)
         self.last_mean_velocity: float | None = None  # m/s
         self._prev_action = np.zeros(ActionMap.SIZE, dtype=np.float32)
+        self._last_result = None
         self.load_step = None  # (period index, new cargo mass in kg) of this episode's load step
         if (options or {}).get("load_step") is not None:  # given for this episode: (period, cargo mass in kg)
             period, mass = options["load_step"]
@@ -351,6 +372,7 @@ class MDRDriveEnv(gym.Env):
         result = self.sim.step_params(wp.x_amplitude, wp.x_rise_time, wp.z_amplitude, wp.z_rise_time, wp.z_phase,
                                       wp.period, record_every=record)
         self.last_trace = result.trace
+        self._last_result = result
         self.period_index += 1
         self._prev_action = np.minimum(np.maximum(action, -1.0), 1.0).astype(np.float32)  # clip, cheaper
         if self.sensor is not None:
@@ -380,12 +402,26 @@ class MDRDriveEnv(gym.Env):
                          peak_fx / mu_fref, peak_fz / force_ref]).T  # (5,) stays (5,); (5, n) becomes (n, 5)
 
     def _observation(self, r) -> np.ndarray:
-        """The observation after period result ``r`` (None after reset). The same numbers as
-        ``ObservationLayout.build`` (which the vector env uses), in plain floats: building a
-        14-entry array with NumPy costs more than the arithmetic."""
+        """The observation after period result ``r`` (None after reset)."""
         if self.sensor is not None:
             return self.sensor.observation(self.period_index / self.max_periods)
-        p = self.params
+        return self._full_observation(r, self.params)
+
+    def privileged_observation(self) -> np.ndarray:
+        """The full observation (``ObservationLayout``: k and the load included) of the current state,
+        whatever ``observation`` is, with the load of the coming period (the new one when a load step
+        falls on it): what a privileged teacher is told while a sensor policy learns (float32)."""
+        if self.sim is None:
+            raise RuntimeError("call reset() before privileged_observation()")
+        params = self.params
+        if self.load_step is not None and self.period_index == self.load_step[0]:
+            params = params.with_cargo_mass(self.load_step[1])
+        return self._full_observation(self._last_result, params)
+
+    def _full_observation(self, r, p: DriveParams) -> np.ndarray:
+        """The full observation after period result ``r`` (None after reset) under model ``p``. The
+        same numbers as ``ObservationLayout.build`` (which the vector env uses), in plain floats:
+        building a 14-entry array with NumPy costs more than the arithmetic."""
         mu_fref = p.contact.friction_coefficient * self.force_ref
         if r is None:
             values = [0.0] * 5

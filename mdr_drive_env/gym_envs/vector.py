@@ -154,3 +154,11 @@ class MDRDriveVectorEnv(VectorEnv):
             self._autoreset = truncated | terminated
         self._last_obs = obs
         return obs, rewards.astype(np.float64), terminated, truncated, info
+
+
+def make_sensor_vector_env(**kwargs) -> MDRDriveVectorEnv:
+    """``MDRDriveSensor-v0``'s vector entry point: the batched env with the sensor defaults, which
+    refuses them (the sensor observation runs with ``vectorization_mode="sync"`` or ``"async"``)."""
+    from .mdr_drive import sensor_kwargs
+
+    return MDRDriveVectorEnv(**sensor_kwargs(kwargs))
