@@ -34,20 +34,21 @@ class CMAResult:
 
 
 def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize: int = CMA_POPSIZE,
-                 seed: int = 0, sigma0: float = 0.5, cycle: int = 1, x0=None) -> CMAResult:
+                 seed: int = 0, sigma0: float = 0.5, cycle: int = 1, x0=None, friction=None) -> CMAResult:
     """Maximise the steady velocity over open-loop drives in [-1, 1]^5.
 
     ``cycle = 1`` searches fixed actions (one waveform every period); ``cycle = p`` searches cycles
     of p actions played in turn (a 5 p dimensional search). The search starts at ``x0`` (an action
     or a (p, 5) cycle; default: the trapezoid every period), and the result is never worse than
-    the trapezoid. ``action`` is (5,) for ``cycle = 1``, else (p, 5).
+    the trapezoid. ``action`` is (5,) for ``cycle = 1``, else (p, 5). ``friction``: (mu, mu1), the
+    indenter-slider and slider-base friction coefficients (default: the paper's 0.3, 0.1).
     """
     import cma
 
     start = np.tile(trapezoid_action(), (cycle, 1)) if x0 is None else np.reshape(np.asarray(x0, float), (cycle, 5))
     es = cma.CMAEvolutionStrategy(np.clip(start, -0.95, 0.95).ravel().tolist(), sigma0, {
         "bounds": [-1.0, 1.0], "popsize": popsize, "maxfevals": budget, "seed": seed + 1, "verbose": -9})
-    point = [(k, cargo_mass)]
+    point = [(k, cargo_mass) if friction is None else (k, cargo_mass, *friction)]
     best_x = np.tile(trapezoid_action(), (cycle, 1)).astype(np.float64)  # never worse than the trapezoid
     best_v, evals = float(open_loop_velocity(point, best_x[None])[0]), 1
     while not es.stop():
@@ -63,20 +64,22 @@ def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize:
 
 
 def best_cma_run(k: float, cargo_mass: float, starts, budget: int, popsize: int, sigma0: float, cycle: int = 1,
-                 seed: int = 0) -> CMAResult:
+                 seed: int = 0, friction=None) -> CMAResult:
     """The best of CMA-ES runs from each of ``starts`` (an action, a (cycle, 5) cycle, or None for the
-    trapezoid), run i seeded ``seed + i``."""
-    runs = [cma_optimize(k, cargo_mass, budget, popsize=popsize, seed=seed + i, sigma0=sigma0, cycle=cycle, x0=x0)
+    trapezoid), run i seeded ``seed + i``; ``friction`` as :func:`cma_optimize`."""
+    runs = [cma_optimize(k, cargo_mass, budget, popsize=popsize, seed=seed + i, sigma0=sigma0, cycle=cycle, x0=x0,
+                         friction=friction)
             for i, x0 in enumerate(starts)]
     return max(runs, key=lambda r: r.velocity)
 
 
 def best_cycle(k: float, cargo_mass: float, starts=(None, PUSH_CLAMP), budget: int = CYCLE_SEARCH["budget"],
-               seed: int = 0) -> CMAResult:
+               seed: int = 0, friction=None) -> CMAResult:
     """The best two-action cycle found by CMA-ES runs from each of ``starts`` (None: the trapezoid
-    every period), ``CYCLE_SEARCH`` settings, ``budget`` evaluations per start."""
+    every period), ``CYCLE_SEARCH`` settings, ``budget`` evaluations per start; ``friction`` as
+    :func:`cma_optimize`."""
     return best_cma_run(k, cargo_mass, starts, budget, popsize=CYCLE_SEARCH["popsize"],
-                        sigma0=CYCLE_SEARCH["sigma0"], cycle=2, seed=seed)
+                        sigma0=CYCLE_SEARCH["sigma0"], cycle=2, seed=seed, friction=friction)
 
 
 def cycle_critical_load(k: float, trapezoid_critical: float, iterations: int = 8,

@@ -79,13 +79,16 @@ def draw_points(n: int, seed: int) -> tuple[list[tuple[float, float]], np.ndarra
 
 
 def best_drive(args) -> dict:
-    """The best drive found at one point: CMA-ES over fixed actions and over two-action cycles."""
-    k, m, fixed_budget, cycle_budget = args
-    fixed = cma_optimize(k, m, fixed_budget)
-    cyc = best_cycle(k, m, budget=cycle_budget)
+    """The best drive found at one point: CMA-ES over fixed actions and over two-action cycles.
+    ``args``: (k, cargo mass, fixed budget, cycle budget), optionally with (mu, mu1) last."""
+    k, m, fixed_budget, cycle_budget, *friction = args
+    friction = tuple(friction) or None
+    fixed = cma_optimize(k, m, fixed_budget, friction=friction)
+    cyc = best_cycle(k, m, budget=cycle_budget, friction=friction)
     best = cyc if cyc.velocity > fixed.velocity else fixed
     actions = np.asarray(best.action).reshape(1, -1, 5)
-    velocity = float(open_loop_velocity([(k, m)], actions, mark_runaway=True)[0])  # NaN if the load runs away
+    point = (k, m) if friction is None else (k, m, *friction)
+    velocity = float(open_loop_velocity([point], actions, mark_runaway=True)[0])  # NaN if the load runs away
     return {"velocity": velocity, "kind": "two-action cycle" if best is cyc else "fixed action",
             "action": np.asarray(best.action).tolist(), "fixed_velocity": fixed.velocity,
             "cycle_velocity": cyc.velocity, "evaluations": fixed.evaluations + cyc.evaluations}
@@ -111,6 +114,22 @@ def cycle_scan_task(args) -> float:
 
 def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: dict, ks) -> dict:
     """The blind statistics of one policy (velocities in m/s; NaN is a runaway)."""
+    ratio_trap = [crit["policy"][i] / crit["trapezoid"][i] if crit["trapezoid"][i] > 0 else None
+                  for i in range(len(ks))]
+    ratio_cycle = [crit["policy"][i] / crit["best cycle"][i] if crit["best cycle"][i] > 0 else None
+                   for i in range(len(ks))]
+    finite = [r for r in ratio_cycle if r is not None]
+    return {
+        **velocity_statistics(trap, best, learned),
+        "critical_load_over_trapezoid": ratio_trap,
+        "critical_load_over_best_cycle": ratio_cycle,
+        "critical_load_over_best_cycle_min": min(finite) if finite else None,
+    }
+
+
+def velocity_statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray) -> dict:
+    """Points below the trapezoid (where either moves) and the fraction of the best drive (where it
+    moves at least ``MOVING_THRESHOLD``) of one drive's steady velocities (m/s; NaN is a runaway)."""
     moving = (trap > 0) | (learned > 0)
     with np.errstate(invalid="ignore"):  # both runaway: -inf - -inf, and neither moves there
         gap = np.where(np.isnan(learned), -np.inf, learned) - np.where(np.isnan(trap), -np.inf, trap)
@@ -118,11 +137,6 @@ def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: di
     comparable = moving & np.isfinite(gap)
     scored = best >= MOVING_THRESHOLD
     fraction = np.where(np.isnan(learned), 0.0, learned)[scored] / best[scored]
-    ratio_trap = [crit["policy"][i] / crit["trapezoid"][i] if crit["trapezoid"][i] > 0 else None
-                  for i in range(len(ks))]
-    ratio_cycle = [crit["policy"][i] / crit["best cycle"][i] if crit["best cycle"][i] > 0 else None
-                   for i in range(len(ks))]
-    finite = [r for r in ratio_cycle if r is not None]
     return {
         "points_below_trapezoid": int(below.sum()),
         "worst_difference_to_trapezoid_mm_s": float(gap[comparable].min() * 1e3) if comparable.any() else None,
@@ -130,9 +144,6 @@ def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: di
         "points_scored": int(scored.sum()),
         "fraction_of_best_mean": float(fraction.mean()) if fraction.size else None,
         "fraction_of_best_min": float(fraction.min()) if fraction.size else None,
-        "critical_load_over_trapezoid": ratio_trap,
-        "critical_load_over_best_cycle": ratio_cycle,
-        "critical_load_over_best_cycle_min": min(finite) if finite else None,
     }
 
 

@@ -12,6 +12,7 @@ with the slider (``mdr_drive_env.core.analysis.is_runaway``) has no steady veloc
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from pathlib import Path
 
@@ -65,8 +66,8 @@ def policy_label(path: str | Path) -> str:
 
 
 def format_velocity(v: float, width: int = 0, digits: int = 2) -> str:
-    """A velocity (m/s) in mm/s for a table, or "runaway" for NaN (no steady velocity)."""
-    return f"{'runaway' if np.isnan(v) else f'{v * 1e3:.{digits}f}':>{width}}"
+    """A velocity (m/s) in mm/s for a table, or "runaway" for NaN or None (no steady velocity)."""
+    return f"{'runaway' if v is None or np.isnan(v) else f'{v * 1e3:.{digits}f}':>{width}}"
 
 
 def csv_velocity(v):
@@ -92,16 +93,26 @@ def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: in
     return steady_velocity_of(disp, average, runaway if mark_runaway else None)
 
 
+def point_params(point, variant: str = "as-specified") -> DriveParams:
+    """The paper's model at ``point``: (k, cargo mass kg), or (k, cargo mass, mu, mu1) with those
+    friction coefficients (indenter-slider, slider-base)."""
+    params = DriveParams.paper(k=point[0], cargo_mass=point[1], variant=variant)
+    if len(point) == 4:
+        params = dataclasses.replace(params, contact=dataclasses.replace(
+            params.contact, friction_coefficient=point[2], base_friction_coefficient=point[3]))
+    return params
+
+
 def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, variant: str = "as-specified"):
-    """Per-period displacements (periods, n) (m) of open-loop drives (see :func:`open_loop_velocity`)
-    and whether each ran away (n,)."""
+    """Per-period displacements (periods, n) (m) of open-loop drives (see :func:`open_loop_velocity`;
+    ``points`` as :func:`point_params` takes them) and whether each ran away (n,)."""
     actions = np.asarray(actions, dtype=np.float64)
     if actions.ndim < 3:
         actions = np.atleast_2d(actions)[:, None, :]
     if len(actions) == 1 and len(points) > 1:
         actions = np.repeat(actions, len(points), axis=0)
     sim = BatchedDriveSimulator(len(points))
-    params = [DriveParams.paper(k=k, cargo_mass=m, variant=variant) for k, m in points]
+    params = [point_params(point, variant) for point in points]
     for i, p in enumerate(params):
         sim.set_params(i, p)
     cycle = [np.array([[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]

@@ -56,11 +56,13 @@ def write_csv(path: str | Path, header: list[str], rows) -> None:
 
 def json_safe(obj):
     """``obj`` with every NaN float as None (standard JSON has no NaN; here NaN marks "no value",
-    e.g. a runaway drive's velocity), NumPy scalars as Python numbers, tuples as lists."""
+    e.g. a runaway drive's velocity), NumPy scalars as Python numbers, tuples and arrays as lists."""
     if isinstance(obj, dict):
         return {k: json_safe(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [json_safe(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return json_safe(obj.tolist())
     if isinstance(obj, np.generic):
         obj = obj.item()
     if isinstance(obj, float) and math.isnan(obj):
