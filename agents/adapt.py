@@ -1,0 +1,447 @@
+"""The sensor policy: a plain SB3 PPO MlpPolicy that drives without being told k, the load or friction.
+
+    python -m agents.adapt agents/configs/sensor.yaml --out runs/sensor        # make train-sensor
+
+Teacher-student training, as controllers that must act without privileged information are trained
+(Lee et al. 2020; Kumar et al. 2021), with DAgger (Ross et al. 2011):
+
+* the **teacher** is a full-observation policy (default: the shipped ``ppo_generalist``), told k,
+  the load and the friction coefficient through the env's ``privileged_observation()``;
+* the **student** sees only ``MDRDriveSensor-v0``'s observation: the last ``history`` periods of
+  slider motion (displacement, mean and end velocity) and the actions that produced them. With
+  that history as its input, a plain MLP is the recurrent memory's frame-stacked equivalent, and it
+  loads with plain ``PPO.load`` + ``VecNormalize.load``;
+* round 0: the teacher drives random episodes (hidden k, load, mu, mu1 drawn per episode; a share
+  with a load step); every sensor observation is labelled with the teacher's action. Rounds 1 ... R:
+  the student drives, every state it reaches is labelled with what the teacher would do there (for
+  the coming period's load), and the student is refitted on everything gathered so far.
+
+The fit is the distillation's (``agents.distill.edge_loss``: squared error on the policy's mean
+action, free beyond the box's edge where the teacher's action is on it). Writes ``OUT/policy/``
+(``model.zip``, ``vecnormalize.pkl``, ``run.json``) and ``OUT/adapt.json`` (per-round validation,
+stage times). An existing ``OUT`` is refused unless ``--force``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import yaml
+from tqdm import tqdm
+
+from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
+from mdr_drive_env.core.params import check_int, check_range
+from mdr_drive_env.files import write_text
+
+from mdr_drive_env.gym_envs.spaces import ObservationLayout, SensorLayout
+
+from .distill import Student, save_student
+from .evaluate import Policy, steady_velocity_of
+
+SENSOR_ID = "MDRDriveSensor-v0"
+DEFAULT_CONFIG = Path(__file__).parent / "configs" / "sensor.yaml"
+#: The full observation's entries the sensor observation hides (ObservationLayout.structure names).
+HIDDEN = ("k", "load_over_friction", "load_over_10N")
+N_FULL = len(ObservationLayout.NAMES)
+
+
+@dataclass(frozen=True)
+class AdaptConfig:
+    """Training of the sensor policy (module docstring).
+
+    Attributes:
+        teacher: folder of the full-observation teacher policy (``model.zip``, ``vecnormalize.pkl``).
+        history: periods of the sensor observation (-).
+        episodes: episodes driven per round (-).
+        periods: periods per episode (-).
+        load_step_share: share of the episodes with a load step (-).
+        load_step_periods: (first, last) period index at which a load step may fall (-).
+        action_noise: std of the Gaussian noise added to every action played (-), so the episodes
+            show the estimator how the slider answers other actions than the teacher's.
+        estimator_arch: hidden layer sizes of the estimator of the hidden entries (-).
+        rounds: rounds after round 0, each driven by the estimator-informed teacher (-).
+        estimator_steps: gradient steps of the estimator's fit after each round (-).
+        batch: minibatch size (-).
+        learning_rate: Adam step size, decaying linearly to zero over each fit (-).
+        log_std: the shipped policy's log standard deviation (for PPO fine-tuning) (-).
+        torch_threads: torch threads of the fits (-).
+    """
+
+    teacher: str = "agents/pretrained/ppo_generalist"
+    history: int = 6
+    episodes: int = 512
+    periods: int = 40
+    load_step_share: float = 0.5
+    load_step_periods: tuple[int, int] = (5, 30)
+    action_noise: float = 0.15
+    estimator_arch: tuple[int, ...] = (256, 256)
+    rounds: int = 4
+    estimator_steps: int = 4000
+    batch: int = 256
+    learning_rate: float = 1e-3
+    log_std: float = -3.0
+    torch_threads: int = 1
+
+    def __post_init__(self) -> None:
+        for name in ("history", "episodes", "periods", "estimator_steps", "batch", "torch_threads"):
+            check_int(name, getattr(self, name), 1)
+        check_int("rounds", self.rounds, 0)
+        if not self.estimator_arch or not all(isinstance(n, int) and n >= 1 for n in self.estimator_arch):
+            raise ValueError(f"estimator_arch={self.estimator_arch!r} must be positive layer sizes")
+        lo, hi = self.load_step_periods
+        if not (isinstance(lo, int) and isinstance(hi, int) and 1 <= lo <= hi <= self.periods - 1):
+            raise ValueError(f"load_step_periods={self.load_step_periods!r} is outside the allowed range "
+                             f"1 <= first <= last <= periods - 1 = {self.periods - 1}")
+        check_range("load_step_share", self.load_step_share, 0.0, 1.0)
+        check_range("action_noise", self.action_noise, 0.0, 1.0)
+        check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
+
+
+def sensor_envs(config: AdaptConfig, n: int, seed: int) -> tuple[list, np.ndarray]:
+    """``n`` sensor envs (hidden parameters drawn per episode), the first ``load_step_share`` of
+    them with a load step, reset with seeds ``seed, seed + 1, ...``; and their first observations."""
+    n_step = int(round(config.load_step_share * n))
+    envs = [gym.make(SENSOR_ID, history=config.history, max_periods=config.periods,
+                     load_step_period=config.load_step_periods if i < n_step else None) for i in range(n)]
+    return envs, np.array([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)])
+
+
+def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.random.Generator | None = None):
+    """One episode in every env (reset, first observations ``obs``), each period's actions
+    ``driver(sensor_obs, privileged_obs)`` plus Gaussian noise of std ``noise`` (from ``rng``).
+    Returns the sensor observations (periods * n, d), the privileged (full) observations
+    (periods * n, 14) and the displacements (periods, n) m."""
+    sensed, privileged, disp = [], [], []
+    for _ in range(envs[0].unwrapped.max_periods):
+        full = np.array([env.unwrapped.privileged_observation() for env in envs])
+        action = np.clip(np.asarray(driver(obs, full), dtype=np.float32).reshape(len(envs), 5), -1.0, 1.0)
+        if noise > 0.0:
+            action = np.clip(action + rng.normal(0.0, noise, action.shape), -1.0, 1.0).astype(np.float32)
+        sensed.append(obs)
+        privileged.append(full)
+        steps = [env.step(a) for env, a in zip(envs, action)]
+        obs = np.array([s[0] for s in steps])
+        disp.append([s[4]["displacement"] for s in steps])
+    return np.concatenate(sensed), np.concatenate(privileged), np.array(disp)
+
+
+class Estimator:
+    """An MLP from the sensor observation to the entries the sensor hides (``HIDDEN``), both
+    standardised with the statistics of the first data it is fitted on."""
+
+    def __init__(self, obs_dim: int, arch: tuple[int, ...], seed: int):
+        import torch
+
+        torch.manual_seed(seed)
+        layers, width = [], obs_dim
+        for n in arch:
+            layers += [torch.nn.Linear(width, n), torch.nn.ReLU()]
+            width = n
+        self.net = torch.nn.Sequential(*layers, torch.nn.Linear(width, len(HIDDEN)))
+        self.scales = None  # (x mean, x std, y mean, y std)
+
+    def fit(self, x: np.ndarray, y: np.ndarray, steps: int, config: AdaptConfig, seed: int, progress: bool) -> float:
+        """``steps`` Adam steps of squared error on standardised targets; returns the last epoch's loss."""
+        import torch
+
+        if self.scales is None:
+            self.scales = (x.mean(axis=0), x.std(axis=0) + 1e-6, y.mean(axis=0), y.std(axis=0) + 1e-6)
+        xm, xs, ym, ys = self.scales
+        xt = torch.as_tensor((x - xm) / xs, dtype=torch.float32)
+        yt = torch.as_tensor((y - ym) / ys, dtype=torch.float32)
+        return adam_fit(self.net.parameters(), lambda idx: torch.mean((self.net(xt[idx]) - yt[idx]) ** 2), len(xt),
+                        steps, config, seed, "adapt: estimator", progress)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        import torch
+
+        xm, xs, ym, ys = self.scales
+        with torch.no_grad():
+            out = self.net(torch.as_tensor((x - xm) / xs, dtype=torch.float32)).numpy()
+        return out * ys + ym
+
+
+class SensorTeacher:
+    """The teacher told the estimator's guesses for the hidden entries, its own average for the
+    slider's motion and the contact forces (it was trained to ignore them), and, from the sensor
+    observation, the previous action and the episode's elapsed fraction: a function of the sensor
+    observation alone (RMA's base policy on its adaptation module's estimate)."""
+
+    def __init__(self, teacher: Policy, estimator: Estimator, sensor_structure: dict):
+        self.teacher, self.estimator = teacher, estimator
+        full = ObservationLayout.structure
+        self.hidden = [full[name].start for name in HIDDEN]
+        self.dynamics = list(range(full["dynamics"].start, full["dynamics"].stop))
+        actions = sensor_structure["actions"]
+        # full-observation entries copied from the sensor observation: the newest action, the fraction
+        self.copied = [*range(full["previous_action"].start, full["previous_action"].stop),
+                       full["episode_fraction"].start]
+        self.sources = [*range(actions.start, actions.start + 5), sensor_structure["episode_fraction"].start]
+
+    def full_observation(self, sensed: np.ndarray) -> np.ndarray:
+        """The full observation the teacher is given for sensor observations ``sensed`` (n, d)."""
+        full = np.zeros((len(sensed), N_FULL), dtype=np.float32)
+        full[:, self.dynamics] = self.teacher.obs_rms.mean[self.dynamics]
+        full[:, self.copied] = sensed[:, self.sources]
+        full[:, self.hidden] = self.estimator(sensed)
+        return full
+
+    def __call__(self, sensed: np.ndarray, privileged: np.ndarray | None = None) -> np.ndarray:
+        return np.asarray(self.teacher(self.full_observation(sensed)), dtype=np.float32)
+
+
+def adam_fit(params, loss_of, n: int, steps: int, config: AdaptConfig, seed: int, desc: str, progress: bool) -> float:
+    """``steps`` Adam steps over shuffled minibatches of ``n`` samples (``loss_of(indices)``), the
+    learning rate decaying linearly to zero; returns the last epoch's mean loss."""
+    import torch
+
+    opt = torch.optim.Adam(list(params), lr=config.learning_rate)
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: max(1.0 - s / steps, 0.0))
+    gen = torch.Generator().manual_seed(seed)
+    done, total, seen = 0, 0.0, 0
+    bar = tqdm(total=steps, desc=desc, unit="step", disable=not progress, mininterval=2.0)
+    while done < steps:
+        perm = torch.randperm(n, generator=gen)
+        total, seen = 0.0, 0
+        for i in range(0, n, config.batch):
+            if done >= steps:
+                break
+            idx = perm[i:i + config.batch]
+            loss = loss_of(idx)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            sched.step()
+            total, seen, done = total + float(loss.detach()) * len(idx), seen + len(idx), done + 1
+            bar.update()
+        bar.set_postfix(loss=f"{total / max(seen, 1):.2e}")
+    bar.close()
+    return total / max(seen, 1)
+
+
+def validation(driver, teacher: Policy, config: AdaptConfig, seed: int, n: int = 64) -> dict:
+    """``driver``'s steady velocity (mean of the last 10 of 30 periods, no load step) as a fraction
+    of the teacher's on the same ``n`` hidden draws of ``seed`` where the teacher moves >= 2 mm/s."""
+    cfg = AdaptConfig(**{**asdict(config), "periods": 30, "load_step_share": 0.0, "load_step_periods": (1, 1)})
+    v = steady_velocity_of(collect(*sensor_envs(cfg, n, seed), driver)[2])
+    v_teacher = steady_velocity_of(collect(*sensor_envs(cfg, n, seed), lambda s, p: teacher(p))[2])
+    keep = v_teacher >= 2e-3
+    frac = v[keep] / v_teacher[keep]
+    return {"val_mean_fraction_of_teacher": float(frac.mean()), "val_min_fraction_of_teacher": float(frac.min()),
+            "val_points_scored": int(keep.sum())}
+
+
+def _log(record: dict) -> None:
+    print(" ".join(f"{key}={value:.4g}" if isinstance(value, float) else f"{key}={value}"
+                   for key, value in record.items()), flush=True)
+
+
+def train(config: AdaptConfig, seed: int = 0, validation_seed: int | None = None,
+          progress: bool = True) -> tuple[SensorTeacher, list[dict]]:
+    """Round 0: the privileged teacher drives; rounds 1 ... R: the estimator-informed teacher
+    (``SensorTeacher``) drives, on its own state distribution. After every round the estimator is
+    refitted on every episode so far. Returns the final ``SensorTeacher`` and the per-round records."""
+    import torch
+
+    torch.set_num_threads(config.torch_threads)
+    teacher = Policy(config.teacher)
+    rng = np.random.default_rng(seed)
+    hidden = [ObservationLayout.structure[name].start for name in HIDDEN]
+    sensor_structure = SensorLayout(config.history).structure
+    sensed, privileged, history = [], [], []
+    estimator = sensor_teacher = None
+    for r in range(config.rounds + 1):
+        t0 = time.perf_counter()
+        envs, first = sensor_envs(config, config.episodes, seed + 1_000_003 * (r + 1))
+        driver = (lambda s, p: teacher(p)) if r == 0 else sensor_teacher
+        s, p, _ = collect(envs, first, driver, config.action_noise, rng)
+        sensed.append(s)
+        privileged.append(p)
+        x, full = np.concatenate(sensed), np.concatenate(privileged)
+        if estimator is None:
+            estimator = Estimator(x.shape[1], config.estimator_arch, seed)
+            sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
+        record = {"round": r, "samples": len(x),
+                  "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config, seed + r, progress)}
+        if validation_seed is not None:
+            record.update(validation(sensor_teacher, teacher, config, validation_seed))
+        record["wall_time_s"] = round(time.perf_counter() - t0, 1)
+        history.append(record)
+        _log(record)
+    return sensor_teacher, history
+
+
+def merged_policy(sensor_teacher: SensorTeacher, config: AdaptConfig, seed: int = 0) -> Student:
+    """One SB3 PPO ``MlpPolicy`` (ReLU) on the sensor observation that computes ``sensor_teacher``
+    exactly (as long as the teacher's normalised inputs stay inside its VecNormalize clip):
+
+    * its ``VecNormalize`` standardises the observation as the estimator does (no clipping);
+    * its first layers are the estimator's hidden layers, widened by units that carry the entries
+      the teacher reads from the sensor observation (each as relu(x) and relu(-x));
+    * the next layer is the teacher's first layer composed with the estimator's output layer and the
+      teacher's observation normalisation (a product of linear maps);
+    * the rest is the teacher's network (its later layers and action head) as it is.
+    """
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
+
+    est, teacher = sensor_teacher.estimator, sensor_teacher.teacher
+    xm, xs, ym, ys = est.scales
+    est_linear = [m for m in est.net if isinstance(m, torch.nn.Linear)]
+    t_net = teacher.model.policy.mlp_extractor.policy_net
+    t_linear = [m for m in t_net if isinstance(m, torch.nn.Linear)]
+    if not all(isinstance(m, (torch.nn.Linear, torch.nn.ReLU)) for m in t_net):
+        raise ValueError(f"{config.teacher}: the teacher's policy network is not Linear/ReLU layers")
+    carried = sensor_teacher.sources
+    n_c = len(carried)
+    widths = [m.out_features + 2 * n_c for m in est_linear[:-1]]
+    venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: gym.make(SENSOR_ID, history=config.history,
+                                                                 max_periods=config.periods)])),
+                        norm_obs=True, norm_reward=True, gamma=0.98, clip_obs=1e6)
+    venv.obs_rms.mean = xm.astype(np.float64)
+    venv.obs_rms.var = xs.astype(np.float64) ** 2 - venv.epsilon
+    venv.obs_rms.count = 1e6
+    policy_kwargs = {"net_arch": {"pi": [*widths, *(m.out_features for m in t_linear)], "vf": [64, 64]},
+                     "activation_fn": torch.nn.ReLU, "log_std_init": config.log_std}
+    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs, n_steps=128, batch_size=128,
+                gamma=0.98, learning_rate=3e-5, clip_range=0.1)
+    layers = [m for m in model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
+    tm = torch.as_tensor(teacher.obs_rms.mean, dtype=torch.float64)
+    ts = torch.sqrt(torch.as_tensor(teacher.obs_rms.var, dtype=torch.float64) + teacher.epsilon)
+    with torch.no_grad():
+        for i, (lin, src) in enumerate(zip(layers, est_linear[:-1])):  # estimator layers + carried units
+            w = torch.zeros_like(lin.weight, dtype=torch.float64)
+            b = torch.zeros_like(lin.bias, dtype=torch.float64)
+            h = src.out_features
+            w[:h, :src.in_features] = src.weight.double()
+            b[:h] = src.bias.double()
+            for j, c in enumerate(carried):
+                if i == 0:  # from the standardised observation
+                    w[h + j, c], w[h + n_c + j, c] = 1.0, -1.0
+                else:  # relu(relu(x)) = relu(x)
+                    prev_h = est_linear[i - 1].out_features
+                    w[h + j, prev_h + j], w[h + n_c + j, prev_h + n_c + j] = 1.0, 1.0
+            lin.weight.copy_(w)
+            lin.bias.copy_(b)
+        # the teacher's normalised input z = A h + B (c+ - c-) + c0, then its first layer
+        out, h = est_linear[-1], est_linear[-1].in_features
+        a_mat = torch.zeros((N_FULL, h), dtype=torch.float64)
+        b_mat = torch.zeros((N_FULL, n_c), dtype=torch.float64)
+        c0 = torch.zeros(N_FULL, dtype=torch.float64)
+        for j, idx in enumerate(sensor_teacher.hidden):  # estimate, in the full observation's units
+            a_mat[idx] = out.weight[j].double() * ys[j] / ts[idx]
+            c0[idx] = (out.bias[j].double() * ys[j] + ym[j] - tm[idx]) / ts[idx]
+        for j, (idx, c) in enumerate(zip(sensor_teacher.copied, carried)):  # copied entries
+            b_mat[idx, j] = xs[c] / ts[idx]
+            c0[idx] = (xm[c] - tm[idx]) / ts[idx]
+        # the dynamics entries sit at the teacher's mean: 0 after normalisation
+        first = t_linear[0]
+        w1 = first.weight.double()
+        lin = layers[len(widths)]
+        lin.weight.copy_(torch.cat([w1 @ a_mat, w1 @ b_mat, -(w1 @ b_mat)], dim=1))
+        lin.bias.copy_(first.bias.double() + w1 @ c0)
+        for lin, src in zip(layers[len(widths) + 1:], t_linear[1:]):
+            lin.weight.copy_(src.weight)
+            lin.bias.copy_(src.bias)
+        model.policy.action_net.weight.copy_(teacher.model.policy.action_net.weight)
+        model.policy.action_net.bias.copy_(teacher.model.policy.action_net.bias)
+    return Student(model, venv)
+
+
+def sensor_env_kwargs(config: AdaptConfig) -> dict:
+    """The trained range as ``MDRDriveSensor-v0`` keywords (run.json: what ``evaluate`` warns outside)."""
+    return {**{key: list(v) if isinstance(v, tuple) else v for key, v in SENSOR_DEFAULTS.items()},
+            "history": config.history, "max_periods": config.periods}
+
+
+def merge_check(student: Student, sensor_teacher: SensorTeacher, config: AdaptConfig, seed: int) -> dict:
+    """The largest difference between the merged policy's actions and the ``SensorTeacher``'s over
+    the sensor observations of 64 episodes it drives itself."""
+    sensed, _, _ = collect(*sensor_envs(config, 64, seed + 7), lambda s, p: student.act(s))
+    merged = np.clip(student.act(sensed), -1.0, 1.0)
+    composed = np.clip(sensor_teacher(sensed), -1.0, 1.0)
+    return {"merge_max_action_difference": float(np.abs(merged - composed).max())}
+
+
+def load_config(path: str | Path) -> tuple[int, int | None, AdaptConfig]:
+    """(seed, validation seed, AdaptConfig) from a YAML with ``seed``, ``validation_seed`` and ``adapt``."""
+    data = yaml.safe_load(Path(path).read_text())
+    if set(data) != {"seed", "validation_seed", "adapt"}:
+        raise ValueError(f"{path}: sections {sorted(data)} are not ['adapt', 'seed', 'validation_seed']")
+    try:
+        config = AdaptConfig(**{key: tuple(v) if isinstance(v, list) else v for key, v in data["adapt"].items()})
+    except TypeError as e:
+        raise ValueError(f"{path}: {e}") from None
+    return int(data["seed"]), data["validation_seed"], config
+
+
+def run(config_path: str | Path, out: str | Path, force: bool = False, progress: bool = True) -> dict:
+    """Train the sensor student from ``config_path`` into ``out``; returns what ``adapt.json`` holds."""
+    from .train import versions
+
+    seed, validation_seed, config = load_config(config_path)
+    out = Path(out)
+    if out.exists() and any(out.iterdir()) and not force:
+        raise ValueError(f"{out} is not empty: overwrite with --force")
+    command = " ".join(["python -m agents.adapt", *sys.argv[1:]]) if sys.argv[0].endswith("adapt.py") else \
+        " ".join(sys.argv)
+    t0 = time.perf_counter()
+    sensor_teacher, history = train(config, seed, validation_seed, progress)
+    student = merged_policy(sensor_teacher, config, seed)
+    check = merge_check(student, sensor_teacher, config, seed)
+    if validation_seed is not None:
+        check.update(validation(lambda s, p: student.act(s), sensor_teacher.teacher, config, validation_seed))
+    _log(check)
+    wall = round(time.perf_counter() - t0, 1)
+    env_kwargs = sensor_env_kwargs(config)
+    record = {
+        "algo": "ppo", "seed": seed, "env_id": SENSOR_ID, "env_kwargs": env_kwargs,
+        "hyperparameters": {"normalize": True, "warm_start": "none",
+                            "policy_kwargs": {"net_arch": {"pi": student.model.policy.net_arch["pi"], "vf": [64, 64]},
+                                              "activation_fn": "relu", "log_std_init": config.log_std}},
+        "adapted_from": {"teacher": config.teacher, "config": str(config_path), "adapt": asdict(config),
+                         "validation_seed": validation_seed, "history": history, "merged": check},
+        "command": command, "versions": versions(), "torch_threads": config.torch_threads,
+        "total_timesteps": 0, "wall_time_s": wall, "interrupted": False,
+    }
+    save_student(student, out / "policy", record)
+    summary = {"config": str(config_path), "command": command, "seed": seed, "wall_time_s": wall,
+               "rounds": history, "merged": check}
+    write_text(out / "adapt.json", json.dumps(summary, indent=2))
+    print(f"adapt: {wall:.0f} s; policy in {out / 'policy'}", flush=True)
+    return summary
+
+
+def main(argv=None) -> int:
+    from mdr_drive_env.cli_args import Parser, input_file, output_dir
+
+    ap = Parser(prog="python -m agents.adapt", description=__doc__,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
+                    help="YAML with seed, validation_seed and the AdaptConfig fields (default: "
+                         "agents/configs/sensor.yaml)")
+    ap.add_argument("--out", default="runs/sensor", type=output_dir, help="output folder (default: runs/sensor)")
+    ap.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
+    ap.add_argument("--no-progress", action="store_true", help="no progress bars")
+    a = ap.parse_args(argv)
+    try:
+        run(a.config, a.out, force=a.force, progress=not a.no_progress)
+    except ValueError as e:
+        print(f"python -m agents.adapt: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("python -m agents.adapt: interrupted; nothing was saved", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,115 @@
+"""The sensor policy's training (agents/adapt.py) and its adaptation report (agents/adaptation.py), CI-sized."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import mdr_drive_env  # noqa: F401
+from agents import adapt, adaptation
+from agents.adapt import AdaptConfig
+
+TINY = Path(__file__).parent / "data" / "sensor_tiny.yaml"
+
+
+def test_the_privileged_observation_is_the_full_observation_with_the_coming_load():
+    full = gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.05)
+    obs, _ = full.reset(seed=1)
+    assert np.array_equal(full.unwrapped.privileged_observation(), obs)
+    for _ in range(2):
+        obs, *_ = full.step(full.action_space.sample())
+        assert np.array_equal(full.unwrapped.privileged_observation(), obs)
+
+    env = gym.make("MDRDriveSensor-v0", max_periods=10)
+    _, info = env.reset(seed=3, options={"load_step": (2, 0.2)})
+    priv = env.unwrapped.privileged_observation()
+    assert priv.shape == (14,) and priv[10] == np.float32(info["k"])
+    load_entry = priv[12]  # load / 10 N
+    assert load_entry == pytest.approx(info["load_force"] / 10.0, rel=1e-6)
+    env.step(env.action_space.sample())
+    env.step(env.action_space.sample())  # the next period is the step's: the teacher is told the new load
+    assert env.unwrapped.privileged_observation()[12] == pytest.approx(0.2 * 9.81 / 10.0, rel=1e-6)
+
+
+@pytest.fixture(scope="module")
+def sensor_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sensor")
+    summary = adapt.run(TINY, out, force=True, progress=False)
+    return out, summary
+
+
+def test_the_merged_network_is_the_estimator_informed_teacher():
+    from agents.adapt import Estimator, SensorTeacher, merged_policy, sensor_envs
+    from agents.evaluate import Policy
+    from mdr_drive_env.gym_envs.spaces import SensorLayout
+
+    config = AdaptConfig(history=2, episodes=4, periods=6, load_step_periods=(1, 4), estimator_arch=(8, 8, 8))
+    envs, first = sensor_envs(config, 4, seed=2)
+    sensed = np.vstack([first, np.random.default_rng(0).normal(size=(50, first.shape[1])).astype(np.float32)])
+    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0)
+    estimator.fit(sensed, np.random.default_rng(1).uniform(size=(len(sensed), 3)), 5, config, 0, False)
+    composed = SensorTeacher(Policy(config.teacher), estimator, SensorLayout(2).structure)
+    merged = merged_policy(composed, config)
+    assert np.abs(merged.act(sensed) - np.clip(composed(sensed), -1, 1)).max() < 1e-4
+
+
+def test_the_sensor_student_is_a_plain_sb3_policy_on_the_sensor_observation(sensor_run):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    out, summary = sensor_run
+    assert [r["round"] for r in summary["rounds"]] == [0, 1]
+    assert summary["rounds"][1]["samples"] == 2 * 8 * 12
+    assert "val_mean_fraction_of_teacher" in summary["rounds"][0]
+    assert summary["merged"]["merge_max_action_difference"] < 1e-4  # one MlpPolicy = estimator + teacher
+    run = json.loads((out / "policy" / "run.json").read_text())
+    assert run["env_id"] == "MDRDriveSensor-v0" and run["env_kwargs"]["history"] == 3
+    venv = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"),
+                             DummyVecEnv([lambda: gym.make("MDRDriveSensor-v0", history=3)]))
+    venv.training, venv.norm_reward = False, False
+    model = PPO.load(out / "policy" / "model.zip", device="cpu")
+    obs = venv.reset()
+    for _ in range(3):
+        action, _ = model.predict(obs, deterministic=True)
+        obs, *_ = venv.step(action)
+    assert action.shape == (1, 5) and np.all(np.abs(action) <= 1.0)
+    assert adapt.main([str(TINY), "--out", str(out), "--no-progress"]) == 2  # no overwrite without --force
+
+
+@pytest.mark.parametrize("kwargs, name", [({"history": 0}, "history"), ({"action_noise": 2.0}, "action_noise"),
+                                          ({"load_step_periods": (5, 40)}, "load_step_periods"),
+                                          ({"estimator_arch": ()}, "estimator_arch")])
+def test_bad_adapt_settings_name_themselves(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        AdaptConfig(**kwargs)
+
+
+def test_recovery_counts_the_periods_to_nine_tenths_of_the_new_steady_velocity():
+    s = adaptation.STEP_PERIOD
+    v = np.full(adaptation.STEP_EPISODE_PERIODS, 10e-3)
+    v[s:s + 3] = 1e-3  # three slow periods after the step, then back at 10 mm/s
+    steady, periods, ok = adaptation.recovery(v)
+    assert steady == pytest.approx(10e-3) and periods == 3 and ok
+    v[s:s + 7] = 1e-3  # seven slow periods: too late
+    assert adaptation.recovery(v)[2] is False
+    assert adaptation.recovery(np.zeros_like(v))[1:] == (None, None)  # nothing to recover to
+
+
+def test_the_adaptation_report_runs_in_quick_mode(sensor_run, tmp_path):
+    from mdr_drive_env.sweep import Executor
+
+    out, _ = sensor_run
+    res = adaptation.run(str(out / "policy"), adaptation.FULL_POLICY, 2, 2, seed=5, out=tmp_path, quick=True,
+                         executor=Executor(workers=1, progress=False))
+    assert set(res["statistics"]) == set(adaptation.DRIVES)
+    assert all(0.0 <= d["k"] <= 0.6 and 0.2 <= d["friction_coefficient"] <= 0.4 for d in res["points"])
+    assert all(np.asarray(res["load_step_velocity_m_s"][d]).shape == (2, adaptation.STEP_EPISODE_PERIODS)
+               for d in adaptation.DRIVES)
+    for name in ("adaptation.json", "adaptation.md", "points.csv", "load_steps.csv", "adaptation_load_steps.png",
+                 "adaptation_tracking.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    assert res["points"] == adaptation.draw_hidden(2, 5)  # the draws follow the seed
