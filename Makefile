@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 PYTEST_ARGS ?=
 
-.PHONY: install test demo reproduce convergence bench train benchmark blind claims clean
+.PHONY: install test demo reproduce convergence bench train train-sensor benchmark blind adaptation claims clean
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -38,6 +38,14 @@ bench: $(STAMP)
 ## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; about 20 minutes)
 train: $(STAMP)
 	$(PY) -m agents.recipe agents/configs/recipe.yaml --out runs/recipe --force
+
+## make train-sensor: the sensor policy (MDRDriveSensor-v0: k, load, friction hidden) from the shipped full-observation policy (runs/sensor)
+train-sensor: $(STAMP)
+	$(PY) -m agents.adapt agents/configs/sensor.yaml --out runs/sensor --force
+
+## make adaptation: the shipped sensor policy on blind hidden-parameter draws and load steps (results/adaptation/seed20261125)
+adaptation: $(STAMP)
+	$(PY) -m agents.adaptation --seed 20261125 --out results/adaptation/seed20261125
 
 ## make benchmark: the shipped policy against the trapezoid and CMA-ES on the fixed grid (results/benchmark_shipped)
 benchmark: $(STAMP)

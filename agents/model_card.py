@@ -1,6 +1,7 @@
 """Ship a trained policy: copy model, VecNormalize statistics and run record, and write its model card.
 
     python -m agents.model_card runs/recipe/policy agents/pretrained/ppo_generalist [BLIND.json]
+    python -m agents.model_card runs/sensor/policy agents/pretrained/ppo_sensor ADAPTATION.json
 
 The card's evaluation table is computed here, from the shipped files, with the benchmark protocol.
 """
@@ -156,5 +157,101 @@ fresh drive, computed by `python -m agents.model_card {src.as_posix()} {dst.as_p
     return dst / "MODEL_CARD.md"
 
 
-if __name__ == "__main__":  # python -m agents.model_card SRC DST [BLIND.json]
-    print(ship(*sys.argv[1:4]).read_text())
+SENSOR_SNIPPET = """```python
+import gymnasium as gym
+import numpy as np
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+import mdr_drive_env  # registers MDRDriveSensor-v0
+
+# k, the load and friction are hidden from the policy: drawn per episode, or fixed here to try one drive
+make = lambda: gym.make("MDRDriveSensor-v0", history={history}, max_periods=30, k=0.2, cargo_mass=0.1,
+                        friction_coefficient=0.3, base_friction_coefficient=0.1)
+venv = VecNormalize.load("{dir}/vecnormalize.pkl", DummyVecEnv([make]))
+venv.training, venv.norm_reward = False, False      # play: statistics frozen, raw rewards
+model = PPO.load("{dir}/model.zip", device="cpu")
+obs, velocities = venv.reset(), []
+for period in range(30):
+    action, _ = model.predict(obs, deterministic=True)
+    obs, reward, done, info = venv.step(action)
+    velocities.append(info[0]["mean_velocity"])
+print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
+```"""
+
+
+def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -> Path:
+    """Copy the sensor policy in ``src`` to ``dst`` (as :func:`ship`) and write its card, which
+    quotes its results from ``adaptation_json`` (``python -m agents.adaptation``)."""
+    src, dst = Path(src), Path(dst)
+    dst.mkdir(parents=True, exist_ok=True)
+    if src.resolve() != dst.resolve():
+        for name in FILES:
+            shutil.copy2(src / name, dst / name)
+    run = json.loads((dst / "run.json").read_text())
+    res = json.loads(Path(adaptation_json).read_text())
+    adapted = run["adapted_from"]
+    s_sensor = res["statistics"]["sensor policy"]
+    size_kb = sum((dst / n).stat().st_size for n in FILES) / 1024
+    lines = ["| drive | below trapezoid | fraction of best: mean | min | load steps recovered within 5 periods "
+             "(upward steps) |", "|---|---|---|---|---|"]
+    for drive, st in res["statistics"].items():
+        rec = res["load_step_recovery"][drive]
+        lines.append(f"| {drive} | {st['points_below_trapezoid']} | {st['fraction_of_best_mean']:.3f} | "
+                     f"{st['fraction_of_best_min']:.3f} | {rec['recovered_within']} of {rec['episodes_scored']} "
+                     f"({rec['upward_recovered_within']} of {rec['upward_steps_scored']}) |")
+    card = f"""# {dst.name}: a waveform policy that does not know its load (MDRDriveSensor-v0)
+
+One plain Stable-Baselines3 PPO policy that drives the slider from what a position encoder measures:
+the last {run['env_kwargs']['history']} periods of slider displacement, mean and end velocity, and the actions that
+produced them. It is not told k, the load or the friction coefficients (docs/adaptation.md).
+
+## Load it
+
+{SENSOR_SNIPPET.format(dir=dst.as_posix(), history=run['env_kwargs']['history'])}
+
+(`tests/test_shipped_policy.py` runs this snippet.) Or: `mdr-drive evaluate --policy {dst.as_posix()} --k 0.2
+--cargo-mass 0.1 --friction-coefficient 0.25 --load-step 15:0.05 --json`.
+
+## How it was made
+
+* Command: `{run['command']}` (`agents/adapt.py`, {run['wall_time_s']:.0f} s)
+* Teacher: the full-observation policy `{adapted['teacher']}`. An estimator of what the sensor hides
+  (k, the load over mu F_ref, the load) was fitted to the sensor history on episodes the teacher drove
+  (told the true values), then, round by round, on episodes the teacher drove on the estimator's guesses
+  (RMA's adaptation module, trained on its own state distribution). This network is that composition,
+  estimator then teacher, written exactly as one MlpPolicy (`agents/adapt.py: merged_policy`; largest
+  action difference {adapted['merged']['merge_max_action_difference']:.1e}). Settings: `{json.dumps(adapted['adapt'])}`
+* Training range: the hidden parameters of `MDRDriveSensor-v0` (k 0-0.6, load up to 0.4 of mu F_ref,
+  mu 0.2-0.4, mu1 0.07-0.13), half of the episodes with a load step.
+* Versions: `{json.dumps(run['versions'])}`
+* Files: `model.zip` (SB3), `vecnormalize.pkl` (needed to run it), `run.json`; {size_kb:.0f} KiB in all.
+
+## Results on blind draws (`python -m agents.adaptation --seed {res['seed']}`)
+
+{res['n']} hidden-parameter draws and {res['load_steps']} load-step episodes no training or selection
+decision saw; fraction of the per-point best drive where it moves >= 2 mm/s.
+
+{chr(10).join(lines)}
+
+## Limits
+
+* Its drives are its teacher's, told the estimated k and load, and the teacher was trained at the
+  paper's friction only (mu = 0.3, mu1 = 0.1): at other friction coefficients both can be slower than
+  the trapezoid (this policy at {s_sensor['points_below_trapezoid']} of {res['n']} blind points, by up to
+  {-s_sensor['worst_difference_to_trapezoid_mm_s']:.1f} mm/s). Check a working point with `mdr-drive evaluate` first.
+* Before it has seen a few periods it plays an average drive: the first periods after a reset or a load
+  step are slower than a drive told the load (median {res['load_step_recovery']['sensor policy']['median_periods_to_recover']:g}
+  periods to 0.9 of its new steady velocity after a load step).
+* Outside the training ranges above it is untested.
+"""
+    write_text(dst / "MODEL_CARD.md", card)
+    return dst / "MODEL_CARD.md"
+
+
+if __name__ == "__main__":  # python -m agents.model_card SRC DST [BLIND.json | ADAPTATION.json]
+    args = sys.argv[1:4]
+    if len(args) == 3 and Path(args[2]).name == "adaptation.json":
+        print(ship_sensor(*args).read_text())
+    else:
+        print(ship(*args).read_text())

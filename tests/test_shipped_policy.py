@@ -7,13 +7,17 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 
 ROOT = Path(__file__).parents[1]
 SHIPPED = ROOT / "agents" / "pretrained" / "ppo_generalist"
+SENSOR = ROOT / "agents" / "pretrained" / "ppo_sensor"
 
 
-def test_model_card_snippet_loads_with_plain_sb3_and_drives():
-    card = (SHIPPED / "MODEL_CARD.md").read_text()
+@pytest.mark.parametrize("folder", [SHIPPED, SENSOR], ids=["full", "sensor"])
+def test_model_card_snippet_loads_with_plain_sb3_and_drives(folder):
+    card = (folder / "MODEL_CARD.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", card, flags=re.S)
     assert blocks, "the model card has no python snippet"
     r = subprocess.run([sys.executable, "-c", blocks[0]], capture_output=True, text=True, timeout=300, cwd=ROOT)
@@ -22,8 +26,25 @@ def test_model_card_snippet_loads_with_plain_sb3_and_drives():
     assert velocity > 0.0
 
 
-def test_shipped_folder_holds_only_the_plain_model_files():
-    assert sorted(p.name for p in SHIPPED.iterdir()) == ["MODEL_CARD.md", "model.zip", "run.json", "vecnormalize.pkl"]
+@pytest.mark.parametrize("folder", [SHIPPED, SENSOR], ids=["full", "sensor"])
+def test_shipped_folder_holds_only_the_plain_model_files(folder):
+    assert sorted(p.name for p in folder.iterdir()) == ["MODEL_CARD.md", "model.zip", "run.json", "vecnormalize.pkl"]
+
+
+def test_the_sensor_policy_sees_only_the_sensor_observation():
+    import json
+    import pickle
+
+    import gymnasium as gym
+
+    import mdr_drive_env  # noqa: F401
+
+    run = json.loads((SENSOR / "run.json").read_text())
+    assert run["env_id"] == "MDRDriveSensor-v0" and "sensor" in SENSOR.name
+    env = gym.make("MDRDriveSensor-v0", history=run["env_kwargs"]["history"])
+    with open(SENSOR / "vecnormalize.pkl", "rb") as f:
+        vn = pickle.load(f)
+    assert vn.obs_rms.mean.shape == env.observation_space.shape
 
 
 def test_vecnormalize_matches_the_envs_observation():
