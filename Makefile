@@ -37,15 +37,15 @@ bench: $(STAMP)
 
 ## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; about 20 minutes)
 train: $(STAMP)
-	$(PY) -m agents.recipe agents/configs/recipe.yaml --out runs/recipe --force
+	$(PY) -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --force
 
 ## make train-sensor: the sensor policy (MDRDriveSensor-v0: k, load, friction hidden) from the shipped full-observation policy (runs/sensor)
 train-sensor: $(STAMP)
-	$(PY) -m agents.adapt agents/configs/sensor.yaml --out runs/sensor --force
+	$(PY) -m mdr_drive_agents.adapt agents/configs/sensor.yaml --out runs/sensor --force
 
 ## make adaptation: the shipped sensor policy on blind hidden-parameter draws and load steps (results/adaptation/seed20261125)
 adaptation: $(STAMP)
-	$(PY) -m agents.adaptation --seed 20261125 --out results/adaptation/seed20261125
+	$(PY) -m mdr_drive_agents.adaptation --seed 20261125 --out results/adaptation/seed20261125
 
 ## make benchmark: the shipped policy against the trapezoid and CMA-ES on the fixed grid (results/benchmark_shipped)
 benchmark: $(STAMP)

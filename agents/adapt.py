@@ -1,6 +1,6 @@
 """The sensor policy: a plain SB3 PPO MlpPolicy that drives without being told k, the load or friction.
 
-    python -m agents.adapt agents/configs/sensor.yaml --out runs/sensor        # make train-sensor
+    python -m mdr_drive_agents.adapt agents/configs/sensor.yaml --out runs/sensor        # make train-sensor
 
 Teacher-student training, as controllers that must act without privileged information are trained
 (Lee et al. 2020; Kumar et al. 2021), with DAgger (Ross et al. 2011):
@@ -391,7 +391,7 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
     out = Path(out)
     if out.exists() and any(out.iterdir()) and not force:
         raise ValueError(f"{out} is not empty: overwrite with --force")
-    command = " ".join(["python -m agents.adapt", *sys.argv[1:]]) if sys.argv[0].endswith("adapt.py") else \
+    command = " ".join(["python -m mdr_drive_agents.adapt", *sys.argv[1:]]) if sys.argv[0].endswith("adapt.py") else \
         " ".join(sys.argv)
     t0 = time.perf_counter()
     sensor_teacher, history = train(config, seed, validation_seed, progress)
@@ -423,7 +423,7 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
 def main(argv=None) -> int:
     from mdr_drive_env.cli_args import Parser, input_file, output_dir
 
-    ap = Parser(prog="python -m agents.adapt", description=__doc__,
+    ap = Parser(prog="python -m mdr_drive_agents.adapt", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
                     help="YAML with seed, validation_seed and the AdaptConfig fields (default: "
@@ -435,10 +435,10 @@ def main(argv=None) -> int:
     try:
         run(a.config, a.out, force=a.force, progress=not a.no_progress)
     except ValueError as e:
-        print(f"python -m agents.adapt: error: {e}", file=sys.stderr)
+        print(f"python -m mdr_drive_agents.adapt: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("python -m agents.adapt: interrupted; nothing was saved", file=sys.stderr)
+        print("python -m mdr_drive_agents.adapt: interrupted; nothing was saved", file=sys.stderr)
         return 130
     return 0
 

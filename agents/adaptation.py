@@ -1,6 +1,6 @@
 """How a sensor policy drives when k, the load and friction are hidden, and when the load steps.
 
-    python -m agents.adaptation --seed 20261125 --out results/adaptation/seed20261125    # make adaptation
+    python -m mdr_drive_agents.adaptation --seed 20261125 --out results/adaptation/seed20261125    # make adaptation
 
 Two experiments on draws of ``MDRDriveSensor-v0``'s hidden parameters (k in [0, 0.6], the load
 from 0 to 0.4 of mu F_ref, mu in [0.2, 0.4], mu1 in [0.07, 0.13]) from ``--seed``:
@@ -278,7 +278,7 @@ def plot(res: dict, out: Path) -> None:
 def main(argv=None) -> int:
     from mdr_drive_env.cli_args import Parser, folder_with, output_dir, positive_int
 
-    ap = Parser(prog="python -m agents.adaptation", description=__doc__,
+    ap = Parser(prog="python -m mdr_drive_agents.adaptation", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sensor-policy", default=SENSOR_POLICY, type=folder_with("model.zip"),
                     help=f"the sensor policy's folder (default: {SENSOR_POLICY})")
@@ -300,7 +300,7 @@ def main(argv=None) -> int:
     if a.replot:
         path = Path(out) / "adaptation.json"
         if not path.is_file():
-            print(f"python -m agents.adaptation: error: --replot needs {path}", file=sys.stderr)
+            print(f"python -m mdr_drive_agents.adaptation: error: --replot needs {path}", file=sys.stderr)
             return 2
         res = json.loads(path.read_text())
         write_text(Path(out) / "adaptation.md", markdown(res))
@@ -310,10 +310,10 @@ def main(argv=None) -> int:
         res = run(a.sensor_policy, a.full_policy, a.blind, a.load_steps, a.seed, out, quick=a.quick,
                   executor=executor_from(a), resume=a.resume)
     except ValueError as e:
-        print(f"python -m agents.adaptation: error: {e}", file=sys.stderr)
+        print(f"python -m mdr_drive_agents.adaptation: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"python -m agents.adaptation: interrupted; finished searches are kept, continue with --resume "
+        print(f"python -m mdr_drive_agents.adaptation: interrupted; finished searches are kept, continue with --resume "
               f"--seed {a.seed} --out {out}", file=sys.stderr)
         return 130
     print(markdown(res).split("\n| k |")[0])

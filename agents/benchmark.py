@@ -238,7 +238,7 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-if __name__ == "__main__":  # python -m agents.benchmark ... is mdr-drive benchmark ...
+if __name__ == "__main__":  # python -m mdr_drive_agents.benchmark ... is mdr-drive benchmark ...
     import sys
 
     from mdr_drive_env.cli import main as cli_main

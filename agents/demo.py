@@ -112,7 +112,7 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-if __name__ == "__main__":  # python -m agents.demo ... is mdr-drive demo ...
+if __name__ == "__main__":  # python -m mdr_drive_agents.demo ... is mdr-drive demo ...
     import sys
 
     from mdr_drive_env.cli import main as cli_main

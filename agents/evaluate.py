@@ -399,7 +399,7 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-if __name__ == "__main__":  # python -m agents.evaluate ... is mdr-drive evaluate ...
+if __name__ == "__main__":  # python -m mdr_drive_agents.evaluate ... is mdr-drive evaluate ...
     import sys
 
     from mdr_drive_env.cli import main as cli_main

@@ -1,7 +1,7 @@
 """Ship a trained policy: copy model, VecNormalize statistics and run record, and write its model card.
 
-    python -m agents.model_card runs/recipe/policy agents/pretrained/ppo_generalist [BLIND.json]
-    python -m agents.model_card runs/sensor/policy agents/pretrained/ppo_sensor ADAPTATION.json
+    python -m mdr_drive_agents.model_card runs/recipe/policy agents/pretrained/ppo_generalist [BLIND.json]
+    python -m mdr_drive_agents.model_card runs/sensor/policy agents/pretrained/ppo_sensor ADAPTATION.json
 
 The card's evaluation table is computed here, from the shipped files, with the benchmark protocol.
 """
@@ -147,7 +147,7 @@ folder first: a resumed run writes into it).
 ## Evaluation
 
 Steady slider velocity in mm/s, policy (trapezoid), mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS} of a
-fresh drive, computed by `python -m agents.model_card {src.as_posix()} {dst.as_posix()}` from the shipped files.
+fresh drive, computed by `python -m mdr_drive_agents.model_card {src.as_posix()} {dst.as_posix()}` from the shipped files.
 "runaway": the load accelerates the slider backwards without bound.
 
 {evaluation_table(dst)}
@@ -182,7 +182,7 @@ print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
 
 def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -> Path:
     """Copy the sensor policy in ``src`` to ``dst`` (as :func:`ship`) and write its card, which
-    quotes its results from ``adaptation_json`` (``python -m agents.adaptation``)."""
+    quotes its results from ``adaptation_json`` (``python -m mdr_drive_agents.adaptation``)."""
     src, dst = Path(src), Path(dst)
     dst.mkdir(parents=True, exist_ok=True)
     if src.resolve() != dst.resolve():
@@ -227,7 +227,7 @@ produced them. It is not told k, the load or the friction coefficients (docs/ada
 * Versions: `{json.dumps(run['versions'])}`
 * Files: `model.zip` (SB3), `vecnormalize.pkl` (needed to run it), `run.json`; {size_kb:.0f} KiB in all.
 
-## Results on blind draws (`python -m agents.adaptation --seed {res['seed']}`)
+## Results on blind draws (`python -m mdr_drive_agents.adaptation --seed {res['seed']}`)
 
 {res['n']} hidden-parameter draws and {res['load_steps']} load-step episodes no training or selection
 decision saw; fraction of the per-point best drive where it moves >= 2 mm/s.
@@ -249,7 +249,7 @@ decision saw; fraction of the per-point best drive where it moves >= 2 mm/s.
     return dst / "MODEL_CARD.md"
 
 
-if __name__ == "__main__":  # python -m agents.model_card SRC DST [BLIND.json | ADAPTATION.json]
+if __name__ == "__main__":  # python -m mdr_drive_agents.model_card SRC DST [BLIND.json | ADAPTATION.json]
     args = sys.argv[1:4]
     if len(args) == 3 and Path(args[2]).name == "adaptation.json":
         print(ship_sensor(*args).read_text())

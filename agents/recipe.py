@@ -1,7 +1,7 @@
 """The shipped policy's recipe, teacher to student, as one function driven by one YAML file.
 
-    python -m agents.recipe agents/configs/recipe.yaml --out runs/recipe     # make train
-    python -m agents.recipe agents/configs/recipe.yaml --out runs/recipe --ray-address auto
+    python -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe     # make train
+    python -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --ray-address auto
 
 Stages (each one's wall time is printed and kept in ``recipe.json``):
 
@@ -65,7 +65,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     executor = executor or Executor()
     store = TaskStore(task_folder(out, resume) / "teacher")
     seed, stages = recipe["seed"], {}
-    command = " ".join(["python -m agents.recipe", *sys.argv[1:]]) if sys.argv[0].endswith("recipe.py") else \
+    command = " ".join(["python -m mdr_drive_agents.recipe", *sys.argv[1:]]) if sys.argv[0].endswith("recipe.py") else \
         " ".join(sys.argv)
 
     t0 = time.perf_counter()
@@ -110,7 +110,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
 def main(argv=None) -> int:
     from mdr_drive_env.cli_args import Parser, input_file, output_dir
 
-    ap = Parser(prog="python -m agents.recipe", description=__doc__,
+    ap = Parser(prog="python -m mdr_drive_agents.recipe", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
                     help="recipe YAML (default: agents/configs/recipe.yaml)")
@@ -122,10 +122,10 @@ def main(argv=None) -> int:
     try:
         run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force, progress=not a.no_progress)
     except ValueError as e:
-        print(f"python -m agents.recipe: error: {e}", file=sys.stderr)
+        print(f"python -m mdr_drive_agents.recipe: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"python -m agents.recipe: interrupted; the teacher's finished slices are kept, continue with "
+        print(f"python -m mdr_drive_agents.recipe: interrupted; the teacher's finished slices are kept, continue with "
               f"--resume --out {a.out}", file=sys.stderr)
         return 130
     return 0

@@ -277,7 +277,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--checkpoint-freq", type=positive_int, default=100_000, help="checkpoint every N steps (-)")
     p.add_argument("--warm-start", default=None, choices=("none", "trapezoid"),
                    help="initial policy: as is, or its mean at the trapezoid; default from the config (the "
-                        "shipped policy is distilled from a teacher instead: python -m agents.recipe)")
+                        "shipped policy is distilled from a teacher instead: python -m mdr_drive_agents.recipe)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     m = p.add_argument_group("several seeds as one sweep (agents/seeds.py): OUT/s<seed> per seed")
     m.add_argument("--seeds", type=int, nargs="+", default=None, metavar="SEED",
@@ -315,7 +315,7 @@ def main(args: argparse.Namespace) -> int:
     return 130 if record["interrupted"] else 0
 
 
-if __name__ == "__main__":  # python -m agents.train ... is mdr-drive train ...
+if __name__ == "__main__":  # python -m mdr_drive_agents.train ... is mdr-drive train ...
     import sys
 
     from mdr_drive_env.cli import main as cli_main

@@ -312,7 +312,7 @@ AGENT_COMMANDS = (
 
 def _agents_arguments(p: argparse.ArgumentParser, module: str) -> None:
     try:
-        mod = __import__(f"agents.{module}", fromlist=["add_arguments"])
+        mod = __import__(f"mdr_drive_agents.{module}", fromlist=["add_arguments"])
     except ImportError as e:  # the train extra is missing
         p.set_defaults(_import_error=str(e))
         return
@@ -324,7 +324,7 @@ def _agents_main(module: str, a: argparse.Namespace) -> int:
         print(f"mdr-drive {module} needs the train extra (pip install -e '.[train]'): {a._import_error}",
               file=sys.stderr)
         return 2
-    return __import__(f"agents.{module}", fromlist=["main"]).main(a)
+    return __import__(f"mdr_drive_agents.{module}", fromlist=["main"]).main(a)
 
 
 def build_parser() -> argparse.ArgumentParser:

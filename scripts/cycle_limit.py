@@ -25,9 +25,9 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from agents.baselines import cycle_critical_load
-from agents.benchmark import GRID_KS, critical_loads_grid, write_report
-from agents.evaluate import ACTION_MAP, open_loop_velocity, trapezoid_action
+from mdr_drive_agents.baselines import cycle_critical_load
+from mdr_drive_agents.benchmark import GRID_KS, critical_loads_grid, write_report
+from mdr_drive_agents.evaluate import ACTION_MAP, open_loop_velocity, trapezoid_action
 
 #: Action perturbation of the sensitivity table (action units).
 DELTA = 0.05

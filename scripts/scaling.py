@@ -78,9 +78,9 @@ def reproduce_sweep(n: int):
 
 
 def teacher_sweep(n: int):
-    from agents.blind import trapezoid_critical
-    from agents.drive_field import search_slice
-    from agents.recipe import DEFAULT_CONFIG, load_recipe
+    from mdr_drive_agents.blind import trapezoid_critical
+    from mdr_drive_agents.drive_field import search_slice
+    from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
 
     config = load_recipe(DEFAULT_CONFIG)["teacher"]
     ks = config.ks[1::max(1, len(config.ks) // n)][:n]  # k slices of the shipped recipe's grid
@@ -90,8 +90,8 @@ def teacher_sweep(n: int):
 
 
 def blind_sweep(n: int):
-    from agents.baselines import CMA_BUDGET, CYCLE_SEARCH
-    from agents.blind import best_drive, draw_points
+    from mdr_drive_agents.baselines import CMA_BUDGET, CYCLE_SEARCH
+    from mdr_drive_agents.blind import best_drive, draw_points
 
     points, _ = draw_points(n, seed=1)
     return best_drive, [(k, m, CMA_BUDGET, CYCLE_SEARCH["budget"]) for k, m in points], 24

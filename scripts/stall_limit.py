@@ -22,10 +22,10 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from agents.baselines import best_cma_run
-from agents.benchmark import GRID_KS, critical_loads_grid, write_report
-from agents.evaluate import open_loop_velocity, trapezoid_action
-from agents.baselines import PUSH_CLAMP
+from mdr_drive_agents.baselines import best_cma_run
+from mdr_drive_agents.benchmark import GRID_KS, critical_loads_grid, write_report
+from mdr_drive_agents.evaluate import open_loop_velocity, trapezoid_action
+from mdr_drive_agents.baselines import PUSH_CLAMP
 
 
 def best_drive(k: float, m: float, cycle: int, starts: list, budget: int, popsize: int, seed: int = 0):

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import mdr_drive_env  # noqa: F401
-from agents import adapt, adaptation
-from agents.adapt import AdaptConfig
+from mdr_drive_agents import adapt, adaptation
+from mdr_drive_agents.adapt import AdaptConfig
 
 TINY = Path(__file__).parent / "data" / "sensor_tiny.yaml"
 
@@ -43,8 +43,8 @@ def sensor_run(tmp_path_factory):
 
 
 def test_the_merged_network_is_the_estimator_informed_teacher():
-    from agents.adapt import Estimator, SensorTeacher, merged_policy, sensor_envs
-    from agents.evaluate import Policy
+    from mdr_drive_agents.adapt import Estimator, SensorTeacher, merged_policy, sensor_envs
+    from mdr_drive_agents.evaluate import Policy
     from mdr_drive_env.gym_envs.spaces import SensorLayout
 
     config = AdaptConfig(history=2, episodes=4, periods=6, load_step_periods=(1, 4), estimator_arch=(8, 8, 8))

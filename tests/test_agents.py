@@ -11,8 +11,8 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("cma")
 
-from agents.baselines import cma_optimize  # noqa: E402
-from agents.evaluate import (  # noqa: E402
+from mdr_drive_agents.baselines import cma_optimize  # noqa: E402
+from mdr_drive_agents.evaluate import (  # noqa: E402
     AVERAGE_PERIODS,
     EVAL_PERIODS,
     Policy,
@@ -20,7 +20,7 @@ from agents.evaluate import (  # noqa: E402
     policy_rollout,
     trapezoid_action,
 )
-from agents.train import train  # noqa: E402
+from mdr_drive_agents.train import train  # noqa: E402
 from mdr_drive_env.core import DriveParams, DriveSimulator, Waveform  # noqa: E402
 from mdr_drive_env.gym_envs.spaces import ActionMap  # noqa: E402
 
@@ -115,7 +115,7 @@ def test_rl_zoo_trains_with_the_shipped_config(tmp_path):
 
 
 def test_quick_benchmark_writes_tables_plots_and_a_consistent_summary(tmp_path):
-    from agents.benchmark import QUICK_KS, QUICK_MASSES, run
+    from mdr_drive_agents.benchmark import QUICK_KS, QUICK_MASSES, run
 
     policy = tmp_path / "ppo"
     train("ppo", steps=64, seed=0, out=policy, n_envs=4, eval_freq=10_000, progress_bar=False)

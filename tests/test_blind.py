@@ -7,8 +7,8 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from agents import blind  # noqa: E402
-from agents.demo import PRETRAINED  # noqa: E402
+from mdr_drive_agents import blind  # noqa: E402
+from mdr_drive_agents.demo import PRETRAINED  # noqa: E402
 from mdr_drive_env.cli import main  # noqa: E402
 
 

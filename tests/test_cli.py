@@ -4,6 +4,7 @@ import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -209,12 +210,22 @@ def test_console_script_help_runs():
 
 
 @pytest.mark.parametrize("command", ["train", "evaluate", "benchmark", "demo"])
-def test_agents_modules_run_as_scripts(command):
-    """``python -m agents.<command>`` is ``mdr-drive <command>`` (it used to import and do nothing)."""
+def test_agents_modules_run_as_scripts(command, tmp_path):
+    """``python -m mdr_drive_agents.<command>`` (anywhere) and ``python -m agents.<command>`` (in a
+    checkout) are ``mdr-drive <command>``."""
     pytest.importorskip("stable_baselines3")
-    out = subprocess.run([sys.executable, "-m", f"agents.{command}", "--help"], capture_output=True,
-                         text=True, check=True).stdout
-    assert out.startswith(f"usage: mdr-drive {command}")
+    root = Path(__file__).parents[1]
+    for module, cwd in ((f"mdr_drive_agents.{command}", tmp_path), (f"agents.{command}", root)):
+        out = subprocess.run([sys.executable, "-m", module, "--help"], capture_output=True, text=True, check=True,
+                             cwd=cwd).stdout
+        assert out.startswith(f"usage: mdr-drive {command}")
+
+
+def test_the_install_adds_no_top_level_agents_module(tmp_path):
+    """agents/ installs as mdr_drive_agents: a top-level ``agents`` would clash with openai-agents and TF-Agents."""
+    code = "import importlib.util as u; print(u.find_spec('agents') is None, u.find_spec('mdr_drive_agents') is not None)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path).stdout
+    assert out.split() == ["True", "True"]
 
 
 def test_quick_reproduction_writes_figures_and_csvs_with_states(tmp_path):

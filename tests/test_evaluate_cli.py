@@ -7,8 +7,8 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from agents.demo import PRETRAINED  # noqa: E402
-from agents.evaluate import critical_loads_grid, open_loop_velocity, trapezoid_action  # noqa: E402
+from mdr_drive_agents.demo import PRETRAINED  # noqa: E402
+from mdr_drive_agents.evaluate import critical_loads_grid, open_loop_velocity, trapezoid_action  # noqa: E402
 from mdr_drive_env.cli import main  # noqa: E402
 
 POLICY = str(PRETRAINED)
@@ -58,7 +58,7 @@ def test_critical_load_per_k_in_kg(capsys):
     expected = critical_loads_grid([0.3], lambda pts: open_loop_velocity(pts, trapezoid_action()))[0.3]
     assert record["critical_load_trapezoid"] == expected and 0.05 < expected < 0.1  # kg (0.070 by bisection)
     # the policy moves its critical load forward and the next grid load not
-    from agents.evaluate import Policy, policy_velocity
+    from mdr_drive_agents.evaluate import Policy, policy_velocity
 
     v = policy_velocity(Policy(POLICY), [(0.3, record["critical_load_learned"])])
     assert v[0] > 0
@@ -71,7 +71,7 @@ def test_warns_outside_the_trained_range(capsys):
 
 
 def test_policies_are_named_by_what_they_are_not_by_paths(tmp_path):
-    from agents.evaluate import policy_label
+    from mdr_drive_agents.evaluate import policy_label
 
     assert policy_label(PRETRAINED) == "shipped policy"
     run = tmp_path / "deep" / "folder" / "ppo_s3"
@@ -127,7 +127,7 @@ def test_warns_at_a_friction_it_was_not_trained_with(capsys):
 def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     import shutil
 
-    from agents.model_card import ship
+    from mdr_drive_agents.model_card import ship
 
     card_dir = tmp_path / "card"
     shutil.copytree(PRETRAINED, card_dir)

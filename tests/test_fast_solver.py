@@ -171,7 +171,7 @@ def test_sb3_adapter_trains_and_reports_terminal_observations():
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
 
-    from agents.vec_env import BatchedVecEnv
+    from mdr_drive_agents.vec_env import BatchedVecEnv
 
     venv = BatchedVecEnv(4, seed=0, max_periods=3)
     obs = venv.reset()

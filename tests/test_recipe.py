@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import mdr_drive_env  # noqa: F401
-from agents import recipe
-from agents.distill import DistillConfig
-from agents.drive_field import FieldConfig, align_phase, cycle_action
+from mdr_drive_agents import recipe
+from mdr_drive_agents.distill import DistillConfig
+from mdr_drive_agents.drive_field import FieldConfig, align_phase, cycle_action
 
 TINY = Path(__file__).parent / "data" / "recipe_tiny.yaml"
 
@@ -46,7 +46,7 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
 
 
 def test_the_distilled_policy_fine_tunes_with_train_resume(recipe_run):
-    from agents.train import train
+    from mdr_drive_agents.train import train
 
     out, _ = recipe_run
     record = train(resume=out / "policy", steps=64, progress_bar=False, eval_freq=10_000)

@@ -10,7 +10,7 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from agents.train import rounded_steps, train  # noqa: E402
+from mdr_drive_agents.train import rounded_steps, train  # noqa: E402
 from mdr_drive_env.cli import main  # noqa: E402
 
 KW = dict(n_envs=4, eval_freq=64, checkpoint_freq=10_000, progress_bar=False)
@@ -57,7 +57,7 @@ def test_an_interrupt_saves_a_run_that_resumes_with_the_same_step_counter(how, t
 
 
 def _venv():
-    from agents.vec_env import BatchedVecEnv
+    from mdr_drive_agents.vec_env import BatchedVecEnv
 
     return BatchedVecEnv(1, seed=0)
 
