@@ -50,6 +50,10 @@ DEFAULT_CONFIG = Path(__file__).parent / "configs" / "sensor.yaml"
 #: The full observation's entries the sensor observation hides (ObservationLayout.structure names).
 HIDDEN = ("k", "load_over_friction", "load_over_10N")
 N_FULL = len(ObservationLayout.NAMES)
+#: PPO settings of the shipped network: what ``mdr-drive train --resume`` fine-tunes it with (small
+#: steps: near an optimal drive the velocity changes steeply with the action).
+FINE_TUNE_PPO = {"n_steps": 128, "batch_size": 128, "n_epochs": 10, "gamma": 0.98, "gae_lambda": 0.95,
+                 "learning_rate": 3e-5, "clip_range": 0.1, "ent_coef": 0.0, "n_envs": 8}
 
 
 @dataclass(frozen=True)
@@ -311,8 +315,8 @@ def merged_policy(sensor_teacher: SensorTeacher, config: AdaptConfig, seed: int 
     venv.obs_rms.count = 1e6
     policy_kwargs = {"net_arch": {"pi": [*widths, *(m.out_features for m in t_linear)], "vf": [64, 64]},
                      "activation_fn": torch.nn.ReLU, "log_std_init": config.log_std}
-    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs, n_steps=128, batch_size=128,
-                gamma=0.98, learning_rate=3e-5, clip_range=0.1)
+    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs,
+                **{key: v for key, v in FINE_TUNE_PPO.items() if key != "n_envs"})
     layers = [m for m in model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
     tm = torch.as_tensor(teacher.obs_rms.mean, dtype=torch.float64)
     ts = torch.sqrt(torch.as_tensor(teacher.obs_rms.var, dtype=torch.float64) + teacher.epsilon)
@@ -404,13 +408,14 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
     env_kwargs = sensor_env_kwargs(config)
     record = {
         "algo": "ppo", "seed": seed, "env_id": SENSOR_ID, "env_kwargs": env_kwargs,
-        "hyperparameters": {"normalize": True, "warm_start": "none",
+        "hyperparameters": {**FINE_TUNE_PPO, "normalize": True, "warm_start": "none",
                             "policy_kwargs": {"net_arch": {"pi": student.model.policy.net_arch["pi"], "vf": [64, 64]},
                                               "activation_fn": "relu", "log_std_init": config.log_std}},
         "adapted_from": {"teacher": config.teacher, "config": str(config_path), "adapt": asdict(config),
                          "validation_seed": validation_seed, "history": history, "merged": check},
         "command": command, "versions": versions(), "torch_threads": config.torch_threads,
-        "total_timesteps": 0, "wall_time_s": wall, "interrupted": False,
+        "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall, "steps_per_s_this_run": 0.0, "resumes": 0,
+        "interrupted": False,
     }
     save_student(student, out / "policy", record)
     summary = {"config": str(config_path), "command": command, "seed": seed, "wall_time_s": wall,

@@ -54,11 +54,20 @@ def _range(values: list[float] | None, default):
 
 
 def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any]):
-    """The batched training env with a monitor."""
-    from stable_baselines3.common.vec_env import VecMonitor
+    """The training env with a monitor: the batched vector env, or, for the sensor observation and
+    load steps (which it does not step), ``n_envs`` single envs in a ``DummyVecEnv``."""
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
     from .vec_env import BatchedVecEnv
 
+    if env_kwargs.get("observation", "full") != "full" or env_kwargs.get("load_step_period") is not None:
+        import gymnasium as gym
+
+        import mdr_drive_env  # noqa: F401  registers the env
+
+        venv = DummyVecEnv([lambda: gym.make(ENV_ID, **env_kwargs) for _ in range(n_envs)])
+        venv.seed(seed)
+        return VecMonitor(venv)
     return VecMonitor(BatchedVecEnv(n_envs, seed=seed, **env_kwargs))
 
 
@@ -235,7 +244,8 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     if isinstance(model.get_env(), VecNormalize):
         model.get_env().save(str(out / "vecnormalize.pkl"))
     record = {
-        "algo": algo, "seed": seed, "env_id": ENV_ID, "env_kwargs": env_kwargs,
+        "algo": algo, "seed": seed, "env_id": previous.get("env_id", ENV_ID) if previous else ENV_ID,
+        "env_kwargs": env_kwargs,
         "hyperparameters": {**hyper, "n_envs": n, "normalize": normalize},
         "command": " ".join(sys.argv), "versions": versions(), "torch_threads": threads,
         "total_timesteps": int(model.num_timesteps), "steps_this_run": int(model.num_timesteps - start_steps),

@@ -113,3 +113,15 @@ def test_the_adaptation_report_runs_in_quick_mode(sensor_run, tmp_path):
                  "adaptation_tracking.png"):
         assert (tmp_path / name).stat().st_size > 0
     assert res["points"] == adaptation.draw_hidden(2, 5)  # the draws follow the seed
+
+
+def test_the_sensor_policy_fine_tunes_with_ppo_through_train_resume(sensor_run, tmp_path):
+    import shutil
+
+    from mdr_drive_agents.train import train
+
+    out, _ = sensor_run
+    shutil.copytree(out / "policy", tmp_path / "policy")
+    record = train(resume=tmp_path / "policy", steps=64, progress_bar=False, eval_freq=10_000, n_envs=2)
+    assert record["resumes"] == 1 and record["total_timesteps"] >= 64
+    assert record["env_id"] == "MDRDriveSensor-v0" and record["env_kwargs"]["observation"] == "sensor"
