@@ -34,7 +34,6 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import yaml
-from tqdm import tqdm
 
 from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
 from mdr_drive_env.core.params import check_int, check_range
@@ -43,19 +42,10 @@ from mdr_drive_env.files import write_text
 from mdr_drive_env.gym_envs.spaces import ObservationLayout, SensorLayout
 
 from .distill import Student, save_student
+from .estimator import FINE_TUNE_PPO, HIDDEN, SENSOR_ID, Estimator, SensorTeacher, merged_policy
 from .evaluate import Policy, steady_velocity_of
 
-SENSOR_ID = "MDRDriveSensor-v0"
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "sensor.yaml"
-#: The full observation's entries the sensor observation hides (ObservationLayout.structure names).
-HIDDEN = ("k", "load_over_friction", "load_over_10N")
-N_FULL = len(ObservationLayout.NAMES)
-#: PPO settings of the shipped network: what ``mdr-drive train --resume`` fine-tunes it with (small
-#: steps: near an optimal drive the velocity changes steeply with the action).
-FINE_TUNE_PPO = {"n_steps": 128, "batch_size": 128, "n_epochs": 10, "gamma": 0.98, "gae_lambda": 0.95,
-                 "learning_rate": 3e-5, "clip_range": 0.1, "ent_coef": 0.0, "n_envs": 8}
-
-
 @dataclass(frozen=True)
 class AdaptConfig:
     """Training of the sensor policy (module docstring).
@@ -136,100 +126,6 @@ def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.ran
     return np.concatenate(sensed), np.concatenate(privileged), np.array(disp)
 
 
-class Estimator:
-    """An MLP from the sensor observation to the entries the sensor hides (``HIDDEN``), both
-    standardised with the statistics of the first data it is fitted on."""
-
-    def __init__(self, obs_dim: int, arch: tuple[int, ...], seed: int):
-        import torch
-
-        torch.manual_seed(seed)
-        layers, width = [], obs_dim
-        for n in arch:
-            layers += [torch.nn.Linear(width, n), torch.nn.ReLU()]
-            width = n
-        self.net = torch.nn.Sequential(*layers, torch.nn.Linear(width, len(HIDDEN)))
-        self.scales = None  # (x mean, x std, y mean, y std)
-
-    def fit(self, x: np.ndarray, y: np.ndarray, steps: int, config: AdaptConfig, seed: int, progress: bool) -> float:
-        """``steps`` Adam steps of squared error on standardised targets; returns the last epoch's loss."""
-        import torch
-
-        if self.scales is None:
-            self.scales = (x.mean(axis=0), x.std(axis=0) + 1e-6, y.mean(axis=0), y.std(axis=0) + 1e-6)
-        xm, xs, ym, ys = self.scales
-        xt = torch.as_tensor((x - xm) / xs, dtype=torch.float32)
-        yt = torch.as_tensor((y - ym) / ys, dtype=torch.float32)
-        return adam_fit(self.net.parameters(), lambda idx: torch.mean((self.net(xt[idx]) - yt[idx]) ** 2), len(xt),
-                        steps, config, seed, "adapt: estimator", progress)
-
-    def __call__(self, x: np.ndarray) -> np.ndarray:
-        import torch
-
-        xm, xs, ym, ys = self.scales
-        with torch.no_grad():
-            out = self.net(torch.as_tensor((x - xm) / xs, dtype=torch.float32)).numpy()
-        return out * ys + ym
-
-
-class SensorTeacher:
-    """The teacher told the estimator's guesses for the hidden entries, its own average for the
-    slider's motion and the contact forces (it was trained to ignore them), and, from the sensor
-    observation, the previous action and the episode's elapsed fraction: a function of the sensor
-    observation alone (RMA's base policy on its adaptation module's estimate)."""
-
-    def __init__(self, teacher: Policy, estimator: Estimator, sensor_structure: dict):
-        self.teacher, self.estimator = teacher, estimator
-        full = ObservationLayout.structure
-        self.hidden = [full[name].start for name in HIDDEN]
-        self.dynamics = list(range(full["dynamics"].start, full["dynamics"].stop))
-        actions = sensor_structure["actions"]
-        # full-observation entries copied from the sensor observation: the newest action, the fraction
-        self.copied = [*range(full["previous_action"].start, full["previous_action"].stop),
-                       full["episode_fraction"].start]
-        self.sources = [*range(actions.start, actions.start + 5), sensor_structure["episode_fraction"].start]
-
-    def full_observation(self, sensed: np.ndarray) -> np.ndarray:
-        """The full observation the teacher is given for sensor observations ``sensed`` (n, d)."""
-        full = np.zeros((len(sensed), N_FULL), dtype=np.float32)
-        full[:, self.dynamics] = self.teacher.obs_rms.mean[self.dynamics]
-        full[:, self.copied] = sensed[:, self.sources]
-        full[:, self.hidden] = self.estimator(sensed)
-        return full
-
-    def __call__(self, sensed: np.ndarray, privileged: np.ndarray | None = None) -> np.ndarray:
-        return np.asarray(self.teacher(self.full_observation(sensed)), dtype=np.float32)
-
-
-def adam_fit(params, loss_of, n: int, steps: int, config: AdaptConfig, seed: int, desc: str, progress: bool) -> float:
-    """``steps`` Adam steps over shuffled minibatches of ``n`` samples (``loss_of(indices)``), the
-    learning rate decaying linearly to zero; returns the last epoch's mean loss."""
-    import torch
-
-    opt = torch.optim.Adam(list(params), lr=config.learning_rate)
-    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: max(1.0 - s / steps, 0.0))
-    gen = torch.Generator().manual_seed(seed)
-    done, total, seen = 0, 0.0, 0
-    bar = tqdm(total=steps, desc=desc, unit="step", disable=not progress, mininterval=2.0)
-    while done < steps:
-        perm = torch.randperm(n, generator=gen)
-        total, seen = 0.0, 0
-        for i in range(0, n, config.batch):
-            if done >= steps:
-                break
-            idx = perm[i:i + config.batch]
-            loss = loss_of(idx)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            sched.step()
-            total, seen, done = total + float(loss.detach()) * len(idx), seen + len(idx), done + 1
-            bar.update()
-        bar.set_postfix(loss=f"{total / max(seen, 1):.2e}")
-    bar.close()
-    return total / max(seen, 1)
-
-
 def validation(driver, teacher: Policy, config: AdaptConfig, seed: int, n: int = 64) -> dict:
     """``driver``'s steady velocity (mean of the last 10 of 30 periods, no load step) as a fraction
     of the teacher's on the same ``n`` hidden draws of ``seed`` where the teacher moves >= 2 mm/s."""
@@ -273,91 +169,14 @@ def train(config: AdaptConfig, seed: int = 0, validation_seed: int | None = None
             estimator = Estimator(x.shape[1], config.estimator_arch, seed)
             sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
         record = {"round": r, "samples": len(x),
-                  "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config, seed + r, progress)}
+                  "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
+                                        config.learning_rate, seed + r, progress)}
         if validation_seed is not None:
             record.update(validation(sensor_teacher, teacher, config, validation_seed))
         record["wall_time_s"] = round(time.perf_counter() - t0, 1)
         history.append(record)
         _log(record)
     return sensor_teacher, history
-
-
-def merged_policy(sensor_teacher: SensorTeacher, config: AdaptConfig, seed: int = 0) -> Student:
-    """One SB3 PPO ``MlpPolicy`` (ReLU) on the sensor observation that computes ``sensor_teacher``
-    exactly (as long as the teacher's normalised inputs stay inside its VecNormalize clip):
-
-    * its ``VecNormalize`` standardises the observation as the estimator does (no clipping);
-    * its first layers are the estimator's hidden layers, widened by units that carry the entries
-      the teacher reads from the sensor observation (each as relu(x) and relu(-x));
-    * the next layer is the teacher's first layer composed with the estimator's output layer and the
-      teacher's observation normalisation (a product of linear maps);
-    * the rest is the teacher's network (its later layers and action head) as it is.
-    """
-    import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
-
-    est, teacher = sensor_teacher.estimator, sensor_teacher.teacher
-    xm, xs, ym, ys = est.scales
-    est_linear = [m for m in est.net if isinstance(m, torch.nn.Linear)]
-    t_net = teacher.model.policy.mlp_extractor.policy_net
-    t_linear = [m for m in t_net if isinstance(m, torch.nn.Linear)]
-    if not all(isinstance(m, (torch.nn.Linear, torch.nn.ReLU)) for m in t_net):
-        raise ValueError(f"{config.teacher}: the teacher's policy network is not Linear/ReLU layers")
-    carried = sensor_teacher.sources
-    n_c = len(carried)
-    widths = [m.out_features + 2 * n_c for m in est_linear[:-1]]
-    venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: gym.make(SENSOR_ID, history=config.history,
-                                                                 max_periods=config.periods)])),
-                        norm_obs=True, norm_reward=True, gamma=0.98, clip_obs=1e6)
-    venv.obs_rms.mean = xm.astype(np.float64)
-    venv.obs_rms.var = xs.astype(np.float64) ** 2 - venv.epsilon
-    venv.obs_rms.count = 1e6
-    policy_kwargs = {"net_arch": {"pi": [*widths, *(m.out_features for m in t_linear)], "vf": [64, 64]},
-                     "activation_fn": torch.nn.ReLU, "log_std_init": config.log_std}
-    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs,
-                **{key: v for key, v in FINE_TUNE_PPO.items() if key != "n_envs"})
-    layers = [m for m in model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
-    tm = torch.as_tensor(teacher.obs_rms.mean, dtype=torch.float64)
-    ts = torch.sqrt(torch.as_tensor(teacher.obs_rms.var, dtype=torch.float64) + teacher.epsilon)
-    with torch.no_grad():
-        for i, (lin, src) in enumerate(zip(layers, est_linear[:-1])):  # estimator layers + carried units
-            w = torch.zeros_like(lin.weight, dtype=torch.float64)
-            b = torch.zeros_like(lin.bias, dtype=torch.float64)
-            h = src.out_features
-            w[:h, :src.in_features] = src.weight.double()
-            b[:h] = src.bias.double()
-            for j, c in enumerate(carried):
-                if i == 0:  # from the standardised observation
-                    w[h + j, c], w[h + n_c + j, c] = 1.0, -1.0
-                else:  # relu(relu(x)) = relu(x)
-                    prev_h = est_linear[i - 1].out_features
-                    w[h + j, prev_h + j], w[h + n_c + j, prev_h + n_c + j] = 1.0, 1.0
-            lin.weight.copy_(w)
-            lin.bias.copy_(b)
-        # the teacher's normalised input z = A h + B (c+ - c-) + c0, then its first layer
-        out, h = est_linear[-1], est_linear[-1].in_features
-        a_mat = torch.zeros((N_FULL, h), dtype=torch.float64)
-        b_mat = torch.zeros((N_FULL, n_c), dtype=torch.float64)
-        c0 = torch.zeros(N_FULL, dtype=torch.float64)
-        for j, idx in enumerate(sensor_teacher.hidden):  # estimate, in the full observation's units
-            a_mat[idx] = out.weight[j].double() * ys[j] / ts[idx]
-            c0[idx] = (out.bias[j].double() * ys[j] + ym[j] - tm[idx]) / ts[idx]
-        for j, (idx, c) in enumerate(zip(sensor_teacher.copied, carried)):  # copied entries
-            b_mat[idx, j] = xs[c] / ts[idx]
-            c0[idx] = (xm[c] - tm[idx]) / ts[idx]
-        # the dynamics entries sit at the teacher's mean: 0 after normalisation
-        first = t_linear[0]
-        w1 = first.weight.double()
-        lin = layers[len(widths)]
-        lin.weight.copy_(torch.cat([w1 @ a_mat, w1 @ b_mat, -(w1 @ b_mat)], dim=1))
-        lin.bias.copy_(first.bias.double() + w1 @ c0)
-        for lin, src in zip(layers[len(widths) + 1:], t_linear[1:]):
-            lin.weight.copy_(src.weight)
-            lin.bias.copy_(src.bias)
-        model.policy.action_net.weight.copy_(teacher.model.policy.action_net.weight)
-        model.policy.action_net.bias.copy_(teacher.model.policy.action_net.bias)
-    return Student(model, venv)
 
 
 def sensor_env_kwargs(config: AdaptConfig) -> dict:
@@ -399,7 +218,7 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
         " ".join(sys.argv)
     t0 = time.perf_counter()
     sensor_teacher, history = train(config, seed, validation_seed, progress)
-    student = merged_policy(sensor_teacher, config, seed)
+    student = merged_policy(sensor_teacher, config.history, config.periods, config.log_std, seed)
     check = merge_check(student, sensor_teacher, config, seed)
     if validation_seed is not None:
         check.update(validation(lambda s, p: student.act(s), sensor_teacher.teacher, config, validation_seed))

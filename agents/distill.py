@@ -200,27 +200,44 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
     shuffled = [*range(*structure["dynamics"].indices(14)), *range(*structure["episode_fraction"].indices(14))]
     prev_slice = structure["previous_action"]
     policy = student.model.policy
-    params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
-    opt = torch.optim.Adam(params, lr=config.learning_rate)
-    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: max(1.0 - s / steps, 0.0))
     rng = np.random.default_rng(seed)
-    gen = torch.Generator().manual_seed(seed)
-    policy.set_training_mode(True)
-    done, total = 0, 0.0
-    bar = tqdm(total=steps, desc="distill: fit", unit="step", disable=not progress, mininterval=2.0)
-    while done < steps:
+
+    def epoch():
         x = perturb_previous_actions(obs, drives, rng, config.perturbed_share, prev_slice)
         y = torch.as_tensor(cycle_action(drives, x[:, prev_slice]), dtype=torch.float32)
         for column in shuffled:
             x[:, column] = x[rng.permutation(len(x)), column]
         x = torch.as_tensor(student.venv.normalize_obs(x.astype(np.float64)), dtype=torch.float32)
-        perm = torch.randperm(len(x), generator=gen)
+        return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx])
+
+    policy.set_training_mode(True)
+    loss = adam_fit([*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()], epoch, steps,
+                    config.batch, config.learning_rate, seed, "distill: fit", progress)
+    policy.set_training_mode(False)
+    return loss
+
+
+def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str,
+             progress: bool = True) -> float:
+    """``steps`` Adam steps, the learning rate decaying linearly to zero; every epoch ``epoch()``
+    gives ``(n, loss_of)``: its sample count and the loss of a minibatch of sample indices, visited
+    in a shuffled order. Returns the last epoch's mean loss."""
+    import torch
+
+    opt = torch.optim.Adam(list(params), lr=learning_rate)
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: max(1.0 - s / steps, 0.0))
+    gen = torch.Generator().manual_seed(seed)
+    done, total, seen = 0, 0.0, 0
+    bar = tqdm(total=steps, desc=desc, unit="step", disable=not progress, mininterval=2.0)
+    while done < steps:
+        n, loss_of = epoch()
+        perm = torch.randperm(n, generator=gen)
         total, seen = 0.0, 0
-        for i in range(0, len(x), config.batch):
+        for i in range(0, n, batch):
             if done >= steps:
                 break
-            idx = perm[i:i + config.batch]
-            loss = edge_loss(policy_mean(policy, x[idx]), y[idx])
+            idx = perm[i:i + batch]
+            loss = loss_of(idx)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -229,7 +246,6 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
             bar.update()
         bar.set_postfix(loss=f"{total / max(seen, 1):.2e}")
     bar.close()
-    policy.set_training_mode(False)
     return total / max(seen, 1)
 
 
@@ -296,5 +312,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "Student", "distill", "draw_points", "edge_loss", "fit", "perturb_previous_actions",
+__all__ = ["DistillConfig", "Student", "adam_fit", "distill", "draw_points", "edge_loss", "fit", "perturb_previous_actions",
            "policy_mean", "rollout", "save_student"]

@@ -220,7 +220,7 @@ produced them. It is not told k, the load or the friction coefficients (docs/ada
   (k, the load over mu F_ref, the load) was fitted to the sensor history on episodes the teacher drove
   (told the true values), then, round by round, on episodes the teacher drove on the estimator's guesses
   (RMA's adaptation module, trained on its own state distribution). This network is that composition,
-  estimator then teacher, written exactly as one MlpPolicy (`agents/adapt.py: merged_policy`; largest
+  estimator then teacher, written exactly as one MlpPolicy (`agents/estimator.py: merged_policy`; largest
   action difference {adapted['merged']['merge_max_action_difference']:.1e}). Settings: `{json.dumps(adapted['adapt'])}`
 * Training range: the hidden parameters of `MDRDriveSensor-v0` (k 0-0.6, load up to 0.4 of mu F_ref,
   mu 0.2-0.4, mu1 0.07-0.13), half of the episodes with a load step.

@@ -43,7 +43,8 @@ def sensor_run(tmp_path_factory):
 
 
 def test_the_merged_network_is_the_estimator_informed_teacher():
-    from mdr_drive_agents.adapt import Estimator, SensorTeacher, merged_policy, sensor_envs
+    from mdr_drive_agents.adapt import sensor_envs
+    from mdr_drive_agents.estimator import Estimator, SensorTeacher, merged_policy
     from mdr_drive_agents.evaluate import Policy
     from mdr_drive_env.gym_envs.spaces import SensorLayout
 
@@ -51,9 +52,9 @@ def test_the_merged_network_is_the_estimator_informed_teacher():
     envs, first = sensor_envs(config, 4, seed=2)
     sensed = np.vstack([first, np.random.default_rng(0).normal(size=(50, first.shape[1])).astype(np.float32)])
     estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0)
-    estimator.fit(sensed, np.random.default_rng(1).uniform(size=(len(sensed), 3)), 5, config, 0, False)
+    estimator.fit(sensed, np.random.default_rng(1).uniform(size=(len(sensed), 3)), 5, 16, 1e-3, 0, False)
     composed = SensorTeacher(Policy(config.teacher), estimator, SensorLayout(2).structure)
-    merged = merged_policy(composed, config)
+    merged = merged_policy(composed, config.history, config.periods, config.log_std)
     assert np.abs(merged.act(sensed) - np.clip(composed(sensed), -1, 1)).max() < 1e-4
 
 
