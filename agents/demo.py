@@ -1,4 +1,5 @@
-"""``make demo`` / ``mdr-drive demo``: the paper's drive, then the shipped policy against the trapezoid."""
+"""``make demo`` / ``mdr-drive demo``: the paper's drive, the shipped policy against the trapezoid,
+then the sensor policy through a load step."""
 
 from __future__ import annotations
 
@@ -15,11 +16,13 @@ from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
     PRETRAINED,
+    SENSOR_PRETRAINED,
     Policy,
     csv_velocity,
     format_velocity,
     open_loop_velocity,
     policy_label,
+    env_rollout,
     policy_rollout,
     steady_velocity_of,
     trapezoid_action,
@@ -27,6 +30,10 @@ from .evaluate import (
 
 DEMO_KS = (0.0, 0.1, 0.2, 0.3)
 DEMO_MASSES = (0.0, 0.1, 0.2, 0.4)
+#: The load steps of part 3: k, and (cargo mass before, period of the step, cargo mass after) (kg).
+STEP_K = 0.2
+LOAD_STEPS = ((0.02, 15, 0.12), (0.12, 15, 0.02))
+STEP_PERIODS = 30
 #: Loads of the demo's plot (kg): fine enough to show where each drive stalls.
 PLOT_MASSES = tuple(np.round(np.linspace(0.0, 0.8, 41), 3))
 
@@ -39,6 +46,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="results/demo", type=output_dir, help="output folder")
     p.add_argument("--policy", default=str(PRETRAINED), type=policy_path,
                    help="policy folder (default: the shipped one, agents/pretrained/ppo_generalist)")
+    p.add_argument("--sensor-policy", default=str(SENSOR_PRETRAINED), type=policy_path,
+                   help="sensor policy folder for part 3 (default: agents/pretrained/ppo_sensor)")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -108,8 +117,42 @@ def main(args: argparse.Namespace) -> int:
     write_csv(out / "policy_vs_trapezoid.csv", ["k", "cargo_mass_kg", "learned_m_s", "trapezoid_m_s"],
               [(k, m, csv_velocity(float(v)), csv_velocity(float(t)))
                for (k, m), v, t in zip(plot_points, learned[n_table:], trap[n_table:])])
+    load_steps(Policy(args.sensor_policy), policy, out)
     print(f"\nplots and CSV in {out}/ ; done in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+def load_steps(sensor, full, out: Path) -> None:
+    """Part 3: the sensor policy (told neither k nor the load) through ``LOAD_STEPS`` at ``STEP_K``,
+    against the full-observation policy and the trapezoid; prints the means, writes load_step.png."""
+    import matplotlib.pyplot as plt
+
+    from mdr_drive_env.files import save_figure
+
+    sensor_kwargs = {key: sensor.run["env_kwargs"][key] for key in ("observation", "history")}
+    drives = (("sensor policy", sensor, sensor_kwargs), ("full-observation policy", full, {}),
+              ("trapezoid", None, {}))
+    print(f"\n3. a drive that does not know its load: k = {STEP_K:g}, the cargo changes before period "
+          f"{LOAD_STEPS[0][1]} (counted from 0); mean velocity (mm/s) of periods 1-{LOAD_STEPS[0][1]} -> "
+          f"{LOAD_STEPS[0][1] + 6}-{STEP_PERIODS}")
+    fig, axes = plt.subplots(1, len(LOAD_STEPS), figsize=(11, 3.8), sharey=True)
+    for ax, (before, period, after) in zip(axes, LOAD_STEPS):
+        line = []
+        for name, policy, kwargs in drives:
+            v, _, _ = env_rollout(policy, STEP_K, before, STEP_PERIODS, (period, after), **kwargs)
+            line.append(f"{name} {v[:period].mean() * 1e3:.1f} -> {v[period + 5:].mean() * 1e3:.1f}")
+            ax.plot(np.arange(1, STEP_PERIODS + 1), v * 1e3, lw=1.8 if policy is sensor else 1.0, label=name)
+        print(f"   {before * 1e3:.0f} g -> {after * 1e3:.0f} g: " + ", ".join(line))
+        ax.axvline(period + 0.5, color="k", ls=":", lw=0.8)
+        ax.set(title=f"k = {STEP_K:g}: cargo {before * 1e3:.0f} g -> {after * 1e3:.0f} g before period {period + 1}",
+               xlabel="period")
+        ax.title.set_fontsize(9)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("mean velocity per period (mm/s)")
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, out / "load_step.png")
+    plt.close(fig)
 
 
 if __name__ == "__main__":  # python -m mdr_drive_agents.demo ... is mdr-drive demo ...

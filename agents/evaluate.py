@@ -28,6 +28,8 @@ from mdr_drive_env.gym_envs.spaces import ActionMap
 
 #: The shipped policy.
 PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
+#: The shipped sensor policy (MDRDriveSensor-v0: k, the load and friction hidden).
+SENSOR_PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_sensor"
 EVAL_PERIODS = 30
 AVERAGE_PERIODS = 10
 ACTION_MAP = ActionMap()

@@ -126,3 +126,12 @@ def test_the_sensor_policy_fine_tunes_with_ppo_through_train_resume(sensor_run, 
     record = train(resume=tmp_path / "policy", steps=64, progress_bar=False, eval_freq=10_000, n_envs=2)
     assert record["resumes"] == 1 and record["total_timesteps"] >= 64
     assert record["env_id"] == "MDRDriveSensor-v0" and record["env_kwargs"]["observation"] == "sensor"
+
+
+def test_the_demo_drives_the_shipped_sensor_policy_through_a_load_step(tmp_path, capsys):
+    from mdr_drive_agents.demo import load_steps
+    from mdr_drive_agents.evaluate import PRETRAINED, SENSOR_PRETRAINED, Policy
+
+    load_steps(Policy(SENSOR_PRETRAINED), Policy(PRETRAINED), tmp_path)
+    assert (tmp_path / "load_step.png").stat().st_size > 10_000
+    assert capsys.readouterr().out.count("sensor policy") == 2  # one line per load step
