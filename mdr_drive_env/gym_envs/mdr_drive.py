@@ -159,7 +159,8 @@ class MDRDriveEnv(gym.Env):
     picked up or set down); ``info["load_step_period"]`` says when, ``info["cargo_mass"]`` what.
     ``MDRDriveSensor-v0`` draws k in [0, 0.6], the load ratio in [0, 0.4] (about 1.25 times the
     trapezoid's critical load), mu in [0.2, 0.4] and mu1 in [0.07, 0.13], without a load step unless
-    ``load_step_period`` is given.
+    ``load_step_period`` is given; any of them given to ``gym.make`` replaces its default (a
+    ``cargo_mass`` replaces the load-ratio range).
 
     ## Episode End
 
