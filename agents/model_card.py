@@ -59,16 +59,16 @@ def training_note(run: dict) -> str:
             f"warm start {run['hyperparameters'].get('warm_start', 'none')}")
 
 
-LOAD_SNIPPET = """```python
+SNIPPET = """```python
 import gymnasium as gym
 import numpy as np
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-import mdr_drive_env  # registers MDRDrive-v0
-
-venv = DummyVecEnv([lambda: gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1)])
-venv = VecNormalize.load("{dir}/vecnormalize.pkl", venv)
+import mdr_drive_env  # registers {env_id}
+{comment}
+make = lambda: gym.make({make_args})
+venv = VecNormalize.load("{dir}/vecnormalize.pkl", DummyVecEnv([make]))
 venv.training, venv.norm_reward = False, False      # play: statistics frozen, raw rewards
 model = PPO.load("{dir}/model.zip", device="cpu")
 obs, velocities = venv.reset(), []
@@ -78,6 +78,18 @@ for period in range(30):
     velocities.append(info[0]["mean_velocity"])
 print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
 ```"""
+
+
+def snippet(dst: Path, run: dict) -> str:
+    """The card's tested loading snippet for the policy in ``dst`` (full or sensor observation)."""
+    if run["env_id"] == "MDRDriveSensor-v0":
+        return SNIPPET.format(env_id="MDRDriveSensor-v0", dir=dst.as_posix(),
+                              comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
+                                      "here to try one drive",
+                              make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, max_periods=30, '
+                                        "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
+                                        "base_friction_coefficient=0.1")
+    return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(), comment="", make_args='"MDRDrive-v0", k=0.2, cargo_mass=0.1')
 
 
 def blind_section(blind_json: str | Path, policy_key: str) -> str:
@@ -118,7 +130,7 @@ and sets each period's waveform within the paper's actuator limits. Nothing but 
 
 ## Load it
 
-{LOAD_SNIPPET.format(dir=dst.as_posix())}
+{snippet(dst, run)}
 
 (`tests/test_shipped_policy.py` runs this snippet.) Or: `mdr-drive evaluate --policy {dst.as_posix()} --k 0.2
 --cargo-mass 0.1 --json`; `mdr-drive train --resume {dst.as_posix()}` fine-tunes it with PPO (copy the
@@ -157,29 +169,6 @@ fresh drive, computed by `python -m mdr_drive_agents.model_card {src.as_posix()}
     return dst / "MODEL_CARD.md"
 
 
-SENSOR_SNIPPET = """```python
-import gymnasium as gym
-import numpy as np
-from stable_baselines3 import PPO
-from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
-
-import mdr_drive_env  # registers MDRDriveSensor-v0
-
-# k, the load and friction are hidden from the policy: drawn per episode, or fixed here to try one drive
-make = lambda: gym.make("MDRDriveSensor-v0", history={history}, max_periods=30, k=0.2, cargo_mass=0.1,
-                        friction_coefficient=0.3, base_friction_coefficient=0.1)
-venv = VecNormalize.load("{dir}/vecnormalize.pkl", DummyVecEnv([make]))
-venv.training, venv.norm_reward = False, False      # play: statistics frozen, raw rewards
-model = PPO.load("{dir}/model.zip", device="cpu")
-obs, velocities = venv.reset(), []
-for period in range(30):
-    action, _ = model.predict(obs, deterministic=True)
-    obs, reward, done, info = venv.step(action)
-    velocities.append(info[0]["mean_velocity"])
-print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
-```"""
-
-
 def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -> Path:
     """Copy the sensor policy in ``src`` to ``dst`` (as :func:`ship`) and write its card, which
     quotes its results from ``adaptation_json`` (``python -m mdr_drive_agents.adaptation``)."""
@@ -208,7 +197,7 @@ produced them. It is not told k, the load or the friction coefficients (docs/ada
 
 ## Load it
 
-{SENSOR_SNIPPET.format(dir=dst.as_posix(), history=run['env_kwargs']['history'])}
+{snippet(dst, run)}
 
 (`tests/test_shipped_policy.py` runs this snippet.) Or: `mdr-drive evaluate --policy {dst.as_posix()} --k 0.2
 --cargo-mass 0.1 --friction-coefficient 0.25 --load-step 15:0.05 --json`.
