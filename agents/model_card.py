@@ -66,8 +66,8 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 import mdr_drive_env  # registers {env_id}
-{comment}
-make = lambda: gym.make({make_args})
+
+{comment}make = lambda: gym.make({make_args})
 venv = VecNormalize.load("{dir}/vecnormalize.pkl", DummyVecEnv([make]))
 venv.training, venv.norm_reward = False, False      # play: statistics frozen, raw rewards
 model = PPO.load("{dir}/model.zip", device="cpu")
@@ -85,7 +85,7 @@ def snippet(dst: Path, run: dict) -> str:
     if run["env_id"] == "MDRDriveSensor-v0":
         return SNIPPET.format(env_id="MDRDriveSensor-v0", dir=dst.as_posix(),
                               comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
-                                      "here to try one drive",
+                                      "here to try one drive\n",
                               make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, max_periods=30, '
                                         "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
                                         "base_friction_coefficient=0.1")
