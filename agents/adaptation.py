@@ -96,11 +96,8 @@ def play(drive: str, policies: dict, d: dict, periods: int, load_step=None):
     friction = {"friction_coefficient": d["friction_coefficient"],
                 "base_friction_coefficient": d["base_friction_coefficient"]}
     policy = policies[drive]
-    kwargs = dict(friction)
-    if drive == "sensor policy":
-        kwargs.update({key: policy.run["env_kwargs"][key] for key in ("observation", "history")})
-    return env_rollout(None if drive == "trapezoid" else policy, d["k"], d["cargo_mass"], periods, load_step,
-                       **kwargs)
+    kwargs = {**friction, **(policy.observation_kwargs if isinstance(policy, Policy) else {})}
+    return env_rollout(policy, d["k"], d["cargo_mass"], periods, load_step, **kwargs)
 
 
 def recovery(v: np.ndarray) -> tuple[float, float | None, bool | None]:

@@ -178,6 +178,13 @@ class Policy:
             self.obs_rms, self.clip_obs, self.epsilon = vn.obs_rms, vn.clip_obs, vn.epsilon
         self.run = run
 
+    @property
+    def observation_kwargs(self) -> dict:
+        """The env keywords that shape the observation it was trained on (``OBSERVATION_KEYS`` of its
+        run.json): an env built with them gives it the observation it expects."""
+        env_kwargs = self.run.get("env_kwargs", {})
+        return {key: env_kwargs[key] for key in OBSERVATION_KEYS if key in env_kwargs}
+
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         if self.obs_rms is not None:
             obs = np.clip((obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
@@ -346,8 +353,7 @@ def main(args: argparse.Namespace) -> int:
 
             raise with_option_name(e, FIELD_OPTIONS) from None
     policy = Policy(args.policy)
-    env_kwargs = {key: policy.run["env_kwargs"][key] for key in OBSERVATION_KEYS
-                  if key in policy.run.get("env_kwargs", {})}
+    env_kwargs = policy.observation_kwargs
     friction = {name: getattr(args, name) for name in ("friction_coefficient", "base_friction_coefficient")
                 if getattr(args, name) is not None}
     for warning in trained_range_warnings(policy.run, points if not args.critical_load else [], friction):

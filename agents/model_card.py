@@ -110,16 +110,22 @@ def blind_section(blind_json: str | Path, policy_key: str) -> str:
 """
 
 
-def ship(src: str | Path, dst: str | Path, blind_json: str | Path | None = None) -> Path:
-    """Copy the policy in ``src`` (``model.zip``, ``vecnormalize.pkl``, ``run.json``) to ``dst``
-    (nothing to copy if they are the same folder) and write its card; with ``blind_json``, the card
-    quotes the policy's blind results from it."""
+def copy_policy(src: str | Path, dst: str | Path) -> tuple[Path, dict]:
+    """Copy ``FILES`` of the policy in ``src`` to ``dst`` (nothing if they are the same folder);
+    returns ``dst`` and its run record."""
     src, dst = Path(src), Path(dst)
     dst.mkdir(parents=True, exist_ok=True)
     if src.resolve() != dst.resolve():
         for name in FILES:
             shutil.copy2(src / name, dst / name)
-    run = json.loads((dst / "run.json").read_text())
+    return dst, json.loads((dst / "run.json").read_text())
+
+
+def ship(src: str | Path, dst: str | Path, blind_json: str | Path | None = None) -> Path:
+    """Copy the policy in ``src`` (``model.zip``, ``vecnormalize.pkl``, ``run.json``) to ``dst``
+    (nothing to copy if they are the same folder) and write its card; with ``blind_json``, the card
+    quotes the policy's blind results from it."""
+    dst, run = copy_policy(src, dst)
     size_kb = sum((dst / n).stat().st_size for n in FILES) / 1024
     hyper = {k: v for k, v in run["hyperparameters"].items() if k != "policy_kwargs"}
     card = f"""# {dst.name}: a waveform policy for MDRDrive-v0
@@ -159,7 +165,7 @@ folder first: a resumed run writes into it).
 ## Evaluation
 
 Steady slider velocity in mm/s, policy (trapezoid), mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS} of a
-fresh drive, computed by `python -m mdr_drive_agents.model_card {src.as_posix()} {dst.as_posix()}` from the shipped files.
+fresh drive, computed by `python -m mdr_drive_agents.model_card {Path(src).as_posix()} {dst.as_posix()}` from the shipped files.
 "runaway": the load accelerates the slider backwards without bound.
 
 {evaluation_table(dst)}
@@ -172,12 +178,7 @@ fresh drive, computed by `python -m mdr_drive_agents.model_card {src.as_posix()}
 def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -> Path:
     """Copy the sensor policy in ``src`` to ``dst`` (as :func:`ship`) and write its card, which
     quotes its results from ``adaptation_json`` (``python -m mdr_drive_agents.adaptation``)."""
-    src, dst = Path(src), Path(dst)
-    dst.mkdir(parents=True, exist_ok=True)
-    if src.resolve() != dst.resolve():
-        for name in FILES:
-            shutil.copy2(src / name, dst / name)
-    run = json.loads((dst / "run.json").read_text())
+    dst, run = copy_policy(src, dst)
     res = json.loads(Path(adaptation_json).read_text())
     adapted = run["adapted_from"]
     s_sensor = res["statistics"]["sensor policy"]
