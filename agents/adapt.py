@@ -126,16 +126,26 @@ def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.ran
     return np.concatenate(sensed), np.concatenate(privileged), np.array(disp)
 
 
-def validation(driver, teacher: Policy, config: AdaptConfig, seed: int, n: int = 64) -> dict:
-    """``driver``'s steady velocity (mean of the last 10 of 30 periods, no load step) as a fraction
-    of the teacher's on the same ``n`` hidden draws of ``seed`` where the teacher moves >= 2 mm/s."""
-    cfg = AdaptConfig(**{**asdict(config), "periods": 30, "load_step_share": 0.0, "load_step_periods": (1, 1)})
-    v = steady_velocity_of(collect(*sensor_envs(cfg, n, seed), driver)[2])
-    v_teacher = steady_velocity_of(collect(*sensor_envs(cfg, n, seed), lambda s, p: teacher(p))[2])
-    keep = v_teacher >= 2e-3
-    frac = v[keep] / v_teacher[keep]
-    return {"val_mean_fraction_of_teacher": float(frac.mean()), "val_min_fraction_of_teacher": float(frac.min()),
-            "val_points_scored": int(keep.sum())}
+class Validation:
+    """A driver's steady velocity (mean of the last 10 of 30 periods, no load step) as a fraction of
+    the teacher's on the same ``n`` hidden draws of ``seed``, where the teacher moves >= 2 mm/s (the
+    teacher's velocities are computed once)."""
+
+    def __init__(self, teacher: Policy, config: AdaptConfig, seed: int, n: int = 64):
+        self.config = AdaptConfig(**{**asdict(config), "periods": 30, "load_step_share": 0.0,
+                                     "load_step_periods": (1, 1)})
+        self.seed, self.n = seed, n
+        self.v_teacher = self.steady(lambda s, p: teacher(p))
+
+    def steady(self, driver) -> np.ndarray:
+        """``driver``'s steady velocities (m/s) on the draws."""
+        return steady_velocity_of(collect(*sensor_envs(self.config, self.n, self.seed), driver)[2])
+
+    def __call__(self, driver) -> dict:
+        keep = self.v_teacher >= 2e-3
+        frac = self.steady(driver)[keep] / self.v_teacher[keep]
+        return {"val_mean_fraction_of_teacher": float(frac.mean()), "val_min_fraction_of_teacher": float(frac.min()),
+                "val_points_scored": int(keep.sum())}
 
 
 def _log(record: dict) -> None:
@@ -143,7 +153,7 @@ def _log(record: dict) -> None:
                    for key, value in record.items()), flush=True)
 
 
-def train(config: AdaptConfig, seed: int = 0, validation_seed: int | None = None,
+def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None,
           progress: bool = True) -> tuple[SensorTeacher, list[dict]]:
     """Round 0: the privileged teacher drives; rounds 1 ... R: the estimator-informed teacher
     (``SensorTeacher``) drives, on its own state distribution. After every round the estimator is
@@ -171,8 +181,8 @@ def train(config: AdaptConfig, seed: int = 0, validation_seed: int | None = None
         record = {"round": r, "samples": len(x),
                   "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
                                         config.learning_rate, seed + r, progress)}
-        if validation_seed is not None:
-            record.update(validation(sensor_teacher, teacher, config, validation_seed))
+        if validate is not None:
+            record.update(validate(sensor_teacher))
         record["wall_time_s"] = round(time.perf_counter() - t0, 1)
         history.append(record)
         _log(record)
@@ -217,11 +227,12 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
     command = " ".join(["python -m mdr_drive_agents.adapt", *sys.argv[1:]]) if sys.argv[0].endswith("adapt.py") else \
         " ".join(sys.argv)
     t0 = time.perf_counter()
-    sensor_teacher, history = train(config, seed, validation_seed, progress)
+    validate = None if validation_seed is None else Validation(Policy(config.teacher), config, validation_seed)
+    sensor_teacher, history = train(config, seed, validate, progress)
     student = merged_policy(sensor_teacher, config.history, config.periods, config.log_std, seed)
     check = merge_check(student, sensor_teacher, config, seed)
-    if validation_seed is not None:
-        check.update(validation(lambda s, p: student.act(s), sensor_teacher.teacher, config, validation_seed))
+    if validate is not None:
+        check.update(validate(lambda s, p: student.act(s)))
     _log(check)
     wall = round(time.perf_counter() - t0, 1)
     env_kwargs = sensor_env_kwargs(config)
