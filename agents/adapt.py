@@ -213,6 +213,8 @@ def load_config(path: str | Path) -> tuple[int, int | None, AdaptConfig]:
         config = AdaptConfig(**{key: tuple(v) if isinstance(v, list) else v for key, v in data["adapt"].items()})
     except TypeError as e:
         raise ValueError(f"{path}: {e}") from None
+    if not (Path(config.teacher) / "model.zip").is_file():
+        raise ValueError(f"{path}: teacher={config.teacher!r} is not a policy folder (no model.zip)")
     return int(data["seed"]), data["validation_seed"], config
 
 

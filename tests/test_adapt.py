@@ -89,6 +89,14 @@ def test_bad_adapt_settings_name_themselves(kwargs, name):
         AdaptConfig(**kwargs)
 
 
+def test_a_config_with_a_missing_teacher_is_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_generalist", "teacher: no/such/folder"))
+    assert adapt.main([str(bad), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "teacher='no/such/folder'" in err and err.count("\n") == 1
+
+
 def test_recovery_counts_the_periods_to_nine_tenths_of_the_new_steady_velocity():
     s = adaptation.STEP_PERIOD
     v = np.full(adaptation.STEP_EPISODE_PERIODS, 10e-3)
