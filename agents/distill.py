@@ -9,7 +9,12 @@ network acts (``PPO.load`` + ``VecNormalize.load`` + ``model.predict``). Trainin
 2. rounds 1 ... R: the student plays at fresh random points; every observation it meets is
    labelled with the action the teacher would play next (the teacher's drive at that episode's
    (k, load), in the cycle phase that follows the student's previous action: ``cycle_action``);
-   the student is refitted on everything gathered so far.
+   the student is refitted on everything gathered so far;
+3. hole rounds 1 ... H: the student and the teacher each drive at fresh random points; where the
+   student falls short of the teacher (``find_holes``), the teacher plays more episodes at and
+   around those points, they are added, and the fit continues. A network fitted to a teacher whose
+   drive jumps between optima is wrong in patches near the jumps, and where the patches fall
+   changes from run to run with the fit's round-off: these rounds look for them and fill them.
 
 The teacher's drive at an episode's point is the best of the field's interpolation and its
 surrounding grid drives played at that very point (``DriveField.best``). The fit is a squared
@@ -61,6 +66,18 @@ class DistillConfig:
         perturbed_share: share of the samples whose previous action is perturbed in each epoch (-).
         log_std: the policy's log standard deviation after distillation (for PPO fine-tuning) (-).
         torch_threads: torch threads of the fit (-).
+        hole_rounds: rounds that look for where the student falls short of the teacher and add the
+            teacher's episodes there (module docstring) (-).
+        hole_probes: random points per hole round where the student and the teacher drive (-).
+        hole_shortfall: a probe is a hole where the student's steady velocity is below the
+            teacher's by more than this fraction of it, and by more than 1 mm/s (-).
+        hole_neighbours: teacher episodes added at jittered points around each hole, besides the
+            hole itself (k +- 0.01, load +- 5 %) (-).
+        hole_steps: gradient steps after each hole round (-).
+        hole_learning_rate: Adam step size of those steps, decaying linearly to zero (-).
+        teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
+            the interpolation (``DriveField.best``): 1 the cell's four corners, R the 2R x 2R nodes
+            around it (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -77,18 +94,28 @@ class DistillConfig:
     perturbed_share: float = 0.5
     log_std: float = -3.0
     torch_threads: int = 1
+    teacher_radius: int = 1
+    hole_rounds: int = 0
+    hole_probes: int = 4096
+    hole_shortfall: float = 0.1
+    hole_neighbours: int = 8
+    hole_steps: int = 10_000
+    hole_learning_rate: float = 3e-4
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
-        for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads"):
-            check_int(name, getattr(self, name), 0 if name == "rounds" else 1)
+        for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
+                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps"):
+            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
         check_range("perturbed_share", self.perturbed_share, 0.0, 1.0)
         check_range("load_factor", self.load_factor, 0.0, 5.0, low_open=True)
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
+        check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
+        check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig) -> list:
@@ -184,10 +211,10 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
 
 
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
-        progress: bool = True) -> float:
+        progress: bool = True, learning_rate: float | None = None) -> float:
     """Fit the student's mean action to the teacher's (``cycle_action`` of each sample's drive after
-    its previous action) on normalised ``obs``, ``steps`` Adam steps with the learning rate decaying
-    linearly to zero; returns the last epoch's mean loss.
+    its previous action) on normalised ``obs``, ``steps`` Adam steps with the learning rate
+    (``config.learning_rate`` unless given) decaying linearly to zero; returns the last epoch's mean loss.
 
     Every epoch, each entry of the slider's motion and the episode's elapsed fraction is taken from
     another sample: the teacher's action does not depend on them, and with the entries as recorded
@@ -212,7 +239,7 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
 
     policy.set_training_mode(True)
     loss = adam_fit([*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()], epoch, steps,
-                    config.batch, config.learning_rate, seed, "distill: fit", progress)
+                    config.batch, learning_rate or config.learning_rate, seed, "distill: fit", progress)
     policy.set_training_mode(False)
     return loss
 
@@ -261,12 +288,12 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     student = make_student(config, seed, env_kwargs or {}, hyperparameters or {})
     val = None
     if validation_points:
-        val = (validation_points, field_.best(validation_points)[1])
+        val = (validation_points, field_.best(validation_points, radius=config.teacher_radius)[1])
     obs_all, drive_all = [], []
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config)
-        drives, _ = field_.best(points)
+        drives, _ = field_.best(points, radius=config.teacher_radius)
         obs, sample_drives, _ = rollout(points, drives, None if r == 0 else student.act, config.periods,
                                         seed=seed + r)
         obs_all.append(obs)
@@ -282,9 +309,56 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         if val is not None:
             record.update(validation_fraction(student, *val))
         student.history.append(record)
-        print(" ".join(f"{key}={value:.4g}" if isinstance(value, float) else f"{key}={value}"
-                       for key, value in record.items()), flush=True)
+        _print_record(record)
+    k_range = (float(field_.ks[0]), float(field_.ks[-1]))
+    for h in range(1, config.hole_rounds + 1):
+        t0 = time.perf_counter()
+        holes, probe = find_holes(student, field_, config, rng)
+        if holes:
+            points = around(holes, config.hole_neighbours, rng, k_range)
+            drives, _ = field_.best(points, radius=config.teacher_radius)
+            obs, sample_drives, _ = rollout(points, drives, None, config.periods, seed=seed + 100 + h)
+            obs_all.append(obs)
+            drive_all.append(sample_drives)
+            loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
+                       seed + 100 + h, progress, learning_rate=config.hole_learning_rate)
+        record = {"hole_round": h, **probe, "samples": int(sum(len(o) for o in obs_all)),
+                  "loss": loss, "wall_time_s": round(time.perf_counter() - t0, 1)}
+        if val is not None:
+            record.update(validation_fraction(student, *val))
+        student.history.append(record)
+        _print_record(record)
     return student
+
+
+def _print_record(record: dict) -> None:
+    print(" ".join(f"{key}={value:.4g}" if isinstance(value, float) else f"{key}={value}"
+                   for key, value in record.items()), flush=True)
+
+
+def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator):
+    """The student and the teacher at ``config.hole_probes`` fresh random points: the points where
+    the student's steady velocity falls short of the teacher's (``config.hole_shortfall``), and the
+    probe statistics (share of holes, the student's mean velocity over the teacher's where it moves)."""
+    points = draw_points(field_, config.hole_probes, rng, config)
+    _, v_teacher = field_.best(points, radius=config.teacher_radius)
+    _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30)
+    v_student = steady_velocity_of(disp)
+    short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), 1e-3)
+    moving = v_teacher >= 2e-3
+    return [p for p, h in zip(points, short) if h], {
+        "probes": len(points), "holes": int(short.sum()),
+        "probe_mean_fraction": float(np.mean(v_student[moving] / v_teacher[moving])) if moving.any() else None}
+
+
+def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float]) -> list:
+    """Each point and ``n`` jittered copies: k +- 0.01 (kept in ``k_range``), load +- 5 %."""
+    out = []
+    for k, m in points:
+        out.append((k, m))
+        for _ in range(n):
+            out.append((float(np.clip(k + rng.uniform(-0.01, 0.01), *k_range)), float(m * rng.uniform(0.95, 1.05))))
+    return out
 
 
 def validation_fraction(student: Student, points, v_teacher: np.ndarray, moving: float = 2e-3) -> dict:
@@ -312,5 +386,6 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "Student", "adam_fit", "distill", "draw_points", "edge_loss", "fit", "perturb_previous_actions",
+__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "edge_loss", "find_holes", "fit",
+           "perturb_previous_actions",
            "policy_mean", "rollout", "save_student"]

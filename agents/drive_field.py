@@ -16,8 +16,9 @@ searched so that neighbours stay neighbours:
   neighbour's, so interpolation does not mix a push period with a clamp period.
 
 ``DriveField.candidates(k, load)`` returns, for any point, the bilinear interpolation of the four
-surrounding grid drives and those four drives; ``DriveField.best(points)`` plays all of them at the
-points (batched) and keeps the best: the label the student is trained on (``agents.distill``).
+surrounding grid drives and the grid drives around the point (the cell's four corners, or with
+``radius`` R the 2R x 2R nodes around the cell); ``DriveField.best(points)`` plays all of them at
+the points (batched) and keeps the best: the label the student is trained on (``agents.distill``).
 """
 
 from __future__ import annotations
@@ -235,27 +236,43 @@ class DriveField:
         ws = (s - self.fractions[j]) / (self.fractions[j + 1] - self.fractions[j])
         return i, j, wk, ws
 
-    def candidates(self, k: float, load: float) -> np.ndarray:
-        """(5, 2, 5): the bilinear interpolation of the surrounding grid drives (each aligned to the
-        cell's first corner), then the four corner drives."""
+    def candidates(self, k: float, load: float, radius: int = 1) -> np.ndarray:
+        """(c, 2, 5): the bilinear interpolation of the four surrounding grid drives (each aligned to
+        the cell's first corner), then the grid drives of the (2 radius) x (2 radius) nodes around the
+        cell (``radius`` 1: its four corners), each aligned to that corner, nodes past the grid's
+        edge left out."""
         i, j, wk, ws = self._cell(k, load)
-        corners = [self.drives[i, j], self.drives[i + 1, j], self.drives[i, j + 1], self.drives[i + 1, j + 1]]
-        aligned = [corners[0]] + [align_phase(c, corners[0]) for c in corners[1:]]
+        first = self.drives[i, j]
+        corners = [first] + [align_phase(c, first) for c in
+                             (self.drives[i + 1, j], self.drives[i, j + 1], self.drives[i + 1, j + 1])]
         w = [(1 - wk) * (1 - ws), wk * (1 - ws), (1 - wk) * ws, wk * ws]
-        mixed = sum(wi * c for wi, c in zip(w, aligned))
-        return np.array([mixed, *aligned])
+        mixed = sum(wi * c for wi, c in zip(w, corners))
+        nk, ns = self.velocities.shape
+        ring = [align_phase(self.drives[a, b], first)
+                for a in range(max(i - radius + 1, 0), min(i + radius + 1, nk))
+                for b in range(max(j - radius + 1, 0), min(j + radius + 1, ns))
+                if not (i <= a <= i + 1 and j <= b <= j + 1)]
+        return np.array([mixed, *corners, *ring])
 
-    def best(self, points, prefer_interpolation: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """The teacher's drive (n, 2, 5) and its velocity (n,) at each (k, load kg) point: the best of
-        :meth:`candidates` played at the point, the interpolation unless a corner is better by more
-        than ``prefer_interpolation`` (relative), so neighbouring labels stay smooth."""
-        cands = np.array([self.candidates(k, m) for k, m in points])  # (n, 5, 2, 5)
-        n, c = cands.shape[:2]
-        v = open_loop_velocity([p for p in points for _ in range(c)], cands.reshape(n * c, 2, 5)).reshape(n, c)
-        pick = np.argmax(v, axis=1)
-        keep = v[np.arange(n), pick] <= v[:, 0] + prefer_interpolation * np.abs(v[:, 0])
-        pick[keep] = 0
-        return cands[np.arange(n), pick], v[np.arange(n), pick]
+        :meth:`candidates` (with ``radius``) played at the point, the interpolation unless another
+        candidate is better by more than ``prefer_interpolation`` (relative), so neighbouring labels
+        stay smooth."""
+        check_int("radius", radius, 1)
+        cands = [self.candidates(k, m, radius) for k, m in points]  # c may differ by point at the grid's edge
+        flat = np.concatenate(cands)
+        v = open_loop_velocity([p for p, c in zip(points, cands) for _ in c], flat)
+        drives, velocities, start = [], [], 0
+        for c in cands:
+            vc = v[start:start + len(c)]
+            pick = int(np.argmax(vc))
+            if vc[pick] <= vc[0] + prefer_interpolation * abs(vc[0]):
+                pick = 0
+            drives.append(c[pick])
+            velocities.append(vc[pick])
+            start += len(c)
+        return np.array(drives), np.array(velocities)
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:

@@ -41,7 +41,9 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     assert action.shape == (1, 5) and np.all(np.abs(action) <= 1.0)
     run = json.loads((out / "policy" / "run.json").read_text())
     assert run["algo"] == "ppo" and "residual_scale" not in run["hyperparameters"]
-    assert len(run["distilled_from"]["history"]) == 2  # the teacher's round and one DAgger round
+    history = run["distilled_from"]["history"]
+    assert len(history) == 3  # the teacher's round, one DAgger round, one hole round
+    assert history[2]["hole_round"] == 1 and history[2]["probes"] == 16 and 0 <= history[2]["holes"] <= 16
     assert not (out / ".tasks").exists()
 
 
@@ -74,3 +76,34 @@ def test_cycle_labels_follow_the_previous_action():
     labels = cycle_action(drives, prev)
     assert labels[:, 0].tolist() == [1.0, -1.0, 1.0]  # start: first; after the first: second; after it: first
     assert np.array_equal(align_phase(drives[0][::-1], drives[0]), drives[0])
+
+
+def _synthetic_field(nk=4, ns=5):
+    from mdr_drive_agents.drive_field import DriveField
+
+    rng = np.random.default_rng(0)
+    drives = np.clip(rng.normal(0.5, 0.3, (nk, ns, 2, 5)), -1.0, 1.0)
+    return DriveField(np.linspace(0.0, 0.6, nk), np.linspace(0.0, 1.2, ns), np.full(nk, 0.05), drives,
+                      np.zeros((nk, ns)))
+
+
+def test_the_teachers_neighbourhood_grows_with_its_radius_and_stays_on_the_grid():
+    field = _synthetic_field()
+    inside, corner = (0.3, 0.03), (0.0, 0.0)  # a cell in the middle of the grid; the grid's first cell
+    assert len(field.candidates(*inside)) == 5  # the interpolation and the cell's four corners
+    assert len(field.candidates(*inside, radius=2)) == 1 + 16
+    assert len(field.candidates(*corner, radius=2)) == 1 + 9  # nodes past the grid's edge left out
+    first = field.candidates(*inside)
+    assert np.array_equal(field.candidates(*inside, radius=2)[:5], first)  # the same five first
+    with pytest.raises(ValueError, match="radius"):
+        field.best([inside], radius=0)
+    with pytest.raises(ValueError, match="teacher_radius"):
+        DistillConfig(teacher_radius=0)
+
+
+def test_a_wider_teacher_never_plays_a_slower_drive():
+    field = _synthetic_field()
+    points = [(0.25, 0.02), (0.45, 0.04)]
+    _, narrow = field.best(points, prefer_interpolation=0.0)
+    _, wide = field.best(points, prefer_interpolation=0.0, radius=2)
+    assert np.all(wide >= narrow)
