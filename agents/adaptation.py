@@ -43,7 +43,7 @@ from .blind import MOVING_THRESHOLD, QUICK, best_drive, velocity_statistics
 from .evaluate import ACTION_MAP, AVERAGE_PERIODS, EVAL_PERIODS, Policy, env_rollout, steady_velocity_of
 
 SENSOR_POLICY = "agents/pretrained/ppo_sensor"
-FULL_POLICY = "agents/pretrained/ppo_generalist"
+FULL_POLICY = "agents/pretrained/ppo_sensor/teacher"  # the sensor policy's teacher: the upper bound it approximates
 #: The tuned-once waveform's point: the middle of the sensor env's ranges (k, load ratio, mu, mu1).
 TUNED_ONCE_POINT = {"k": 0.3, "load_ratio": 0.2, "friction_coefficient": 0.3, "base_friction_coefficient": 0.1}
 STEP_PERIOD = 20

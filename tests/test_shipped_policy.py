@@ -28,7 +28,17 @@ def test_model_card_snippet_loads_with_plain_sb3_and_drives(folder):
 
 @pytest.mark.parametrize("folder", [SHIPPED, SENSOR], ids=["full", "sensor"])
 def test_shipped_folder_holds_only_the_plain_model_files(folder):
-    assert sorted(p.name for p in folder.iterdir()) == ["MODEL_CARD.md", "model.zip", "run.json", "vecnormalize.pkl"]
+    files = sorted(p.name for p in folder.iterdir() if p.name != "teacher")
+    assert files == ["MODEL_CARD.md", "model.zip", "run.json", "vecnormalize.pkl"]
+    if (folder / "teacher").exists():  # a policy's pinned teacher, which its training config reads
+        assert sorted(p.name for p in (folder / "teacher").iterdir()) == ["model.zip", "run.json", "vecnormalize.pkl"]
+
+
+def test_the_sensor_policy_is_rebuilt_from_its_pinned_teacher():
+    import yaml
+
+    config = yaml.safe_load((ROOT / "agents" / "configs" / "sensor.yaml").read_text())
+    assert (ROOT / config["adapt"]["teacher"]).resolve() == (SENSOR / "teacher").resolve()
 
 
 def test_the_sensor_policy_sees_only_the_sensor_observation():
