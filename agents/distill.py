@@ -293,9 +293,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config)
-        drives, _ = field_.best(points, radius=config.teacher_radius)
-        obs, sample_drives, _ = rollout(points, drives, None if r == 0 else student.act, config.periods,
-                                        seed=seed + r)
+        obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r)
         obs_all.append(obs)
         drive_all.append(sample_drives)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
@@ -314,10 +312,10 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     for h in range(1, config.hole_rounds + 1):
         t0 = time.perf_counter()
         holes, probe = find_holes(student, field_, config, rng)
+        loss = None  # no hole found: no fit this round
         if holes:
-            points = around(holes, config.hole_neighbours, rng, k_range)
-            drives, _ = field_.best(points, radius=config.teacher_radius)
-            obs, sample_drives, _ = rollout(points, drives, None, config.periods, seed=seed + 100 + h)
+            obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
+                                                   config, seed + 100 + h)
             obs_all.append(obs)
             drive_all.append(sample_drives)
             loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
@@ -336,14 +334,28 @@ def _print_record(record: dict) -> None:
                    for key, value in record.items()), flush=True)
 
 
+def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, seed: int):
+    """Episodes of ``config.periods`` periods at ``points``, played by the teacher (``act`` None) or by
+    ``act``: their observations and each one's teacher drive (``rollout``; the teacher's drive at each
+    point from ``DriveField.best`` with ``config.teacher_radius``)."""
+    drives, _ = field_.best(points, radius=config.teacher_radius)
+    obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed)
+    return obs, sample_drives
+
+
+def student_velocity(student: Student, points) -> np.ndarray:
+    """The student's steady velocity (m/s) at each (k, load kg) point, closed loop over 30 periods."""
+    _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30)
+    return steady_velocity_of(disp)
+
+
 def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator):
     """The student and the teacher at ``config.hole_probes`` fresh random points: the points where
     the student's steady velocity falls short of the teacher's (``config.hole_shortfall``), and the
     probe statistics (share of holes, the student's mean velocity over the teacher's where it moves)."""
     points = draw_points(field_, config.hole_probes, rng, config)
     _, v_teacher = field_.best(points, radius=config.teacher_radius)
-    _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30)
-    v_student = steady_velocity_of(disp)
+    v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), 1e-3)
     moving = v_teacher >= 2e-3
     return [p for p, h in zip(points, short) if h], {
@@ -363,8 +375,7 @@ def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float
 
 def validation_fraction(student: Student, points, v_teacher: np.ndarray, moving: float = 2e-3) -> dict:
     """The student's steady velocity over the teacher's where the teacher moves >= ``moving`` m/s."""
-    _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30)
-    v = steady_velocity_of(disp)
+    v = student_velocity(student, points)
     keep = v_teacher >= moving
     frac = v[keep] / v_teacher[keep]
     return {"val_mean_fraction": float(frac.mean()), "val_min_fraction": float(frac.min()),
@@ -387,5 +398,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
 
 
 __all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "edge_loss", "find_holes", "fit",
-           "perturb_previous_actions",
-           "policy_mean", "rollout", "save_student"]
+           "labelled_episodes", "perturb_previous_actions",
+           "policy_mean", "rollout", "save_student", "student_velocity"]

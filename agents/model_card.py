@@ -48,13 +48,14 @@ def training_note(run: dict) -> str:
     distilled = run.get("distilled_from")
     if distilled:
         d = distilled["distill"]
-        last = distilled["history"][-1] if distilled.get("history") else {}
+        loss = next((r["loss"] for r in reversed(distilled.get("history") or []) if r.get("loss") is not None),
+                    float("nan"))  # a hole round that found no hole did not fit
         return (f"distilled (`agents/distill.py`) from the drive-field teacher `{distilled['teacher']}` "
                 f"(`agents/drive_field.py`), recipe `{distilled['recipe']}`: a {'x'.join(map(str, d['net_arch']))} "
                 f"{d['activation']} network fitted for {d['steps']:,} steps to the teacher's actions on "
                 f"{d['points']:,} random episodes (the teacher's neighbourhood radius {d.get('teacher_radius', 1)}; "
                 f"DAgger rounds after it: {d['rounds']}; hole rounds: {d.get('hole_rounds', 0)}); final fit loss "
-                f"{last.get('loss', float('nan')):.2e}. No PPO update yet ({run['total_timesteps']:,} environment "
+                f"{loss:.2e}. No PPO update yet ({run['total_timesteps']:,} environment "
                 f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below")
     return (f"{run['algo'].upper()}, {run['total_timesteps']:,} environment steps (drive periods), "
             f"warm start {run['hyperparameters'].get('warm_start', 'none')}")
