@@ -20,6 +20,7 @@ An existing ``OUT`` is refused unless ``--resume`` (teacher tasks reused, the st
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import shutil
 import sys
@@ -63,6 +64,8 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     if out.exists() and any(out.iterdir()) and not (resume or force):
         raise ValueError(f"{out} is not empty: continue with --resume, or overwrite with --force")
     executor = executor or Executor()
+    if not progress:
+        executor = dataclasses.replace(executor, progress=False)
     store = TaskStore(task_folder(out, resume) / "teacher")
     seed, stages = recipe["seed"], {}
     command = " ".join(["python -m mdr_drive_agents.recipe", *sys.argv[1:]]) if sys.argv[0].endswith("recipe.py") else \
