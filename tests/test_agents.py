@@ -151,3 +151,20 @@ def test_cycle_limit_reports_a_critical_load_and_the_sensitivity_of_every_action
     assert np.isclose(ratio, 1.0) or np.isclose(ratio, 1.4)  # one bisection step in [1.0, 1.8]
     assert np.asarray(row["cycle"]).shape == (2, 5) and np.all(np.abs(row["cycle"]) <= 1.0)
     assert len(row["sensitivity_at_1.25_mm_s"]) == 10 and "clamp z_phase" in row["sensitivity_at_1.25_mm_s"]
+
+
+def test_teacher_sensitivity_script_counts_points_and_rejects_a_bad_sigma(capsys):
+    """scripts/teacher_sensitivity.py (cited by docs/results.md) on a few points of the shipped teacher."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "scripts"))
+    from teacher_sensitivity import main
+
+    assert main(["--n", "3", "--seed", "5", "--draws", "1", "--sigma", "0.05"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    moving = int(out[0].split("; ")[1].split()[0])
+    row = out[-1].strip("| ").split(" | ")
+    assert row[0] == "0.05" and 0 <= int(row[1]) <= moving and 0 <= int(row[2]) <= int(row[1])
+    with pytest.raises(SystemExit):
+        main(["--seed", "5", "--sigma", "0"])
