@@ -13,7 +13,7 @@ it. Per policy, with the blind benchmark's statistics: points below the trapezoi
 0.05 mm/s (where either moves), the fraction of that reference where it moves >= 2 mm/s (mean,
 minimum, points under 0.85), and the critical load at ``--scan-ks`` values of k (the midpoints of
 equal cells of [0, 0.6], so none is a k of the blind benchmark's 25-value scan) over the teacher's
-own (its 4 x 4 neighbourhood, as the recipe's student was taught) and over the trapezoid's. The
+own (its neighbourhood of the recipe's ``teacher_radius``, as the recipe's student was taught) and over the trapezoid's. The
 reference is weaker than the benchmark's search, so fractions read higher here; use it to compare
 policies, and report on ``mdr-drive benchmark --blind``.
 """
@@ -28,7 +28,6 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
-
 def main(argv=None) -> int:
     from mdr_drive_env.cli_args import Parser, folder_with, input_file, int_range
 
@@ -41,7 +40,7 @@ def main(argv=None) -> int:
     p.add_argument("--scan-ks", type=int_range(1), default=24, help="k values of the critical-load scan (-)")
     args = p.parse_args(argv)
 
-    from mdr_drive_agents.blind import MOVING_THRESHOLD, draw_points, trapezoid_critical, velocity_statistics
+    from mdr_drive_agents.blind import K_RANGE, MOVING_THRESHOLD, draw_points, trapezoid_critical, velocity_statistics
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import (
         critical_loads_grid,
@@ -50,17 +49,22 @@ def main(argv=None) -> int:
         policy_velocity,
         trapezoid_action,
     )
+    from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
+
+    radius = load_recipe(DEFAULT_CONFIG)["distill"].teacher_radius
 
     points, _ = draw_points(args.n, args.seed)
     trap = open_loop_velocity(points, trapezoid_action())
     field = DriveField.load(args.field)
     _, teacher = field.best(points, radius=3)
-    learned = {path: policy_velocity(load_policy(path), points) for path in args.policies}
+    policies = {path: load_policy(path) for path in args.policies}
+    learned = {path: policy_velocity(policy, points) for path, policy in policies.items()}
     reference = np.fmax(np.fmax(trap, teacher), np.max(list(learned.values()), axis=0))
     scored = reference >= MOVING_THRESHOLD
-    scan_ks = [float(k) for k in (np.arange(args.scan_ks) + 0.5) * 0.6 / args.scan_ks]
+    low, high = K_RANGE
+    scan_ks = [float(k) for k in low + (np.arange(args.scan_ks) + 0.5) * (high - low) / args.scan_ks]
     crit_trap = trapezoid_critical(scan_ks)
-    crit_teacher = critical_loads_grid(scan_ks, lambda pts: field.best(pts, radius=2)[1])
+    crit_teacher = critical_loads_grid(scan_ks, lambda pts: field.best(pts, radius=radius)[1])
     print(f"{args.n} points of seed {args.seed}; reference: the teacher's 6 x 6 neighbourhood ({args.field}) "
           f"or any better drive; {int(scored.sum())} points where it moves >= 2 mm/s")
     print("| policy | below the trapezoid (worst, mm/s) | fraction of the reference: mean / min | under 0.85 | "
@@ -69,8 +73,7 @@ def main(argv=None) -> int:
     for path, v in learned.items():
         stats = velocity_statistics(trap, reference, v)  # the blind benchmark's statistics, against this reference
         fraction = v[scored] / reference[scored]
-        policy = load_policy(path)
-        crit = critical_loads_grid(scan_ks, lambda pts, pol=policy: policy_velocity(pol, pts))
+        crit = critical_loads_grid(scan_ks, lambda pts, pol=policies[path]: policy_velocity(pol, pts))
         to_teacher = np.array([crit[k] / max(crit_teacher[k], 1e-12) for k in scan_ks])
         to_trapezoid = np.array([crit[k] / c for k, c in zip(scan_ks, crit_trap)])
         worst = int(np.argmin(to_teacher))

@@ -3,8 +3,8 @@
 
     python scripts/teacher_sensitivity.py --n 384 --seed 99001 --sigma 0.02 0.05
 
-At N points drawn as the blind benchmark draws them, the teacher's drive (``DriveField.best``, the
-recipe's radius 2) is played as it is and with ``--draws`` Gaussian perturbations of every action
+At N points drawn as the blind benchmark draws them, the teacher's drive (``DriveField.best`` with
+the recipe's ``teacher_radius``) is played as it is and with ``--draws`` Gaussian perturbations of every action
 entry (standard deviation SIGMA, action units, clipped to [-1, 1]). Printed per SIGMA, over the points
 where the teacher moves >= 2 mm/s: how many lose more than half their velocity in the worst draw,
 how many go backwards, and the median of worst over nominal. A student fitted to these drives makes
@@ -40,9 +40,11 @@ def main(argv=None) -> int:
     from mdr_drive_agents.blind import MOVING_THRESHOLD, draw_points
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import open_loop_velocity
+    from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
 
     points, _ = draw_points(args.n, args.seed)
-    drives, v = DriveField.load(args.field).best(points, radius=2)
+    drives, v = DriveField.load(args.field).best(
+        points, radius=load_recipe(DEFAULT_CONFIG)["distill"].teacher_radius)
     moving = v >= MOVING_THRESHOLD
     rng = np.random.default_rng(args.seed)
     print(f"{args.n} points of seed {args.seed}; {int(moving.sum())} where the teacher moves >= 2 mm/s; "
