@@ -14,7 +14,8 @@ Stages (each one's wall time is printed and kept in ``recipe.json``):
    ``benchmark`` judge, and ``mdr-drive train --resume OUT/policy`` fine-tunes with PPO.
 
 An existing ``OUT`` is refused unless ``--resume`` (teacher tasks reused, the student refitted) or
-``--force``.
+``--force``. ``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
+``teacher_field.npz``), for trying student settings without searching the teacher again.
 """
 
 from __future__ import annotations
@@ -57,8 +58,9 @@ def load_recipe(path: str | Path) -> dict:
 
 
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
-        force: bool = False, progress: bool = True) -> dict:
-    """Run the recipe into ``out``; returns what ``recipe.json`` holds."""
+        force: bool = False, progress: bool = True, teacher: str | Path | None = None) -> dict:
+    """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1); returns
+    what ``recipe.json`` holds."""
     recipe = load_recipe(config_path)
     out = Path(out)
     if out.exists() and any(out.iterdir()) and not (resume or force):
@@ -72,11 +74,17 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         " ".join(sys.argv)
 
     t0 = time.perf_counter()
-    field = DriveField.search(recipe["teacher"], seed=seed, executor=executor, store=store)
+    if teacher is None:
+        field = DriveField.search(recipe["teacher"], seed=seed, executor=executor, store=store)
+    else:
+        field = DriveField.load(teacher)
+        if field.meta.get("config") != json.loads(json.dumps(dataclasses.asdict(recipe["teacher"]))):
+            print(f"recipe: warning: {teacher} was searched with another teacher config than {config_path}'s",
+                  file=sys.stderr)
     field.save(out / "teacher_field.npz")
     stages["teacher_s"] = round(time.perf_counter() - t0, 1)
-    print(f"recipe: teacher {stages['teacher_s']:.0f} s: {field.velocities.size} grid points, "
-          f"{field.meta.get('exchanged', 0)} drives taken from a neighbour", flush=True)
+    print(f"recipe: teacher {stages['teacher_s']:.0f} s{' (loaded)' if teacher else ''}: {field.velocities.size} "
+          f"grid points, {field.meta.get('exchanged', 0)} drives taken from a neighbour", flush=True)
 
     t1 = time.perf_counter()
     student = distill(field, recipe["distill"], seed=seed, env_kwargs=recipe["env_kwargs"],
@@ -102,6 +110,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
           flush=True)
     summary = {"config": str(config_path), "command": command, "seed": seed, "stage_wall_time_s": stages,
+               "teacher_loaded_from": None if teacher is None else str(teacher),
                "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
                "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},
                "teacher_mean_velocity_m_s": float(np.mean(field.velocities))}
@@ -120,10 +129,13 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="runs/recipe", type=output_dir, help="output folder (default: runs/recipe)")
     ap.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
     ap.add_argument("--no-progress", action="store_true", help="no progress bars")
+    ap.add_argument("--teacher", type=input_file, default=None,
+                    help="a saved teacher field (.npz, a recipe's teacher_field.npz): skip the teacher search")
     add_executor_arguments(ap)
     a = ap.parse_args(argv)
     try:
-        run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force, progress=not a.no_progress)
+        run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force, progress=not a.no_progress,
+            teacher=a.teacher)
     except ValueError as e:
         print(f"python -m mdr_drive_agents.recipe: error: {e}", file=sys.stderr)
         return 2

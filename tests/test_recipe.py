@@ -61,6 +61,23 @@ def test_an_existing_output_is_refused_without_resume_or_force(recipe_run, capsy
     assert "--resume" in capsys.readouterr().err
 
 
+def test_a_saved_teacher_is_distilled_without_searching_again(recipe_run, tmp_path, capsys):
+    from mdr_drive_agents.drive_field import DriveField
+
+    out, _ = recipe_run
+    assert recipe.main([str(TINY), "--out", str(tmp_path / "again"), "--no-progress", "--workers", "1",
+                        "--teacher", str(out / "teacher_field.npz")]) == 0
+    assert "(loaded)" in capsys.readouterr().out
+    again, first = DriveField.load(tmp_path / "again" / "teacher_field.npz"), DriveField.load(out / "teacher_field.npz")
+    assert np.array_equal(again.drives, first.drives)
+    summary = json.loads((tmp_path / "again" / "recipe.json").read_text())
+    assert summary["teacher_loaded_from"] == str(out / "teacher_field.npz")
+    assert (tmp_path / "again" / "policy" / "model.zip").exists()
+    with pytest.raises(SystemExit) as exit_:
+        recipe.main([str(TINY), "--out", str(tmp_path / "x"), "--teacher", str(tmp_path / "missing.npz")])
+    assert exit_.value.code == 2 and "missing.npz" in capsys.readouterr().err
+
+
 def test_configs_reject_bad_values_naming_them():
     with pytest.raises(ValueError, match="k_values"):
         FieldConfig(k_values=1)
