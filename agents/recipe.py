@@ -26,6 +26,7 @@ import json
 import shutil
 import sys
 import time
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -68,16 +69,19 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     executor = executor or Executor()
     if not progress:
         executor = dataclasses.replace(executor, progress=False)
-    store = TaskStore(task_folder(out, resume) / "teacher")
     seed, stages = recipe["seed"], {}
     command = " ".join(["python -m mdr_drive_agents.recipe", *sys.argv[1:]]) if sys.argv[0].endswith("recipe.py") else \
         " ".join(sys.argv)
 
     t0 = time.perf_counter()
     if teacher is None:
-        field = DriveField.search(recipe["teacher"], seed=seed, executor=executor, store=store)
+        field = DriveField.search(recipe["teacher"], seed=seed, executor=executor,
+                                  store=TaskStore(task_folder(out, resume) / "teacher"))
     else:
-        field = DriveField.load(teacher)
+        try:
+            field = DriveField.load(teacher)
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as e:
+            raise ValueError(f"--teacher {teacher} is not a saved teacher field ({type(e).__name__}: {e})") from None
         if field.meta.get("config") != json.loads(json.dumps(dataclasses.asdict(recipe["teacher"]))):
             print(f"recipe: warning: {teacher} was searched with another teacher config than {config_path}'s",
                   file=sys.stderr)

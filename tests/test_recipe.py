@@ -76,6 +76,10 @@ def test_a_saved_teacher_is_distilled_without_searching_again(recipe_run, tmp_pa
     with pytest.raises(SystemExit) as exit_:
         recipe.main([str(TINY), "--out", str(tmp_path / "x"), "--teacher", str(tmp_path / "missing.npz")])
     assert exit_.value.code == 2 and "missing.npz" in capsys.readouterr().err
+    (tmp_path / "bad.npz").write_text("not a field")
+    assert recipe.main([str(TINY), "--out", str(tmp_path / "y"), "--teacher", str(tmp_path / "bad.npz")]) == 2
+    err = capsys.readouterr().err
+    assert "--teacher" in err and "bad.npz" in err and len(err.strip().splitlines()) == 1
 
 
 def test_configs_reject_bad_values_naming_them():
