@@ -23,7 +23,7 @@ from . import kernel as K
 # workqueue is fork-safe; it is not thread-safe (call the batched solver from one thread at a time).
 if numba.config.THREADING_LAYER == "default":
     numba.config.THREADING_LAYER = "workqueue"
-from .fast_kernel import advance_nodes, node_positions, node_weights, normal_force
+from .fast_kernel import advance_nodes, node_positions, node_weights, normal_force, scratch_size
 from .params import DriveParams, Numerics, numerics_preset
 from .waveform import MAX_Z_KNOTS, knots_into
 
@@ -37,11 +37,11 @@ N_PARAMS = 9
 
 @njit(cache=True)
 def advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out, knots,
-                  trace):
+                  scratch, trace):
     """Advance drive e by one period with its waveform row ``waveforms[e] = (x_amplitude,
     x_rise_time, z_amplitude, z_rise_time, z_phase)`` (m, s, -), allocating nothing (allocations
-    serialise numba's threads): ``knots[e]`` is the drive's scratch for its knots and corners,
-    ``trace`` an empty (0, 7) array."""
+    serialise numba's threads): ``knots[e]`` holds the drive's knots, ``scratch[e]`` the kernel's
+    scratch (:func:`fast_kernel.scratch_size`), ``trace`` an empty (0, 7) array."""
     z_start = state[e, K.S_ZIND] if state[e, K.S_TIME] > 0.0 else -1.0
     wf = waveforms[e]
     buf = knots[e]
@@ -55,25 +55,25 @@ def advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_
         state[e, K.S_FZ] = normal_force(vz[0], m[P_CN], m[P_K], m[P_S], m[P_C0K])
     advance_nodes(u[e], state[e], g, w[e], left[e], p1[e], p3[e], m[P_CT], m[P_CN], m[P_K], m[P_S],
                   m[P_C0K], m[P_SLIP], tx, vx, tz, vz, dt_max, x_step, z_step, m[P_MASS], m[P_LOAD],
-                  m[P_MU1], 0, trace, out[e], buf[4])
+                  m[P_MU1], 0, trace, out[e], scratch[e])
 
 
 @njit(cache=True, parallel=True)
 def advance_batch_parallel(u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out,
-                           knots, trace):
+                           knots, scratch, trace):
     """Every drive by one period (:func:`advance_drive`), the drives spread over numba's threads."""
     for e in prange(u.shape[0]):
         advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out, knots,
-                      trace)
+                      scratch, trace)
 
 
 @njit(cache=True)
 def advance_batch_serial(u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out,
-                         knots, trace):
+                         knots, scratch, trace):
     """Every drive by one period (:func:`advance_drive`), one after the other on this thread."""
     for e in range(u.shape[0]):
         advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out, knots,
-                      trace)
+                      scratch, trace)
 
 
 def default_threads() -> int:
@@ -117,8 +117,9 @@ class BatchedDriveSimulator:
         self.p3 = np.zeros((n, nodes))
         self.model = np.zeros((n, N_PARAMS))
         self.out = np.zeros((n, K.OUT_SIZE))
-        # per drive: rows tx, vx, tz, vz and the period's corners (3 + MAX_Z_KNOTS of them)
-        self._knots = np.zeros((n, 5, 3 + MAX_Z_KNOTS))
+        # per drive: rows tx, vx, tz, vz, and the kernel's scratch (the period's corners and more)
+        self._knots = np.zeros((n, 4, 3 + MAX_Z_KNOTS))
+        self._scratch = np.zeros((n, scratch_size(3 + MAX_Z_KNOTS)))
         self._empty_trace = np.zeros((0, 7))
         self.params: list[DriveParams | None] = [None] * n
 
@@ -152,5 +153,5 @@ class BatchedDriveSimulator:
             kernel = advance_batch_serial
         kernel(self.u, self.state, self.g, self.w, self.left, self.p1, self.p3, self.model,
                np.ascontiguousarray(waveforms, dtype=np.float64), float(period), num.time_step,
-               num.max_x_step, num.max_z_step, self.out, self._knots, self._empty_trace)
+               num.max_x_step, num.max_z_step, self.out, self._knots, self._scratch, self._empty_trace)
         return self.out

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .inline_pow import pow_positive
 from .kernel import S_FX, S_FZ, S_NACT, S_TIME, S_V, S_X, S_XIND, S_ZIND, _interp, record_row, store_period
 
 
@@ -56,7 +57,7 @@ def node_weights(g: np.ndarray, k: float, radius: float, c0: float):
     return w, left, p1, p3
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def normal_force(d, c_n, k, s, c0k):
     """F_z (N) at depth d (m), paper Eq. 8: ``2 C_N / c0^k int_0^a x^k (d - x^2/s) dx``, s = (1+k) R."""
     if d <= 0.0:
@@ -66,8 +67,8 @@ def normal_force(d, c_n, k, s, c0k):
     return c_n * 2.0 / c0k * (d * a1 / (k + 1.0) - a1 * a * a / (s * (k + 3.0)))
 
 
-@njit(cache=True, inline="always")
-def _half_kick(V, drive, f_lim, h, mass):
+@njit(cache=True, inline="always", error_model="numpy")
+def _half_kick(V, drive, f_lim, h, mass, inv_mass):
     """Advance V over h (s) under ``drive = F_x - F_m`` (N) and Coulomb base friction ``f_lim`` (N).
 
     The base force opposes V; if V reaches 0 within h, the slider stops there and, for the rest of
@@ -75,7 +76,7 @@ def _half_kick(V, drive, f_lim, h, mass):
     """
     if V != 0.0:
         f_base = f_lim if V > 0.0 else -f_lim
-        v_new = V + h * (drive - f_base) / mass
+        v_new = V + h * (drive - f_base) * inv_mass
         if v_new * V > 0.0:
             return v_new, f_base * h
         if v_new == 0.0:
@@ -87,13 +88,17 @@ def _half_kick(V, drive, f_lim, h, mass):
         h_rest = h
         imp = 0.0
     if drive > f_lim:
-        return h_rest * (drive - f_lim) / mass, imp + f_lim * h_rest
+        return h_rest * (drive - f_lim) * inv_mass, imp + f_lim * h_rest
     if drive < -f_lim:
-        return h_rest * (drive + f_lim) / mass, imp - f_lim * h_rest
+        return h_rest * (drive + f_lim) * inv_mass, imp - f_lim * h_rest
     return 0.0, imp + drive * h_rest  # sticks: static friction balances the drive
 
 
-@njit(cache=True, inline="always")
+#: Nodes per SIMD block of :func:`_update_nodes` (8 doubles: one AVX-512 register).
+NODE_BLOCK = 8
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def merge_breaks(tx, tz, out):
     """The sorted distinct times of the sorted knot times ``tx`` and ``tz`` (``np.unique`` of both,
     without allocating), written into ``out`` (size >= tx.size + tz.size); returns their number."""
@@ -113,7 +118,49 @@ def merge_breaks(tx, tz, out):
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath={"reassoc", "nsz"}, error_model="numpy")
+def _update_nodes(u_x, g, w, n, shift, d_new, slip_ratio):
+    """Shift nodes ``0 .. n-1`` by ``shift`` and clamp them to ``+-lim``, ``lim = slip_ratio max(d_new - g, 0)``
+    (so a node out of contact returns to 0); return ``(sum w u, sum w lim |overshoot|)``.
+    Branch-free, and its sums reassociable, so the compiler vectorises it."""
+    fx = 0.0
+    slip = 0.0
+    for i in range(n):
+        lim = slip_ratio * max(d_new - g[i], 0.0)
+        u0 = u_x[i] + shift
+        u = min(max(u0, -lim), lim)
+        slip += w[i] * lim * abs(u0 - u)
+        u_x[i] = u
+        fx += w[i] * u
+    return fx, slip
+
+
+#: Steps whose depth-only quantities (depth, a^(k+1), F_z) are computed together, vectorised, before
+#: they are stepped: off the step-to-step dependency chain, and without a libm call inside the step.
+STEP_BLOCK = 64
+
+
+def scratch_size(n_knots: int) -> int:
+    """Floats of scratch :func:`advance_nodes` needs for a period with ``n_knots`` knots in all."""
+    return n_knots + 3 * STEP_BLOCK
+
+
+@njit(cache=True, error_model="numpy")
+def _depth_block(za, dz_seg, zb, first, count, n_in_seg, s, half_kp1, fz_scale, inv_kp1, inv_kp3s, d_buf, a1_buf,
+                 fz_buf):
+    """Depth ``d`` (m), ``a^(k+1)`` and F_z (N, paper Eq. 8) at steps ``first + 1 .. first + count`` of a
+    segment from depth ``za`` to ``zb`` in ``n_in_seg`` steps of ``dz_seg``; elementwise, so vectorised."""
+    for j in range(count):
+        step = first + 1 + j
+        d = zb if step == n_in_seg else za + step * dz_seg
+        sd = s * max(d, 1e-300)  # a^2 (m^2)
+        a1 = pow_positive(sd, half_kp1)
+        d_buf[j] = d
+        a1_buf[j] = a1
+        fz_buf[j] = fz_scale * (d * a1 * inv_kp1 - a1 * sd * inv_kp3s) if d > 0.0 else 0.0
+
+
+@njit(cache=True, error_model="numpy")
 def advance_nodes(
     u_x,
     state,
@@ -141,10 +188,10 @@ def advance_nodes(
     record_every,
     trace,
     out,
-    breaks_buffer,
+    scratch,
 ):
     """Advance ``u_x`` (node values, m) and ``state`` by one period, allocating nothing
-    (``breaks_buffer``: at least ``tx.size + tz.size`` floats of scratch).
+    (``scratch``: at least :func:`scratch_size` ``(tx.size + tz.size)`` floats).
 
     The period is cut at every corner of x(t) and z(t); each segment is split into equal steps no
     longer than ``dt_max`` (s) in which the indenter moves at most ``x_step`` (m) in x and
@@ -154,6 +201,9 @@ def advance_nodes(
     n_nodes = g.size
     kp1 = k + 1.0
     kp3s = s * (k + 3.0)
+    inv_kp1 = 1.0 / kp1
+    half_kp1 = 0.5 * kp1
+    inv_kp3s = 1.0 / kp3s
     edge_scale = 2.0 / c0k
     X = state[S_X]
     V = state[S_V]
@@ -164,9 +214,8 @@ def advance_nodes(
     z_prev = state[S_ZIND]
     t_start = state[S_TIME]
     X_start = X
+    inv_mass = 1.0 / moving_mass
     period = tx[tx.size - 1]
-    jx = 0
-    jz = 0
     peak_fx = 0.0
     peak_fz = 0.0
     diss_ind = 0.0
@@ -175,13 +224,23 @@ def advance_nodes(
     work_x = 0.0
     work_z = 0.0
     n_rec = 0
-    breaks = breaks_buffer[:merge_breaks(tx, tz, breaks_buffer)]
+    n_breaks = merge_breaks(tx, tz, scratch)
+    breaks = scratch[:n_breaks]
+    d_buf = scratch[n_breaks:n_breaks + STEP_BLOCK]
+    a1_buf = scratch[n_breaks + STEP_BLOCK:n_breaks + 2 * STEP_BLOCK]
+    fz_buf = scratch[n_breaks + 2 * STEP_BLOCK:n_breaks + 3 * STEP_BLOCK]
+    fz_scale = c_n * edge_scale
+    block_first = 0
+    block_end = 0
     n_steps_total = 0
     step_in_seg = 0
     n_in_seg = 0
     seg = -1
     t_seg = 0.0
     dt = 0.0
+    half_dt = 0.0
+    inv_dt = 0.0
+    xa = xb = za = zb = dx_seg = dz_seg = 0.0
     while True:
         if step_in_seg == n_in_seg:  # next segment: choose its step
             seg += 1
@@ -196,18 +255,26 @@ def advance_nodes(
             n_in_seg = max(1, int(np.ceil((t1 - t0) / dt_max - 1e-9)),
                            int(np.ceil(abs(xb - xa) / x_step - 1e-9)), int(np.ceil(abs(zb - za) / z_step - 1e-9)))
             dt = (t1 - t0) / n_in_seg
+            half_dt = 0.5 * dt
+            inv_dt = 1.0 / dt
+            dx_seg = (xb - xa) / n_in_seg  # x(t) and z(t) are linear within a segment
+            dz_seg = (zb - za) / n_in_seg
             t_seg = t0
             step_in_seg = 0
+            block_end = 0
+        if step_in_seg == block_end:  # the next block of steps' depth-only quantities
+            block_first = step_in_seg
+            block_end = min(n_in_seg, block_first + STEP_BLOCK)
+            _depth_block(za, dz_seg, zb, block_first, block_end - block_first, n_in_seg, s, half_kp1, fz_scale,
+                         inv_kp1, inv_kp3s, d_buf, a1_buf, fz_buf)
+        j = step_in_seg - block_first
         step_in_seg += 1
         n_steps_total += 1
-        t = t_seg + step_in_seg * dt
-        if step_in_seg == n_in_seg:
-            t = breaks[seg + 1]
-        x_new, jx = _interp(t, tx, vx, jx)
-        d_new, jz = _interp(t, tz, vz, jz)
+        x_new = xb if step_in_seg == n_in_seg else xa + step_in_seg * dx_seg
+        d_new = d_buf[j]
 
         # velocity Verlet: half kick with the forces at t_n, drift, springs, half kick at t_{n+1}
-        V, imp1 = _half_kick(V, fx_now - load, mu1 * fz_now, 0.5 * dt, moving_mass)
+        V, imp1 = _half_kick(V, fx_now - load, mu1 * fz_now, half_dt, moving_mass, inv_mass)
         dX = dt * V
         X += dX
         shift = (x_new - x_prev) - dX
@@ -222,47 +289,31 @@ def advance_nodes(
             n_new -= 1
         if n_new == n_nodes:
             raise ValueError("indentation exceeds the node grid; build the simulator with a larger max_depth")
-        for i in range(n_new, n_act):
-            u_x[i] = 0.0
         fx = 0.0
         fz = 0.0
         if n_new > 0:
             last = n_new - 1
-            a = np.sqrt(s * d_new)
-            a1 = a**kp1
-            a3 = a1 * a * a
-            fz = c_n * edge_scale * (d_new * a1 / kp1 - a3 / kp3s)  # paper Eq. 8, exact
+            a1 = a1_buf[j]  # a^(k+1), a the contact radius
+            a3 = a1 * s * d_new
+            fz = fz_buf[j]  # paper Eq. 8, exact
             gap = d_new - g[last]
             edge = 0.0
             if gap > 1e-12 * d_new:
-                edge = edge_scale * (d_new * (a1 - p1[last]) / kp1 - (a3 - p3[last]) / kp3s) / gap
-            slip = 0.0  # sum of w * lim * overshoot over the nodes that slip in this step
-            for i in range(last):
-                lim = slip_ratio * (d_new - g[i])
-                u = u_x[i] + shift
-                if u > lim:
-                    slip += w[i] * lim * (u - lim)
-                    u = lim
-                elif u < -lim:
-                    slip += w[i] * lim * (-lim - u)
-                    u = -lim
-                u_x[i] = u
-                fx += w[i] * u
-            w_last = left[last] + edge  # the last node in contact carries the edge cell
-            lim = slip_ratio * gap
-            u = u_x[last] + shift
-            if u > lim:
-                slip += w_last * lim * (u - lim)
-                u = lim
-            elif u < -lim:
-                slip += w_last * lim * (-lim - u)
-                u = -lim
-            u_x[last] = u
-            fx = c_t * (fx + w_last * u)
-            diss_ind += c_t * slip
+                edge = edge_scale * (d_new * (a1 - p1[last]) * inv_kp1 - (a3 - p3[last]) * inv_kp3s) / gap
+            u_last = u_x[last] + shift
+            # every node up to the contact edge and past the nodes that just left it, in whole SIMD blocks
+            n_loop = min(n_nodes, (max(n_new, n_act) + NODE_BLOCK - 1) // NODE_BLOCK * NODE_BLOCK)
+            fx, slip = _update_nodes(u_x, g, w, n_loop, shift, d_new, slip_ratio)
+            dw = left[last] + edge - w[last]  # the last node in contact carries the edge cell, not its hat
+            u = u_x[last]
+            fx = c_t * (fx + dw * u)
+            diss_ind += c_t * (slip + dw * slip_ratio * gap * abs(u_last - u))
+        else:
+            for i in range(n_act):
+                u_x[i] = 0.0
 
-        V, imp2 = _half_kick(V, fx - load, mu1 * fz, 0.5 * dt, moving_mass)
-        diss_base += (imp1 + imp2) / dt * dX  # mean base force over the step times the displacement
+        V, imp2 = _half_kick(V, fx - load, mu1 * fz, half_dt, moving_mass, inv_mass)
+        diss_base += (imp1 + imp2) * inv_dt * dX  # mean base force over the step times the displacement
         work_z += 0.5 * (fz_now + fz) * (d_new - z_prev)
         fx_now = fx
         fz_now = fz
@@ -274,6 +325,7 @@ def advance_nodes(
         if fz > peak_fz:
             peak_fz = fz
         if record_every > 0 and n_steps_total % record_every == 0:
+            t = breaks[seg + 1] if step_in_seg == n_in_seg else t_seg + step_in_seg * dt
             n_rec = record_row(trace, n_rec, t_start + t, x_new, d_new, X, V, fx, fz)
 
     store_period(state, out, X, V, fx_now, fz_now, n_act, x_prev, z_prev, t_start + period, X_start, period,

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import kernel as K
-from .fast_kernel import advance_nodes, node_positions, node_weights, normal_force
+from .fast_kernel import advance_nodes, node_positions, node_weights, normal_force, scratch_size
 from .materials import contact_radius
 from .params import DriveParams, Numerics, numerics_preset
 from .waveform import MAX_Z_KNOTS, Waveform, knots_from_params, period_knots
@@ -95,7 +95,7 @@ class DriveSimulator:
         self.state = np.zeros(K.STATE_SIZE)
         self._out = np.zeros(K.OUT_SIZE)
         self._empty_trace = np.zeros((0, len(K.TRACE_COLUMNS)))
-        self._breaks = np.empty(3 + MAX_Z_KNOTS)  # scratch of the node solver: a period's corners
+        self._breaks = np.empty(scratch_size(3 + MAX_Z_KNOTS))  # scratch of the node solver: a period's corners
         self.reset()
 
     def _build_grid(self) -> None:
@@ -269,7 +269,7 @@ class DriveSimulator:
         p, num = self.params, self.numerics
         tail = (p.drive.moving_mass, p.drive.load, p.contact.base_friction_coefficient, int(record_every), trace, out)
         if num.method == "nodes":
-            breaks = self._breaks if tx.size + tz.size <= self._breaks.size else np.empty(tx.size + tz.size)
+            breaks = self._breaks if scratch_size(tx.size + tz.size) <= self._breaks.size else np.empty(scratch_size(tx.size + tz.size))
             advance_nodes(self.u_x, self.state, *self._model, tx, vx, tz, vz, num.time_step, num.max_x_step,
                           num.max_z_step, *tail, breaks)
         else:
