@@ -6,7 +6,7 @@ registers of the loop around it must be saved and restored (measured: the fast k
 ``exp(y log x)`` with fdlibm's polynomials for ``log`` and ``exp`` (Sun Microsystems, 1993; the
 same coefficients as glibc's and musl's scalar fallbacks) and bit-level range reduction, all
 inlined; its relative error is a few units in the last place for the arguments the kernel passes
-(``tests/core/test_inline_pow.py``), far below the solver's discretisation error.
+(``tests/test_inline_pow.py``), far below the solver's discretisation error.
 """
 
 from __future__ import annotations
