@@ -35,7 +35,7 @@ P_CT, P_CN, P_K, P_S, P_C0K, P_SLIP, P_MASS, P_LOAD, P_MU1 = range(9)
 N_PARAMS = 9
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out, knots,
                   scratch, trace):
     """Advance drive e by one period with its waveform row ``waveforms[e] = (x_amplitude,
@@ -119,7 +119,7 @@ class BatchedDriveSimulator:
         self.out = np.zeros((n, K.OUT_SIZE))
         # per drive: rows tx, vx, tz, vz, and the kernel's scratch (the period's corners and more)
         self._knots = np.zeros((n, 4, 3 + MAX_Z_KNOTS))
-        self._scratch = np.zeros((n, scratch_size(3 + MAX_Z_KNOTS)))
+        self._scratch = np.zeros((n, scratch_size(3 + MAX_Z_KNOTS, nodes)))
         self._empty_trace = np.zeros((0, 7))
         self.params: list[DriveParams | None] = [None] * n
 

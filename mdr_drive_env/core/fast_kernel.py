@@ -94,7 +94,7 @@ def _half_kick(V, drive, f_lim, h, mass, inv_mass):
     return 0.0, imp + drive * h_rest  # sticks: static friction balances the drive
 
 
-#: Nodes per SIMD block of :func:`_update_nodes` (8 doubles: one AVX-512 register).
+#: Nodes per SIMD block of :func:`_update_nodes` (8 doubles: one AVX-512 register, two AVX2 ones).
 NODE_BLOCK = 8
 
 
@@ -118,20 +118,50 @@ def merge_breaks(tx, tz, out):
     return n
 
 
-@njit(cache=True, fastmath={"reassoc", "nsz"}, error_model="numpy")
-def _update_nodes(u_x, g, w, n, shift, d_new, slip_ratio):
+@njit(cache=True, inline="always", error_model="numpy")
+def _update_nodes(u_x, g, w, n, shift, d_new, slip_ratio, fx_part, slip_part):
     """Shift nodes ``0 .. n-1`` by ``shift`` and clamp them to ``+-lim``, ``lim = slip_ratio max(d_new - g, 0)``
     (so a node out of contact returns to 0); return ``(sum w u, sum w lim |overshoot|)``.
-    Branch-free, and its sums reassociable, so the compiler vectorises it."""
-    fx = 0.0
-    slip = 0.0
+
+    Two passes, both vectorised without letting the compiler reorder a sum (so the result is the
+    same bit for bit wherever the loop is compiled: the single and the batched solver): an
+    elementwise pass that writes each node's terms into ``fx_part`` and ``slip_part`` (scratch, at
+    least n long), then sums in ``NODE_BLOCK`` = 8 lanes (node ``i`` in lane ``i % 8``), added in a
+    fixed order at the end.
+    """
     for i in range(n):
+        u = u_x[i] + shift
         lim = slip_ratio * max(d_new - g[i], 0.0)
-        u0 = u_x[i] + shift
-        u = min(max(u0, -lim), lim)
-        slip += w[i] * lim * abs(u0 - u)
-        u_x[i] = u
-        fx += w[i] * u
+        v = min(max(u, -lim), lim)
+        u_x[i] = v
+        fx_part[i] = w[i] * v
+        slip_part[i] = w[i] * lim * abs(u - v)
+    f0 = f1 = f2 = f3 = f4 = f5 = f6 = f7 = 0.0
+    s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = 0.0
+    n_blocks = n // 8
+    for b in range(n_blocks):
+        i = 8 * b
+        f0 += fx_part[i + 0]
+        s0 += slip_part[i + 0]
+        f1 += fx_part[i + 1]
+        s1 += slip_part[i + 1]
+        f2 += fx_part[i + 2]
+        s2 += slip_part[i + 2]
+        f3 += fx_part[i + 3]
+        s3 += slip_part[i + 3]
+        f4 += fx_part[i + 4]
+        s4 += slip_part[i + 4]
+        f5 += fx_part[i + 5]
+        s5 += slip_part[i + 5]
+        f6 += fx_part[i + 6]
+        s6 += slip_part[i + 6]
+        f7 += fx_part[i + 7]
+        s7 += slip_part[i + 7]
+    for i in range(8 * n_blocks, n):  # a node count that is not a multiple of 8
+        f0 += fx_part[i]
+        s0 += slip_part[i]
+    fx = ((f0 + f1) + (f2 + f3)) + ((f4 + f5) + (f6 + f7))
+    slip = ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
     return fx, slip
 
 
@@ -140,12 +170,13 @@ def _update_nodes(u_x, g, w, n, shift, d_new, slip_ratio):
 STEP_BLOCK = 64
 
 
-def scratch_size(n_knots: int) -> int:
-    """Floats of scratch :func:`advance_nodes` needs for a period with ``n_knots`` knots in all."""
-    return n_knots + 3 * STEP_BLOCK
+def scratch_size(n_knots: int, nodes: int) -> int:
+    """Floats of scratch :func:`advance_nodes` needs for a period with ``n_knots`` knots in all, on
+    ``nodes`` nodes."""
+    return n_knots + 3 * STEP_BLOCK + 2 * nodes
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _depth_block(za, dz_seg, zb, first, count, n_in_seg, s, half_kp1, fz_scale, inv_kp1, inv_kp3s, d_buf, a1_buf,
                  fz_buf):
     """Depth ``d`` (m), ``a^(k+1)`` and F_z (N, paper Eq. 8) at steps ``first + 1 .. first + count`` of a
@@ -191,7 +222,7 @@ def advance_nodes(
     scratch,
 ):
     """Advance ``u_x`` (node values, m) and ``state`` by one period, allocating nothing
-    (``scratch``: at least :func:`scratch_size` ``(tx.size + tz.size)`` floats).
+    (``scratch``: at least :func:`scratch_size` ``(tx.size + tz.size, g.size)`` floats).
 
     The period is cut at every corner of x(t) and z(t); each segment is split into equal steps no
     longer than ``dt_max`` (s) in which the indenter moves at most ``x_step`` (m) in x and
@@ -229,6 +260,8 @@ def advance_nodes(
     d_buf = scratch[n_breaks:n_breaks + STEP_BLOCK]
     a1_buf = scratch[n_breaks + STEP_BLOCK:n_breaks + 2 * STEP_BLOCK]
     fz_buf = scratch[n_breaks + 2 * STEP_BLOCK:n_breaks + 3 * STEP_BLOCK]
+    fx_part = scratch[n_breaks + 3 * STEP_BLOCK:n_breaks + 3 * STEP_BLOCK + n_nodes]
+    slip_part = scratch[n_breaks + 3 * STEP_BLOCK + n_nodes:n_breaks + 3 * STEP_BLOCK + 2 * n_nodes]
     fz_scale = c_n * edge_scale
     block_first = 0
     block_end = 0
@@ -303,7 +336,7 @@ def advance_nodes(
             u_last = u_x[last] + shift
             # every node up to the contact edge and past the nodes that just left it, in whole SIMD blocks
             n_loop = min(n_nodes, (max(n_new, n_act) + NODE_BLOCK - 1) // NODE_BLOCK * NODE_BLOCK)
-            fx, slip = _update_nodes(u_x, g, w, n_loop, shift, d_new, slip_ratio)
+            fx, slip = _update_nodes(u_x, g, w, n_loop, shift, d_new, slip_ratio, fx_part, slip_part)
             dw = left[last] + edge - w[last]  # the last node in contact carries the edge cell, not its hat
             u = u_x[last]
             fx = c_t * (fx + dw * u)

@@ -95,7 +95,7 @@ class DriveSimulator:
         self.state = np.zeros(K.STATE_SIZE)
         self._out = np.zeros(K.OUT_SIZE)
         self._empty_trace = np.zeros((0, len(K.TRACE_COLUMNS)))
-        self._breaks = np.empty(scratch_size(3 + MAX_Z_KNOTS))  # scratch of the node solver: a period's corners
+        self._scratch = np.empty(scratch_size(3 + MAX_Z_KNOTS, self.numerics.nodes))  # the node solver's scratch
         self.reset()
 
     def _build_grid(self) -> None:
@@ -269,9 +269,10 @@ class DriveSimulator:
         p, num = self.params, self.numerics
         tail = (p.drive.moving_mass, p.drive.load, p.contact.base_friction_coefficient, int(record_every), trace, out)
         if num.method == "nodes":
-            breaks = self._breaks if scratch_size(tx.size + tz.size) <= self._breaks.size else np.empty(scratch_size(tx.size + tz.size))
+            size = scratch_size(tx.size + tz.size, num.nodes)
+            scratch = self._scratch if size <= self._scratch.size else np.empty(size)
             advance_nodes(self.u_x, self.state, *self._model, tx, vx, tz, vz, num.time_step, num.max_x_step,
-                          num.max_z_step, *tail, breaks)
+                          num.max_z_step, *tail, scratch)
         else:
             K.advance_period(self.u_x, self.state, *self._model, tx, vx, tz, vz, int(round(tx[-1] / num.time_step)),
                              num.time_step, *tail)
