@@ -1,6 +1,7 @@
 """The fast node solver against closed forms, the reference solver and its own batched path."""
 
 import dataclasses
+import os
 from pathlib import Path
 
 import gymnasium as gym
@@ -192,15 +193,13 @@ def test_no_contact_base_stick_without_contact_force():
 
 
 def test_batched_results_do_not_depend_on_the_thread_count(rng):
-    import numba
+    from mdr_drive_env.core.batch import MAX_THREADS, MIN_DRIVES_PER_THREAD, BatchedDriveSimulator
 
-    from mdr_drive_env.core.batch import MIN_DRIVES_PER_THREAD, BatchedDriveSimulator
-
-    n = 3 * MIN_DRIVES_PER_THREAD  # enough drives for the parallel kernel on 2 or more threads
+    n = 5 * MIN_DRIVES_PER_THREAD + 1  # enough drives for up to 5 threads, in chunks of unequal size
     waveforms = np.column_stack([rng.uniform(0, 30e-6, n), rng.integers(5, 196, n) * 1e-5, rng.uniform(0, 6e-6, n),
                                  rng.integers(5, 196, n) * 1e-5, rng.integers(0, 200, n) / 200])
     outs = []
-    for threads in range(1, numba.config.NUMBA_NUM_THREADS + 1):
+    for threads in (1, 2, 3, 5):  # more threads than this machine's cores too
         sim = BatchedDriveSimulator(n, num_threads=threads)
         for i in range(n):
             sim.set_params(i, DriveParams.paper(k=0.6 * i / n, cargo_mass=0.02 * (i % 4)))
@@ -213,6 +212,8 @@ def test_batched_results_do_not_depend_on_the_thread_count(rng):
         np.testing.assert_array_equal(other, outs[0])
     with pytest.raises(ValueError, match="num_threads"):
         BatchedDriveSimulator(2, num_threads=0)
+    with pytest.raises(ValueError, match="num_threads"):
+        BatchedDriveSimulator(2, num_threads=MAX_THREADS + 1)
 
 
 def test_batched_action_map_equals_the_scalar_one(rng):
@@ -245,3 +246,42 @@ def test_processes_forked_after_a_parallel_batch_still_run_it():
     with ProcessPoolExecutor(2, mp_context=mp.get_context("fork")) as pool:
         for there in pool.map(_batch_displacements, range(2)):
             np.testing.assert_array_equal(there, here)
+
+
+def _batched_displacements(n: int, threads: int) -> np.ndarray:
+    from mdr_drive_env.core.batch import BatchedDriveSimulator
+
+    sim = BatchedDriveSimulator(n, num_threads=threads)
+    for i in range(n):
+        sim.set_params(i, DriveParams.paper(k=0.05 * i, cargo_mass=0.01 * i))
+    waveforms = np.tile([20e-6, 1.8e-3, 5e-6, 1.5e-3, 0.1], (n, 1))
+    return np.array([sim.step(waveforms, 2e-3)[:, K.O_DISPLACEMENT].copy() for _ in range(3)])
+
+
+def _batched_displacements_into(queue, n: int, threads: int) -> None:
+    queue.put(_batched_displacements(n, threads))
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork()")
+def test_batched_threads_work_in_a_forked_child():
+    """The sweeps fork worker processes: a child forked after the parent used the helper threads steps
+    the batched solver on threads of its own (with the parent's pool, whose threads the child does not
+    have, it would wait forever)."""
+    import multiprocessing
+    import queue as queues
+
+    n = 4 * 4
+    here = _batched_displacements(n, 2)  # the parent's helper threads exist now
+    ctx = multiprocessing.get_context("fork")
+    results = ctx.Queue()
+    child = ctx.Process(target=_batched_displacements_into, args=(results, n, 2))
+    child.start()
+    try:
+        there = results.get(timeout=60)
+    except queues.Empty:
+        there = None
+    child.join(5)
+    if child.is_alive():
+        child.kill()
+    assert there is not None, "the forked child did not finish stepping the batched solver"
+    np.testing.assert_array_equal(there, here)

@@ -1,34 +1,39 @@
 """N independent drives stepped by one compiled call per period (the fast solver, ``method="nodes"``).
 
 Each drive has its own model (k, load, ...) and waveform; all share the numerics and the node
-positions in g. The drives are spread over ``num_threads`` threads (numba ``prange``; at least
-``MIN_DRIVES_PER_THREAD`` drives a thread, fewer drives run serially); each drive is computed by one
-thread exactly as alone, so results equal N separate :class:`DriveSimulator` runs with the same
-numerics bit for bit, whatever the thread count. Used by the vector environment.
+positions in g. The drives are split into ``num_threads`` contiguous chunks (at least
+``MIN_DRIVES_PER_THREAD`` drives a chunk; fewer drives run serially): the calling thread steps the
+first chunk while helper threads step the others, each with the same compiled serial loop, which
+releases the GIL. Each drive is computed by one thread exactly as alone, so results equal N
+separate :class:`DriveSimulator` runs with the same numerics bit for bit, whatever the thread count.
+Used by the vector environment.
+
+Why not numba's ``prange``: with its fork-safe ``workqueue`` layer every parallel call waited for
+sleeping workers (about 75 us a call on this machine, measured with an empty loop) while the calling
+thread idled, so at 64 drives two threads stepped the vector env no faster than one; the OpenMP
+layer is faster but kills forked children, and the sweeps fork.
 """
 
 from __future__ import annotations
 
 import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 
-import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from . import kernel as K
-
-# Numba's threading layer: "workqueue" unless the user chose one (NUMBA_THREADING_LAYER). The GNU
-# OpenMP layer it would otherwise pick kills any process that fork()s after a parallel call
-# ("fork() called from a process already using GNU OpenMP"), and the sweeps fork worker processes.
-# workqueue is fork-safe; it is not thread-safe (call the batched solver from one thread at a time).
-if numba.config.THREADING_LAYER == "default":
-    numba.config.THREADING_LAYER = "workqueue"
 from .fast_kernel import advance_nodes, node_positions, node_weights, normal_force, scratch_size
 from .params import DriveParams, Numerics, numerics_preset
 from .waveform import MAX_Z_KNOTS, knots_into
 
-#: Drives per thread below which the serial kernel is faster (thread start-up costs more than it saves).
-MIN_DRIVES_PER_THREAD = 16
+#: Drives per thread below which the serial kernel is faster (handing work to a thread costs more than
+#: it saves).
+MIN_DRIVES_PER_THREAD = 4
+
+#: Most threads one batched simulator may use.
+MAX_THREADS = 256
 
 # columns of the per-drive parameter table
 P_CT, P_CN, P_K, P_S, P_C0K, P_SLIP, P_MASS, P_LOAD, P_MU1 = range(9)
@@ -58,27 +63,44 @@ def advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_
                   m[P_MU1], 0, trace, out[e], scratch[e])
 
 
-@njit(cache=True, parallel=True)
-def advance_batch_parallel(u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out,
-                           knots, scratch, trace):
-    """Every drive by one period (:func:`advance_drive`), the drives spread over numba's threads."""
-    for e in prange(u.shape[0]):
-        advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out, knots,
-                      scratch, trace)
-
-
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def advance_batch_serial(u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out,
                          knots, scratch, trace):
-    """Every drive by one period (:func:`advance_drive`), one after the other on this thread."""
+    """Every drive by one period (:func:`advance_drive`), one after the other on this thread, without
+    the GIL (so helper threads can step other drives at the same time)."""
     for e in range(u.shape[0]):
         advance_drive(e, u, state, g, w, left, p1, p3, model, waveforms, period, dt_max, x_step, z_step, out, knots,
                       scratch, trace)
 
 
 def default_threads() -> int:
-    """The cores available to this process, at most numba's thread pool."""
-    return max(1, min(len(os.sched_getaffinity(0)), numba.config.NUMBA_NUM_THREADS))
+    """The cores available to this process."""
+    return max(1, len(os.sched_getaffinity(0)))
+
+
+_helpers: ThreadPoolExecutor | None = None
+_helpers_lock = threading.Lock()
+
+
+def _helper_pool(workers: int) -> ThreadPoolExecutor:
+    """The process's pool of helper threads, grown to at least ``workers`` threads."""
+    global _helpers
+    with _helpers_lock:
+        if _helpers is None or _helpers._max_workers < workers:
+            old, _helpers = _helpers, ThreadPoolExecutor(workers, thread_name_prefix="mdr-drive-batch")
+            if old is not None:
+                old.shutdown(wait=False)
+        return _helpers
+
+
+def _forget_helpers() -> None:
+    """In a forked child the parent's helper threads do not exist: start a new pool when needed."""
+    global _helpers, _helpers_lock
+    _helpers, _helpers_lock = None, threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_helpers)
 
 
 class BatchedDriveSimulator:
@@ -88,8 +110,8 @@ class BatchedDriveSimulator:
         n: number of drives.
         numerics: a ``method="nodes"`` :class:`Numerics` or preset name (default ``"fast"``).
         max_depth: largest indentation (m) any waveform will use.
-        num_threads: threads that step the drives (default: the cores available to this process,
-            at most numba's thread pool); results do not depend on it.
+        num_threads: threads that step the drives, the calling one included (default: the cores
+            available to this process); results do not depend on it.
     """
 
     def __init__(self, n: int, numerics: Numerics | str = "fast", max_depth: float = 6e-6,
@@ -102,9 +124,8 @@ class BatchedDriveSimulator:
         self.n = n
         self.num_threads = default_threads() if num_threads is None else num_threads
         if isinstance(self.num_threads, bool) or not isinstance(self.num_threads, (int, np.integer)) or not (
-                1 <= self.num_threads <= numba.config.NUMBA_NUM_THREADS):
-            raise ValueError(f"num_threads={num_threads!r} is outside the allowed range "
-                             f"[1, {numba.config.NUMBA_NUM_THREADS}]")
+                1 <= self.num_threads <= MAX_THREADS):
+            raise ValueError(f"num_threads={num_threads!r} is outside the allowed range [1, {MAX_THREADS}]")
         self.num_threads = int(self.num_threads)
         self.max_depth = float(max_depth)
         nodes = self.numerics.nodes
@@ -144,14 +165,21 @@ class BatchedDriveSimulator:
         (columns ``kernel.O_*``)."""
         if any(p is None for p in self.params):
             raise RuntimeError("set_params() every drive before step()")
-        num = self.numerics
-        threads = min(self.num_threads, self.n // MIN_DRIVES_PER_THREAD)
-        if threads > 1:
-            numba.set_num_threads(threads)
-            kernel = advance_batch_parallel
-        else:
-            kernel = advance_batch_serial
-        kernel(self.u, self.state, self.g, self.w, self.left, self.p1, self.p3, self.model,
-               np.ascontiguousarray(waveforms, dtype=np.float64), float(period), num.time_step,
-               num.max_x_step, num.max_z_step, self.out, self._knots, self._scratch, self._empty_trace)
+        waveforms = np.ascontiguousarray(waveforms, dtype=np.float64)
+        period = float(period)
+        threads = max(1, min(self.num_threads, self.n // MIN_DRIVES_PER_THREAD))
+        bounds = [self.n * i // threads for i in range(threads + 1)]
+        pool = _helper_pool(threads - 1) if threads > 1 else None
+        pending = [pool.submit(self._advance_drives, bounds[i], bounds[i + 1], waveforms, period)
+                   for i in range(1, threads)]
+        self._advance_drives(bounds[0], bounds[1], waveforms, period)
+        for job in pending:
+            job.result()
         return self.out
+
+    def _advance_drives(self, first: int, stop: int, waveforms: np.ndarray, period: float) -> None:
+        """Drives ``first .. stop-1`` by one period, on the calling thread (the GIL released)."""
+        num, sl = self.numerics, slice(first, stop)
+        advance_batch_serial(self.u[sl], self.state[sl], self.g, self.w[sl], self.left[sl], self.p1[sl], self.p3[sl],
+                             self.model[sl], waveforms[sl], period, num.time_step, num.max_x_step, num.max_z_step,
+                             self.out[sl], self._knots[sl], self._scratch[sl], self._empty_trace)
