@@ -119,15 +119,17 @@ def merge_breaks(tx, tz, out):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _update_nodes(u_x, g, w, n, shift, d_new, slip_ratio, fx_part, slip_part):
+def _update_nodes(u_x, g, w, n, shift, d_new, slip_ratio, fx_part, slip_sum):
     """Shift nodes ``0 .. n-1`` by ``shift`` and clamp them to ``+-lim``, ``lim = slip_ratio max(d_new - g, 0)``
-    (so a node out of contact returns to 0); return ``(sum w u, sum w lim |overshoot|)``.
+    (so a node out of contact returns to 0); add each node's ``w lim |overshoot|`` to ``slip_sum[i]``;
+    return ``sum w u``.
 
     Two passes, both vectorised without letting the compiler reorder a sum (so the result is the
     same bit for bit wherever the loop is compiled: the single and the batched solver): an
-    elementwise pass that writes each node's terms into ``fx_part`` and ``slip_part`` (scratch, at
-    least n long), then sums in ``NODE_BLOCK`` = 8 lanes (node ``i`` in lane ``i % 8``), added in a
-    fixed order at the end.
+    elementwise pass that writes each node's ``w u`` into ``fx_part`` (scratch, at least n long),
+    then the sum in ``NODE_BLOCK`` = 8 lanes (node ``i`` in lane ``i % 8``), added in a fixed order at
+    the end. (16 lanes in two registers, to halve the chain of dependent additions, gave results that
+    differed in the last bit between the single and the batched solver: tested, not used.)
     """
     for i in range(n):
         u = u_x[i] + shift
@@ -135,34 +137,22 @@ def _update_nodes(u_x, g, w, n, shift, d_new, slip_ratio, fx_part, slip_part):
         v = min(max(u, -lim), lim)
         u_x[i] = v
         fx_part[i] = w[i] * v
-        slip_part[i] = w[i] * lim * abs(u - v)
-    f0 = f1 = f2 = f3 = f4 = f5 = f6 = f7 = 0.0
-    s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = 0.0
+        slip_sum[i] += w[i] * lim * abs(u - v)
+    a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
     n_blocks = n // 8
-    for b in range(n_blocks):
-        i = 8 * b
-        f0 += fx_part[i + 0]
-        s0 += slip_part[i + 0]
-        f1 += fx_part[i + 1]
-        s1 += slip_part[i + 1]
-        f2 += fx_part[i + 2]
-        s2 += slip_part[i + 2]
-        f3 += fx_part[i + 3]
-        s3 += slip_part[i + 3]
-        f4 += fx_part[i + 4]
-        s4 += slip_part[i + 4]
-        f5 += fx_part[i + 5]
-        s5 += slip_part[i + 5]
-        f6 += fx_part[i + 6]
-        s6 += slip_part[i + 6]
-        f7 += fx_part[i + 7]
-        s7 += slip_part[i + 7]
+    for p in range(n_blocks):
+        i = 8 * p
+        a0 += fx_part[i + 0]
+        a1 += fx_part[i + 1]
+        a2 += fx_part[i + 2]
+        a3 += fx_part[i + 3]
+        a4 += fx_part[i + 4]
+        a5 += fx_part[i + 5]
+        a6 += fx_part[i + 6]
+        a7 += fx_part[i + 7]
     for i in range(8 * n_blocks, n):  # a node count that is not a multiple of 8
-        f0 += fx_part[i]
-        s0 += slip_part[i]
-    fx = ((f0 + f1) + (f2 + f3)) + ((f4 + f5) + (f6 + f7))
-    slip = ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
-    return fx, slip
+        a0 += fx_part[i]
+    return ((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7))
 
 
 #: Steps whose depth-only quantities (depth, a^(k+1), F_z) are computed together, vectorised, before
@@ -249,7 +239,6 @@ def advance_nodes(
     period = tx[tx.size - 1]
     peak_fx = 0.0
     peak_fz = 0.0
-    diss_ind = 0.0
     diss_base = 0.0
     work_load = 0.0
     work_x = 0.0
@@ -261,7 +250,9 @@ def advance_nodes(
     a1_buf = scratch[n_breaks + STEP_BLOCK:n_breaks + 2 * STEP_BLOCK]
     fz_buf = scratch[n_breaks + 2 * STEP_BLOCK:n_breaks + 3 * STEP_BLOCK]
     fx_part = scratch[n_breaks + 3 * STEP_BLOCK:n_breaks + 3 * STEP_BLOCK + n_nodes]
-    slip_part = scratch[n_breaks + 3 * STEP_BLOCK + n_nodes:n_breaks + 3 * STEP_BLOCK + 2 * n_nodes]
+    slip_sum = scratch[n_breaks + 3 * STEP_BLOCK + n_nodes:n_breaks + 3 * STEP_BLOCK + 2 * n_nodes]
+    slip_sum[:] = 0.0  # per node: w lim |overshoot| summed over the period's steps
+    diss_edge = 0.0  # the edge cells' part of it
     fz_scale = c_n * edge_scale
     block_first = 0
     block_end = 0
@@ -336,11 +327,11 @@ def advance_nodes(
             u_last = u_x[last] + shift
             # every node up to the contact edge and past the nodes that just left it, in whole SIMD blocks
             n_loop = min(n_nodes, (max(n_new, n_act) + NODE_BLOCK - 1) // NODE_BLOCK * NODE_BLOCK)
-            fx, slip = _update_nodes(u_x, g, w, n_loop, shift, d_new, slip_ratio, fx_part, slip_part)
+            fx = _update_nodes(u_x, g, w, n_loop, shift, d_new, slip_ratio, fx_part, slip_sum)
             dw = left[last] + edge - w[last]  # the last node in contact carries the edge cell, not its hat
             u = u_x[last]
             fx = c_t * (fx + dw * u)
-            diss_ind += c_t * (slip + dw * slip_ratio * gap * abs(u_last - u))
+            diss_edge += dw * slip_ratio * gap * abs(u_last - u)
         else:
             for i in range(n_act):
                 u_x[i] = 0.0
@@ -361,5 +352,9 @@ def advance_nodes(
             t = breaks[seg + 1] if step_in_seg == n_in_seg else t_seg + step_in_seg * dt
             n_rec = record_row(trace, n_rec, t_start + t, x_new, d_new, X, V, fx, fz)
 
+    slip = 0.0
+    for i in range(n_nodes):
+        slip += slip_sum[i]
+    diss_ind = c_t * (slip + diss_edge)
     store_period(state, out, X, V, fx_now, fz_now, n_act, x_prev, z_prev, t_start + period, X_start, period,
                  peak_fx, peak_fz, diss_ind, diss_base, work_load, work_x, work_z, n_rec)
