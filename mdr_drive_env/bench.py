@@ -145,8 +145,20 @@ def run(out_dir: str | Path = "results/bench", quick: bool = False, reference_ca
                                      for n in tqdm((1, 8, 64), desc="vector env")}
     from .core.batch import default_threads
 
-    by_threads = vector_rates(64, max(4, env_steps // 64), reps, list(range(1, default_threads() + 1)))
+    from .core import batch
+
+    thread_counts = list(range(1, default_threads() + 1))
+    by_threads = vector_rates(64, max(4, env_steps // 64), reps, thread_counts)
     res["vector_env_64_steps_per_s_by_threads"] = {str(t): r for t, r in by_threads.items()}
+    # the scaling curve: every thread count at every N, even below the drives a thread needs by default
+    limit, batch.MIN_DRIVES_PER_THREAD = batch.MIN_DRIVES_PER_THREAD, 1
+    try:
+        res["vector_env_scaling"] = {str(n): {str(t): r for t, r in vector_rates(n, max(4, env_steps // n), reps,
+                                                                                   thread_counts).items()}
+                                     for n in tqdm((8, 16, 64, 256), desc="vector env scaling")}
+    finally:
+        batch.MIN_DRIVES_PER_THREAD = limit
+    res["min_drives_per_thread"] = limit
 
     actions, _ = accuracy_waveforms()
     reference = reference_displacements(reference_cache, executor=executor)
@@ -180,6 +192,17 @@ def markdown(res: dict) -> str:
               f"{res['first_call']['compile_first_period_s']:.1f} s (import {res['first_call']['compile_import_s']:.1f} s); "
               f"from numba's cache {res['first_call']['cache_load_first_period_s']:.2f} s "
               f"(import {res['first_call']['cache_load_import_s']:.2f} s)", ""]
+    scaling = res.get("vector_env_scaling")
+    if scaling:
+        counts = list(next(iter(scaling.values())))
+        lines += ["Batched vector env, env-steps/s by drives N and threads (`num_threads`; every count forced, "
+                  f"below the default's {res['min_drives_per_thread']} drives a thread too):", "",
+                  "| N | " + " | ".join(f"{t} thread{'s' if t != '1' else ''}" for t in counts)
+                  + f" | {counts[-1]} over 1 |", "|---|" + "---|" * (len(counts) + 1)]
+        for n, row in scaling.items():
+            lines.append(f"| {n} | " + " | ".join(f"{row[t]:,.0f}" for t in counts)
+                         + f" | {row[counts[-1]] / row[counts[0]]:.2f} |")
+        lines.append("")
     lines += ["| solver | max error (µm) | max error / tolerance | within tolerance | worst case |", "|---|---|---|---|---|"]
     for preset in ("fast", "default"):
         a = res[f"accuracy_{preset}"]

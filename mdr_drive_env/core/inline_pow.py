@@ -1,8 +1,8 @@
 """``x ** y`` for ``x > 0`` as inline arithmetic, for the fast kernel's per-step contact radius.
 
 A call to the C library's ``pow`` inside a compiled loop costs more than the call: the vector
-registers of the loop around it must be saved and restored (measured: the fast kernel ran about
-1.4 times faster per period with the call replaced by inline arithmetic). :func:`pow_positive` is
+registers of the loop around it are saved and restored, and the loop cannot be vectorised
+(docs/performance.md). :func:`pow_positive` is
 ``exp(y log x)`` with fdlibm's polynomials for ``log`` and ``exp`` (Sun Microsystems, 1993; the
 same coefficients as glibc's and musl's scalar fallbacks) and bit-level range reduction, all
 inlined; its relative error is a few units in the last place for the arguments the kernel passes
