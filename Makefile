@@ -51,7 +51,7 @@ adaptation: $(STAMP)
 benchmark: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark_shipped
 
-## make blind: the shipped policy on 24 random points of the report seed (results/blind/seed20261126; about 25 minutes on 2 cores)
+## make blind: the shipped policy on 24 random points of the report seed (results/blind/seed20261126; about 6 minutes on 2 cores)
 blind: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --blind 24 --seed 20261126 --policies agents/pretrained/ppo_generalist \
 	    --out results/blind/seed20261126
