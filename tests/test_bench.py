@@ -22,3 +22,4 @@ def test_markdown_reports_the_scaling_curve_with_its_ratio():
     assert "| N | 1 thread | 2 threads | 2 over 1 |" in text
     assert "| 8 | 100 | 150 | 1.50 |" in text and "| 64 | 200 | 380 | 1.90 |" in text
     assert "below the default's 8 drives a thread too" in text
+

@@ -285,3 +285,14 @@ def test_batched_threads_work_in_a_forked_child():
         child.kill()
     assert there is not None, "the forked child did not finish stepping the batched solver"
     np.testing.assert_array_equal(there, here)
+
+
+def test_default_threads_honour_numba_num_threads(monkeypatch):
+    """The Ray sweeps set NUMBA_NUM_THREADS=1 per task: the batched solver then uses one thread."""
+    import numba
+
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 1)
+    from mdr_drive_env.core import batch
+
+    assert batch.default_threads() == 1
+    assert batch.BatchedDriveSimulator(4).num_threads == 1

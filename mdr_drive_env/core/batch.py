@@ -20,6 +20,7 @@ import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -74,8 +75,9 @@ def advance_batch_serial(u, state, g, w, left, p1, p3, model, waveforms, period,
 
 
 def default_threads() -> int:
-    """The cores available to this process."""
-    return max(1, len(os.sched_getaffinity(0)))
+    """The cores available to this process, at most ``NUMBA_NUM_THREADS`` (which the Ray sweeps set to
+    1 per task, so that N CPUs run N tasks; ``mdr_drive_env.sweep``)."""
+    return max(1, min(len(os.sched_getaffinity(0)), numba.config.NUMBA_NUM_THREADS))
 
 
 _helpers: ThreadPoolExecutor | None = None
@@ -110,8 +112,8 @@ class BatchedDriveSimulator:
         n: number of drives.
         numerics: a ``method="nodes"`` :class:`Numerics` or preset name (default ``"fast"``).
         max_depth: largest indentation (m) any waveform will use.
-        num_threads: threads that step the drives, the calling one included (default: the cores
-            available to this process); results do not depend on it.
+        num_threads: threads that step the drives, the calling one included (default:
+            :func:`default_threads`); results do not depend on it.
     """
 
     def __init__(self, n: int, numerics: Numerics | str = "fast", max_depth: float = 6e-6,
