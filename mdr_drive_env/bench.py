@@ -143,11 +143,9 @@ def run(out_dir: str | Path = "results/bench", quick: bool = False, reference_ca
     env_steps = 1000 if quick else 8000  # env-steps per timed block
     res["vector_env_steps_per_s"] = {str(n): vector_rates(n, max(4, env_steps // n), reps, [None])[None]
                                      for n in tqdm((1, 8, 64), desc="vector env")}
-    from .core.batch import default_threads
-
     from .core import batch
 
-    thread_counts = list(range(1, default_threads() + 1))
+    thread_counts = list(range(1, batch.default_threads() + 1))
     by_threads = vector_rates(64, max(4, env_steps // 64), reps, thread_counts)
     res["vector_env_64_steps_per_s_by_threads"] = {str(t): r for t, r in by_threads.items()}
     # the scaling curve: every thread count at every N, even below the drives a thread needs by default
