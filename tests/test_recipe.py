@@ -144,3 +144,76 @@ def test_hole_probes_on_load_lines_scan_each_k_evenly_up_to_the_load_factor():
         DistillConfig(hole_probes=8, hole_load_lines=9)
     with pytest.raises(ValueError, match="hole_load_lines"):
         DistillConfig(hole_load_lines=-1)
+
+
+def test_lockstep_cma_finds_each_searchs_own_optimum_and_never_loses_its_start():
+    from mdr_drive_agents.baselines import cma_maximize_many
+
+    optima = np.array([[0.3, -0.2], [-0.5, 0.6], [0.9, 0.9]])
+    calls = []
+
+    def objective(which, xs):  # a separate concave bowl per search: the index says which
+        calls.append(len(xs))
+        return -np.sum((xs - optima[which]) ** 2, axis=1)
+
+    starts = np.array([[0.0, 0.0], [0.0, 0.0], [0.9, 0.9]])  # the third starts at its optimum
+    best, value = cma_maximize_many(objective, starts, budget=300, popsize=10, sigma0=0.2, seed=1)
+    np.testing.assert_allclose(best[:2], optima[:2], atol=2e-3)
+    np.testing.assert_array_equal(best[2], starts[2])  # nothing beats the start: it is kept
+    assert calls[0] == 3 and set(calls[1:]) == {30}  # the starts, then one batched call per generation
+    np.testing.assert_allclose(value, objective(np.arange(3), best))
+
+
+def test_robustify_raises_each_nodes_mean_velocity_under_action_errors():
+    from mdr_drive_agents.drive_field import DriveField
+    from mdr_drive_agents.evaluate import open_loop_velocity, trapezoid_action
+
+    trapezoid = np.tile(trapezoid_action(), (2, 1))
+    drives = np.array([[trapezoid, trapezoid]])  # one k, two loads: no load and a light one
+    field = DriveField([0.2], [0.0, 0.5], [0.1], drives, open_loop_velocity([(0.2, 0.0), (0.2, 0.05)], drives[0])[None])
+    before = field.velocities.copy()
+    changed = field.robustify(sigma=0.05, perturbations=3, budget=20, keep=0.9, seed=0)
+    meta = field.meta["robustified"]
+    assert meta["nodes"] == 2 and changed == meta["changed"]
+    assert meta["mean_under_errors_after_m_s"] >= meta["mean_under_errors_before_m_s"]
+    assert np.all(np.abs(field.drives) <= 1.0)
+    assert np.all(field.velocities >= 0.9 * before)  # keeps 0.9 of the velocity without errors
+    np.testing.assert_allclose(field.velocities[0], open_loop_velocity([(0.2, 0.0), (0.2, 0.05)], field.drives[0]))
+    with pytest.raises(ValueError, match="robust_sigma"):
+        FieldConfig(robust_sigma=-0.1)
+    with pytest.raises(ValueError, match="robust_budget"):
+        FieldConfig(robust_budget=0)
+    with pytest.raises(ValueError, match="robust_keep"):
+        FieldConfig(robust_keep=1.5)
+
+
+def test_weighted_edge_loss_is_the_weighted_mean_of_each_samples_error():
+    import torch
+
+    from mdr_drive_agents.distill import edge_loss
+
+    mean = torch.tensor([[0.5, 1.3], [0.0, 0.0], [0.2, -0.4]])
+    target = torch.tensor([[0.4, 1.0], [0.3, -0.1], [0.2, -1.0]])  # 1.0 and -1.0 lie on the box's edge
+    per_sample = torch.tensor([0.01 / 2, (0.09 + 0.01) / 2, 0.36 / 2])  # beyond the edge costs nothing
+    assert torch.isclose(edge_loss(mean, target), per_sample.mean())
+    assert torch.isclose(edge_loss(mean, target, torch.ones(3)), per_sample.mean())
+    assert torch.isclose(edge_loss(mean, target, torch.tensor([0.0, 0.0, 2.0])), per_sample[2])
+
+
+def test_sensitivity_weights_grow_with_the_velocity_lost_under_action_errors():
+    from mdr_drive_agents import distill
+    from mdr_drive_agents.evaluate import open_loop_velocity, trapezoid_action
+
+    points = [(0.2, 0.0), (0.2, 0.08)]
+    drives = np.tile(trapezoid_action(), (2, 2, 1))
+    v = open_loop_velocity(points, drives)
+    np.testing.assert_array_equal(distill.sensitivity_weights(points, drives, v, 0.0), np.ones(2))
+    w = distill.sensitivity_weights(points, drives, v, 10.0, seed=4)
+    errors = np.random.default_rng(4).normal(size=(distill.SENSITIVITY_ERRORS, 2, 5)) * distill.SENSITIVITY_SIGMA
+    for p, d, vp, wp in zip(points, drives, v, w):
+        played = open_loop_velocity([p] * len(errors), np.clip(d + errors, -1.0, 1.0)).mean()
+        lost = np.clip((vp - played) / max(abs(vp), 2e-3), 0.0, 1.0)
+        assert wp == pytest.approx(1.0 + 10.0 * lost)
+    assert np.all((w >= 1.0) & (w <= 11.0))
+    with pytest.raises(ValueError, match="sensitivity_weight"):
+        DistillConfig(sensitivity_weight=-1.0)
