@@ -73,34 +73,6 @@ def best_cma_run(k: float, cargo_mass: float, starts, budget: int, popsize: int,
     return max(runs, key=lambda r: r.velocity)
 
 
-def cma_maximize_many(objective, starts: np.ndarray, budget: int, popsize: int = 10, sigma0: float = 0.05,
-                      seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """One CMA-ES per start, run in lockstep so that each generation of all of them is one batched
-    call: ``objective(i, xs)`` gives the values (n,) of candidates ``xs`` (n, *start shape) of
-    search ``i`` (an int array, one per candidate), to be maximised over [-1, 1]. ``budget``
-    candidates per search besides its start, which is kept unless a candidate beats it. Returns the
-    best point of each search (n_starts, *start shape) and its value (n_starts,)."""
-    import cma
-
-    starts = np.asarray(starts, dtype=np.float64)
-    shape, n = starts.shape[1:], len(starts)
-    best_x = starts.copy()
-    best_v = np.asarray(objective(np.arange(n), starts), dtype=np.float64)
-    searches = [cma.CMAEvolutionStrategy(np.clip(s, -0.98, 0.98).ravel().tolist(), sigma0, {
-        "bounds": [-1.0, 1.0], "popsize": popsize, "seed": seed + 1 + i, "verbose": -9}) for i, s in enumerate(starts)]
-    for _ in range(max(budget // popsize, 1)):
-        xs = np.clip(np.array([es.ask() for es in searches]), -1.0, 1.0)  # (n, popsize, dim)
-        v = np.asarray(objective(np.repeat(np.arange(n), popsize), xs.reshape(n * popsize, *shape)),
-                       dtype=np.float64).reshape(n, popsize)
-        for i, es in enumerate(searches):
-            es.tell(list(xs[i]), list(-v[i]))
-        pick = np.argmax(v, axis=1)
-        better = v[np.arange(n), pick] > best_v
-        best_x[better] = xs[better, pick[better]].reshape(-1, *shape)
-        best_v[better] = v[better, pick[better]]
-    return best_x, best_v
-
-
 def best_cycle(k: float, cargo_mass: float, starts=(None, PUSH_CLAMP), budget: int = CYCLE_SEARCH["budget"],
                seed: int = 0, friction=None) -> CMAResult:
     """The best two-action cycle found by CMA-ES runs from each of ``starts`` (None: the trapezoid
@@ -135,5 +107,5 @@ def cycle_critical_load(k: float, trapezoid_critical: float, iterations: int = 8
     return lo, cycle
 
 
-__all__ = ["ACTION_MAP", "CMAResult", "CYCLE_SEARCH", "PUSH_CLAMP", "best_cma_run", "best_cycle", "cma_maximize_many", "cma_optimize",
+__all__ = ["ACTION_MAP", "CMAResult", "CYCLE_SEARCH", "PUSH_CLAMP", "best_cma_run", "best_cycle", "cma_optimize",
            "cycle_critical_load", "trapezoid_action"]

@@ -42,10 +42,6 @@ from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
 
 ENV_ID = "MDRDrive-v0"
-#: Standard deviation (action units) and count of the random action errors ``sensitivity_weights``
-#: plays the teacher's drives with: about the student's typical error.
-SENSITIVITY_SIGMA = 0.02
-SENSITIVITY_ERRORS = 4
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
 EDGE = 0.999
 
@@ -86,10 +82,6 @@ class DistillConfig:
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
             the interpolation (``DriveField.best``): 1 the cell's four corners, R the 2R x 2R nodes
             around it (-).
-        sensitivity_weight: 0, or weigh each sample's squared error by ``1 + sensitivity_weight x
-            d`` where d (capped at 1) is the share of the teacher's velocity at that episode's point
-            lost under random action errors of ``SENSITIVITY_SIGMA`` (``sensitivity_weights``): the
-            fit spends its precision where an error costs velocity (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -114,7 +106,6 @@ class DistillConfig:
     hole_neighbours: int = 8
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
-    sensitivity_weight: float = 0.0
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -134,7 +125,6 @@ class DistillConfig:
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
-        check_range("sensitivity_weight", self.sensitivity_weight, 0.0, 1000.0)
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig) -> list:
@@ -198,37 +188,13 @@ def policy_mean(policy, obs):
     return policy.get_distribution(obs).distribution.mean
 
 
-def edge_loss(mean, target, weight=None):
-    """Squared error, except beyond the box's edge where the target is on it (SB3 clips there);
-    with ``weight`` (one per sample) the weighted mean over samples."""
+def edge_loss(mean, target):
+    """Squared error, except beyond the box's edge where the target is on it (SB3 clips there)."""
     import torch
 
     upper, lower = target >= EDGE, target <= -EDGE
     clipped = torch.where(upper, torch.clamp(mean, max=1.0), torch.where(lower, torch.clamp(mean, min=-1.0), mean))
-    error = (clipped - torch.clamp(target, -1.0, 1.0)) ** 2
-    if weight is None:
-        return torch.mean(error)
-    return torch.sum(error.mean(dim=1) * weight) / torch.sum(weight)
-
-
-def sensitivity_weights(points, drives: np.ndarray, velocities: np.ndarray, weight: float,
-                        seed: int = 0) -> np.ndarray:
-    """Per point, ``1 + weight x d``: d the share of the teacher's steady velocity ``velocities`` (m/s;
-    of at least 2 mm/s) lost on average when its drive ``drives`` (n, 2, 5) is played with random
-    errors on every action entry (``SENSITIVITY_ERRORS`` draws of standard deviation
-    ``SENSITIVITY_SIGMA``, the same for every point), d clipped to [0, 1]. Near stall the best drives
-    sit on the edge of a cliff, where an error of a few hundredths reverses the slider; on a gliding
-    drive it costs nothing: a plain squared error weighs both alike. All ones with ``weight`` 0."""
-    from .evaluate import open_loop_velocity
-
-    n = len(points)
-    if weight == 0.0 or n == 0:
-        return np.ones(n)
-    errors = np.random.default_rng(seed).normal(size=(SENSITIVITY_ERRORS, 2, 5)) * SENSITIVITY_SIGMA
-    trials = np.clip(np.asarray(drives)[:, None] + errors[None], -1.0, 1.0).reshape(-1, 2, 5)
-    v = open_loop_velocity([p for p in points for _ in errors], trials).reshape(n, len(errors)).mean(axis=1)
-    lost = (velocities - v) / np.maximum(np.abs(velocities), 2e-3)
-    return 1.0 + weight * np.clip(lost, 0.0, 1.0)
+    return torch.mean((clipped - torch.clamp(target, -1.0, 1.0)) ** 2)
 
 
 @dataclass
@@ -264,11 +230,10 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
 
 
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
-        progress: bool = True, learning_rate: float | None = None, weights: np.ndarray | None = None) -> float:
+        progress: bool = True, learning_rate: float | None = None) -> float:
     """Fit the student's mean action to the teacher's (``cycle_action`` of each sample's drive after
     its previous action) on normalised ``obs``, ``steps`` Adam steps with the learning rate
-    (``config.learning_rate`` unless given) decaying linearly to zero, each sample's squared error
-    weighted by ``weights`` (default: all alike); returns the last epoch's mean loss.
+    (``config.learning_rate`` unless given) decaying linearly to zero; returns the last epoch's mean loss.
 
     Every epoch, each entry of the slider's motion and the episode's elapsed fraction is taken from
     another sample: the teacher's action does not depend on them, and with the entries as recorded
@@ -282,7 +247,6 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
     prev_slice = structure["previous_action"]
     policy = student.model.policy
     rng = np.random.default_rng(seed)
-    w = None if weights is None else torch.as_tensor(weights, dtype=torch.float32)
 
     def epoch():
         x = perturb_previous_actions(obs, drives, rng, config.perturbed_share, prev_slice)
@@ -290,7 +254,7 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
         for column in shuffled:
             x[:, column] = x[rng.permutation(len(x)), column]
         x = torch.as_tensor(student.venv.normalize_obs(x.astype(np.float64)), dtype=torch.float32)
-        return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx], None if w is None else w[idx])
+        return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx])
 
     policy.set_training_mode(True)
     loss = adam_fit([*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()], epoch, steps,
@@ -344,22 +308,19 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     val = None
     if validation_points:
         val = (validation_points, field_.best(validation_points, radius=config.teacher_radius)[1])
-    obs_all, drive_all, weight_all = [], [], []
+    obs_all, drive_all = [], []
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config)
-        obs, sample_drives, weights = labelled_episodes(field_, points, None if r == 0 else student.act, config,
-                                                        seed + r)
+        obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r)
         obs_all.append(obs)
         drive_all.append(sample_drives)
-        weight_all.append(weights)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
             student.venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
             student.venv.obs_rms.var = obs.astype(np.float64).var(axis=0)
             student.venv.obs_rms.count = float(len(obs))
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
-                   config.steps if r == 0 else config.round_steps, config, seed + r, progress,
-                   weights=np.concatenate(weight_all) if config.sensitivity_weight else None)
+                   config.steps if r == 0 else config.round_steps, config, seed + r, progress)
         record = {"round": r, "samples": int(sum(len(o) for o in obs_all)), "loss": loss,
                   "wall_time_s": round(time.perf_counter() - t0, 1)}
         if val is not None:
@@ -372,14 +333,12 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         holes, probe = find_holes(student, field_, config, rng)
         loss = None  # no hole found: no fit this round
         if holes:
-            obs, sample_drives, weights = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range),
-                                                            None, config, seed + 100 + h)
+            obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
+                                                   config, seed + 100 + h)
             obs_all.append(obs)
             drive_all.append(sample_drives)
-            weight_all.append(weights)
             loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
-                       seed + 100 + h, progress, learning_rate=config.hole_learning_rate,
-                       weights=np.concatenate(weight_all) if config.sensitivity_weight else None)
+                       seed + 100 + h, progress, learning_rate=config.hole_learning_rate)
         record = {"hole_round": h, **probe, "samples": int(sum(len(o) for o in obs_all)),
                   "loss": loss, "wall_time_s": round(time.perf_counter() - t0, 1)}
         if val is not None:
@@ -396,13 +355,11 @@ def _print_record(record: dict) -> None:
 
 def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, seed: int):
     """Episodes of ``config.periods`` periods at ``points``, played by the teacher (``act`` None) or by
-    ``act``: their observations, each one's teacher drive (``rollout``; the teacher's drive at each
-    point from ``DriveField.best`` with ``config.teacher_radius``) and each one's loss weight
-    (``sensitivity_weights`` of its point, with ``config.sensitivity_weight``)."""
-    drives, velocities = field_.best(points, radius=config.teacher_radius)
+    ``act``: their observations and each one's teacher drive (``rollout``; the teacher's drive at each
+    point from ``DriveField.best`` with ``config.teacher_radius``)."""
+    drives, _ = field_.best(points, radius=config.teacher_radius)
     obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed)
-    weights = sensitivity_weights(points, drives, velocities, config.sensitivity_weight, seed=seed)
-    return obs, sample_drives, np.tile(weights, config.periods)
+    return obs, sample_drives
 
 
 def student_velocity(student: Student, points) -> np.ndarray:
@@ -464,5 +421,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
 
 
 __all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_load_lines", "draw_points", "edge_loss", "find_holes", "fit",
-           "labelled_episodes", "perturb_previous_actions", "sensitivity_weights",
+           "labelled_episodes", "perturb_previous_actions",
            "policy_mean", "rollout", "save_student", "student_velocity"]

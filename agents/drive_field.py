@@ -32,7 +32,7 @@ import numpy as np
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import atomic_path
 
-from .baselines import PUSH_CLAMP, best_cma_run, cma_maximize_many, cma_optimize
+from .baselines import PUSH_CLAMP, best_cma_run, cma_optimize
 from .evaluate import open_loop_velocity, trapezoid_action
 
 
@@ -51,12 +51,6 @@ class FieldConfig:
         sigma0: CMA-ES initial step size of both searches (action units).
         consolidate_tolerance: after the search, nodes take their neighbours' most shared drive if it
             loses at most this fraction of their velocity (``DriveField.consolidate``; 0: off) (-).
-        robust_sigma: then every moving node's drive moves to where its mean velocity under random
-            errors of this standard deviation on every action entry is highest
-            (``DriveField.robustify``; 0: off) (action units).
-        robust_perturbations: random errors the mean velocity of ``robust_sigma`` is taken over (-).
-        robust_budget: CMA-ES candidates per node of that search (-).
-        robust_keep: the robust drive must keep this fraction of the node's velocity without errors (-).
     """
 
     k_values: int = 13
@@ -67,14 +61,9 @@ class FieldConfig:
     cycle_budget: int = 700
     sigma0: float = 0.25
     consolidate_tolerance: float = 0.0
-    robust_sigma: float = 0.0
-    robust_perturbations: int = 8
-    robust_budget: int = 200
-    robust_keep: float = 0.95
 
     def __post_init__(self) -> None:
-        for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1),
-                          ("robust_perturbations", 1), ("robust_budget", 1)):
+        for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1)):
             check_int(name, getattr(self, name), low)
         lo, hi = self.k_range
         if not 0.0 <= lo < hi <= 1.0:
@@ -82,8 +71,6 @@ class FieldConfig:
         check_range("max_load_fraction", self.max_load_fraction, 0.0, 5.0, low_open=True)
         check_range("consolidate_tolerance", self.consolidate_tolerance, 0.0, 1.0, high_open=True)
         check_range("sigma0", self.sigma0, 0.0, 1.0, low_open=True)
-        check_range("robust_sigma", self.robust_sigma, 0.0, 0.5)
-        check_range("robust_keep", self.robust_keep, 0.0, 1.0)
 
     @property
     def ks(self) -> np.ndarray:
@@ -159,9 +146,6 @@ class DriveField:
         field.exchange()
         if config.consolidate_tolerance > 0.0:
             field.consolidate(config.consolidate_tolerance)
-        if config.robust_sigma > 0.0:
-            field.robustify(config.robust_sigma, config.robust_perturbations, config.robust_budget,
-                            keep=config.robust_keep, seed=seed)
         field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
@@ -229,53 +213,6 @@ class DriveField:
         self.meta["consolidated"] = {"tolerance": tolerance, "changed": changed,
                                      "distinct_drives": int(len(np.unique(self.drives.reshape(nk * ns, -1), axis=0)))}
         return changed
-
-    def robustify(self, sigma: float, perturbations: int = 8, budget: int = 200, keep: float = 0.95,
-                  seed: int = 0) -> int:
-        """Move every moving node's drive (velocity > 0) to where its mean velocity under random errors
-        on every action entry (``perturbations`` draws of standard deviation ``sigma``, the same draws
-        for every node and candidate) is highest among drives that keep at least ``keep`` of the
-        node's velocity without errors (any other ranks below the start): a local CMA-ES from the drive (step size
-        ``sigma``, ``budget`` candidates per node, all nodes in one batched call per generation,
-        ``cma_maximize_many``). The searches put their optima on the edge of a cliff (a little more
-        stroke or depth and the slider slips back), where a student that copies the drive with an
-        error of a few hundredths falls off; the robust drive keeps a margin. Returns the nodes
-        changed; ``meta["robustified"]`` has the mean velocities under errors before and after."""
-        check_int("perturbations", perturbations, 1)
-        check_int("budget", budget, 1)
-        check_range("sigma", sigma, 0.0, 0.5, low_open=True)
-        check_range("keep", keep, 0.0, 1.0)
-        nodes = [(i, j) for i in range(len(self.ks)) for j in range(len(self.fractions)) if self.velocities[i, j] > 0.0]
-        if not nodes:
-            return 0
-        errors = np.concatenate([np.zeros((1, 2, 5)),  # the drive itself first
-                                 np.random.default_rng(seed).normal(size=(perturbations, 2, 5)) * sigma])
-        points = [self.point(i, j) for i, j in nodes]
-        floor = keep * np.array([self.velocities[i, j] for i, j in nodes])
-
-        def under_errors(which: np.ndarray, drives: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            trials = np.clip(drives[:, None] + errors[None], -1.0, 1.0).reshape(-1, 2, 5)
-            v = open_loop_velocity([points[w] for w in which for _ in range(len(errors))], trials)
-            v = v.reshape(len(drives), len(errors))
-            return v[:, 0], v[:, 1:].mean(axis=1)
-
-        def objective(which: np.ndarray, drives: np.ndarray) -> np.ndarray:
-            nominal, mean = under_errors(which, drives)
-            shortfall = floor[which] - nominal
-            return np.where(shortfall > 0.0, -1.0 - shortfall, mean)  # below every start (|v| << 1 m/s)
-
-        starts = np.array([self.drives[i, j] for i, j in nodes])
-        before = under_errors(np.arange(len(nodes)), starts)[1]
-        drives, _ = cma_maximize_many(objective, starts, budget, popsize=10, sigma0=sigma, seed=seed)
-        changed = ~np.all(drives == starts, axis=(1, 2))
-        velocities, after = under_errors(np.arange(len(nodes)), drives)
-        for (i, j), drive, v, c in zip(nodes, drives, velocities, changed):
-            if c:
-                self.drives[i, j], self.velocities[i, j] = drive, v
-        self.meta["robustified"] = {"sigma": sigma, "keep": keep, "nodes": len(nodes), "changed": int(changed.sum()),
-                                    "mean_under_errors_before_m_s": float(before.mean()),
-                                    "mean_under_errors_after_m_s": float(after.mean())}
-        return int(changed.sum())
 
     def align(self) -> None:
         """Write every cycle in the phase closest to its lighter neighbour's (along each k), and each
