@@ -69,10 +69,6 @@ class DistillConfig:
         hole_rounds: rounds that look for where the student falls short of the teacher and add the
             teacher's episodes there (module docstring) (-).
         hole_probes: random points per hole round where the student and the teacher drive (-).
-        hole_load_lines: 0, or lay the probes on this many lines of constant k (k uniform), each a
-            scan of ``hole_probes // hole_load_lines`` evenly spaced loads from 0 to ``load_factor``
-            times the trapezoid's critical load: finds narrow pockets of loads that random probes
-            miss (-).
         hole_shortfall: a probe is a hole where the student's steady velocity is below the
             teacher's by more than this fraction of it, and by more than 1 mm/s (-).
         hole_neighbours: teacher episodes added at jittered points around each hole, besides the
@@ -101,7 +97,6 @@ class DistillConfig:
     teacher_radius: int = 1
     hole_rounds: int = 0
     hole_probes: int = 4096
-    hole_load_lines: int = 0
     hole_shortfall: float = 0.1
     hole_neighbours: int = 8
     hole_steps: int = 10_000
@@ -111,12 +106,9 @@ class DistillConfig:
         if self.activation not in ("relu", "tanh"):
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
-                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "hole_load_lines"):
+                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps"):
             check_int(name, getattr(self, name),
-                      0 if name in ("rounds", "hole_rounds", "hole_neighbours", "hole_load_lines") else 1)
-        if self.hole_load_lines > self.hole_probes:
-            raise ValueError(f"hole_load_lines={self.hole_load_lines!r} is outside the allowed range "
-                             f"[0, hole_probes={self.hole_probes}]")
+                      0 if name in ("rounds", "hole_rounds", "hole_neighbours") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -136,16 +128,6 @@ def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: Di
     loads = rng.uniform(0.0, config.load_factor, n) * crit
     loads[rng.uniform(size=n) < config.no_load_share] = 0.0
     return [(float(k), float(m)) for k, m in zip(ks, loads)]
-
-
-def draw_load_lines(field_: DriveField, lines: int, per_line: int, rng: np.random.Generator,
-                    config: DistillConfig) -> list:
-    """``lines`` values of k uniform over the field's range, each with ``per_line`` evenly spaced
-    loads (kg) from 0 to ``load_factor`` times the trapezoid's critical load there."""
-    ks = rng.uniform(field_.ks[0], field_.ks[-1], lines)
-    crit = np.interp(ks, field_.ks, field_.trapezoid_critical)
-    return [(float(k), float(f * c)) for k, c in zip(ks, crit)
-            for f in np.linspace(0.0, config.load_factor, per_line)]
 
 
 def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0):
@@ -372,11 +354,7 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
     """The student and the teacher at ``config.hole_probes`` fresh random points: the points where
     the student's steady velocity falls short of the teacher's (``config.hole_shortfall``), and the
     probe statistics (share of holes, the student's mean velocity over the teacher's where it moves)."""
-    if config.hole_load_lines:
-        points = draw_load_lines(field_, config.hole_load_lines, config.hole_probes // config.hole_load_lines, rng,
-                                 config)
-    else:
-        points = draw_points(field_, config.hole_probes, rng, config)
+    points = draw_points(field_, config.hole_probes, rng, config)
     _, v_teacher = field_.best(points, radius=config.teacher_radius)
     v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), 1e-3)
@@ -420,6 +398,6 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_load_lines", "draw_points", "edge_loss", "find_holes", "fit",
+__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "edge_loss", "find_holes", "fit",
            "labelled_episodes", "perturb_previous_actions",
            "policy_mean", "rollout", "save_student", "student_velocity"]

@@ -135,19 +135,3 @@ def test_a_wider_teacher_never_plays_a_slower_drive():
     _, narrow = field.best(points, prefer_interpolation=0.0)
     _, wide = field.best(points, prefer_interpolation=0.0, radius=2)
     assert np.all(wide >= narrow)
-
-
-def test_hole_probes_on_load_lines_scan_each_k_evenly_up_to_the_load_factor():
-    from mdr_drive_agents.distill import draw_load_lines
-
-    field = _synthetic_field()  # trapezoid critical load 0.05 kg at every k
-    config = DistillConfig(hole_probes=12, hole_load_lines=3, load_factor=1.6)
-    points = draw_load_lines(field, 3, 4, np.random.default_rng(0), config)
-    assert len(points) == 12
-    for line in np.array(points).reshape(3, 4, 2):
-        assert np.all(line[:, 0] == line[0, 0]) and 0.0 <= line[0, 0] <= 0.6
-        np.testing.assert_allclose(line[:, 1], np.linspace(0.0, 1.6 * 0.05, 4))
-    with pytest.raises(ValueError, match="hole_load_lines"):
-        DistillConfig(hole_probes=8, hole_load_lines=9)
-    with pytest.raises(ValueError, match="hole_load_lines"):
-        DistillConfig(hole_load_lines=-1)
