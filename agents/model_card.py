@@ -56,7 +56,8 @@ def training_note(run: dict) -> str:
                 f"{d['points']:,} random episodes (the teacher's neighbourhood radius {d.get('teacher_radius', 1)}; "
                 f"DAgger rounds after it: {d['rounds']}; hole rounds: {d.get('hole_rounds', 0)}); final fit loss "
                 f"{loss:.2e}. No PPO update yet ({run['total_timesteps']:,} environment "
-                f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below")
+                f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below (measured on the "
+                f"shipped policy: 200k steps made it worse, docs/ablations.md)")
     return (f"{run['algo'].upper()}, {run['total_timesteps']:,} environment steps (drive periods), "
             f"warm start {run['hyperparameters'].get('warm_start', 'none')}")
 
@@ -142,7 +143,7 @@ and sets each period's waveform within the paper's actuator limits. Nothing but 
 
 (`tests/test_shipped_policy.py` runs this snippet.) Or: `mdr-drive evaluate --policy {dst.as_posix()} --k 0.2
 --cargo-mass 0.1 --json`; `mdr-drive train --resume {dst.as_posix()}` fine-tunes it with PPO (copy the
-folder first: a resumed run writes into it).
+folder first: a resumed run writes into it; the observation statistics stay as distilled).
 
 ## How it was made
 

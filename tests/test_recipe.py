@@ -135,3 +135,18 @@ def test_a_wider_teacher_never_plays_a_slower_drive():
     _, narrow = field.best(points, prefer_interpolation=0.0)
     _, wide = field.best(points, prefer_interpolation=0.0, radius=2)
     assert np.all(wide >= narrow)
+
+
+def test_the_imitation_error_script_compares_the_shipped_policy_with_its_teacher(capsys):
+    import runpy
+
+    root = Path(__file__).parents[1]
+    main = runpy.run_path(str(root / "scripts" / "imitation_error.py"))["main"]
+    assert main(["--n", "6", "--seed", "3", "--field", str(root / "results" / "recipe" / "teacher_field.npz"),
+                 str(root / "agents" / "pretrained" / "ppo_generalist")]) == 0
+    out = capsys.readouterr().out
+    header, quantiles = out.splitlines()[:2]
+    moving = int(header.split(", ")[1].split()[0])
+    assert "6 points of seed 3" in header and 0 <= moving <= 6
+    assert len(quantiles.split(":")[1].split("/")) == 4
+    assert sum(int(line.split("|")[2]) for line in out.splitlines()[4:10]) == moving  # every point in one band
