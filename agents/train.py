@@ -206,10 +206,11 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     eval_env = make_eval_env(env_kwargs)
     if resume:
         venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
-        if "distilled_from" in previous:
-            # A distilled network was fitted on these observation statistics: updated by the PPO
-            # rollouts, they shift its inputs (measured: 200k steps then left it below the trapezoid at
-            # 293 of 1,024 points, docs/ablations.md). Frozen, with the reward statistics.
+        if {"distilled_from", "adapted_from"} & set(previous):
+            # A distilled (or adapted) network was fitted on these observation statistics: updated by
+            # the PPO rollouts, they shift its inputs (measured: 200k steps then left the shipped
+            # policy below the trapezoid at 293 of 1,024 points, docs/ablations.md). Frozen, with the
+            # reward statistics.
             venv.training = False
         model = algos[algo].load(out / "model.zip", env=venv, device="cpu")
     else:
