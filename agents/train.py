@@ -288,7 +288,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
     p.add_argument("--config", default=None, type=input_file, help="RL-Zoo-style YAML (default: agents/configs/<algo>.yaml)")
     p.add_argument("--out", default=None, type=output_dir, help="output folder (default: runs/<algo>_s<seed>)")
-    p.add_argument("--resume", default=None, metavar="DIR", type=folder_with("model.zip", "run.json"), help="continue the run in DIR (same step counter)")
+    p.add_argument("--resume", default=None, metavar="DIR", type=folder_with("model.zip", "run.json"), help="continue the run in DIR (same step counter); a distilled or adapted policy keeps the "
+                        "observation statistics it was fitted on")
     p.add_argument("--eval-freq", type=positive_int, default=20_000, help="evaluate on held-out points every N steps (-)")
     p.add_argument("--checkpoint-freq", type=positive_int, default=100_000, help="checkpoint every N steps (-)")
     p.add_argument("--warm-start", default=None, choices=("none", "trapezoid"),
