@@ -107,8 +107,7 @@ class DistillConfig:
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
                      "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps"):
-            check_int(name, getattr(self, name),
-                      0 if name in ("rounds", "hole_rounds", "hole_neighbours") else 1)
+            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)

@@ -48,18 +48,18 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
 
 
 def test_the_distilled_policy_fine_tunes_with_train_resume(recipe_run):
+    import pickle
+
     from mdr_drive_agents.train import train
 
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
-
     out, _ = recipe_run
-    before = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"), DummyVecEnv([lambda: gym.make("MDRDrive-v0")]))
+    before = pickle.loads((out / "policy" / "vecnormalize.pkl").read_bytes()).obs_rms
     record = train(resume=out / "policy", steps=64, progress_bar=False, eval_freq=10_000)
     assert record["resumes"] == 1 and record["total_timesteps"] >= 64
-    after = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"), DummyVecEnv([lambda: gym.make("MDRDrive-v0")]))
+    after = pickle.loads((out / "policy" / "vecnormalize.pkl").read_bytes()).obs_rms
     # the observation statistics the network was distilled on are not moved by PPO's rollouts
-    np.testing.assert_array_equal(after.obs_rms.mean, before.obs_rms.mean)
-    np.testing.assert_array_equal(after.obs_rms.var, before.obs_rms.var)
+    np.testing.assert_array_equal(after.mean, before.mean)
+    np.testing.assert_array_equal(after.var, before.var)
 
 
 def test_an_existing_output_is_refused_without_resume_or_force(recipe_run, capsys):
