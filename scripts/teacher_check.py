@@ -81,6 +81,12 @@ def main(argv=None) -> int:
               f"{stats['fraction_of_best_mean']:.3f} / {stats['fraction_of_best_min']:.3f} | "
               f"{int((fraction < 0.85).sum())} | {to_teacher[worst]:.2f} ({scan_ks[worst]:.4g}), "
               f"{int((to_teacher >= 0.97).sum())} | {to_trapezoid.min():.2f} |")
+    if len(learned) > 1:  # not a policy: whether the policies fail at the same points or each at its own
+        v = np.max(list(learned.values()), axis=0)
+        stats = velocity_statistics(trap, reference, v)
+        print(f"| the best of these policies at each point (not a policy) | {stats['points_below_trapezoid']} "
+              f"({stats['worst_difference_to_trapezoid_mm_s']:.2f}) | {stats['fraction_of_best_mean']:.3f} / "
+              f"{stats['fraction_of_best_min']:.3f} | {int((v[scored] / reference[scored] < 0.85).sum())} | - | - |")
     return 0
 
 

@@ -150,3 +150,46 @@ def test_the_imitation_error_script_compares_the_shipped_policy_with_its_teacher
     assert "6 points of seed 3" in header and 0 <= moving <= 6
     assert len(quantiles.split(":")[1].split("/")) == 4
     assert sum(int(line.split("|")[2]) for line in out.splitlines()[4:10]) == moving  # every point in one band
+
+
+def test_the_imitation_error_script_bands_the_failures_by_the_teachers_jump_near_each_point(capsys):
+    import runpy
+
+    root = Path(__file__).parents[1]
+    script = runpy.run_path(str(root / "scripts" / "imitation_error.py"))
+    assert script["main"](["--n", "6", "--seed", "3", "--label-spread",
+                           str(root / "agents" / "pretrained" / "ppo_generalist")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    moving = int(lines[0].split(", ")[1].split()[0])
+    start = next(i for i, line in enumerate(lines) if "jump near the point" in line)
+    assert sum(int(line.split("|")[2]) for line in lines[start + 2:start + 6]) == moving
+    from mdr_drive_agents.drive_field import DriveField
+
+    field = _synthetic_field()
+    points = [(0.25, 0.02), (0.45, 0.04)]
+    drives, _ = field.best(points, radius=1)
+    spread = script["label_spread"](field, points, drives, 1)
+    beside = [(0.24, 0.02), (0.26, 0.02), (0.25, 0.019), (0.25, 0.021)]
+    others, _ = field.best(beside, radius=1)
+    expected = max(min(np.abs(o - drives[0]).max(), np.abs(o - drives[0][::-1]).max()) for o in others)
+    assert spread.shape == (2,) and spread[0] == pytest.approx(expected)
+    uniform = DriveField(field.ks, field.fractions, field.trapezoid_critical,
+                         np.broadcast_to(field.drives[0, 0], field.drives.shape), field.velocities)
+    assert np.all(script["label_spread"](uniform, points, uniform.best(points)[0], 1) < 1e-12)  # one drive all around
+
+
+def test_the_teacher_check_script_adds_the_per_point_best_of_several_policies(capsys):
+    import runpy
+
+    root = Path(__file__).parents[1]
+    main = runpy.run_path(str(root / "scripts" / "teacher_check.py"))["main"]
+    policies = [str(root / "agents" / "pretrained" / "ppo_generalist"),
+                str(root / "agents" / "pretrained" / "ppo_sensor" / "teacher")]
+    assert main(["--n", "6", "--seed", "3", "--scan-ks", "1", *policies]) == 0
+    rows = [line.split("|") for line in capsys.readouterr().out.splitlines() if line.startswith("| ")][1:]
+    assert [row[1].strip() for row in rows[:2]] == policies
+    assert rows[2][1].strip().startswith("the best of these policies")
+    under = [int(row[4]) for row in rows]
+    assert under[2] <= min(under[:2])  # at each point the best of them is at least as fast as either
+    means = [float(row[3].split("/")[0]) for row in rows]
+    assert means[2] >= max(means[:2]) - 1e-12
