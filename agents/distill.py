@@ -75,6 +75,8 @@ class DistillConfig:
             hole itself (k +- 0.01, load +- 5 %) (-).
         hole_steps: gradient steps after each hole round (-).
         hole_learning_rate: Adam step size of those steps, decaying linearly to zero (-).
+        huber_delta: 0 fits the squared error; > 0 the Huber loss with this threshold (``edge_loss``)
+            (action units).
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
             the interpolation (``DriveField.best``): 1 the cell's four corners, R the 2R x 2R nodes
             around it (-).
@@ -101,6 +103,7 @@ class DistillConfig:
     hole_neighbours: int = 8
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
+    huber_delta: float = 0.0
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -116,6 +119,7 @@ class DistillConfig:
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
+        check_range("huber_delta", self.huber_delta, 0.0, 2.0)
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig) -> list:
@@ -169,13 +173,23 @@ def policy_mean(policy, obs):
     return policy.get_distribution(obs).distribution.mean
 
 
-def edge_loss(mean, target):
-    """Squared error, except beyond the box's edge where the target is on it (SB3 clips there)."""
+def edge_loss(mean, target, huber_delta: float = 0.0):
+    """Squared error, except beyond the box's edge where the target is on it (SB3 clips there).
+
+    With ``huber_delta`` > 0, the Huber loss instead (squared within ``huber_delta`` action units,
+    linear beyond; scaled by ``2 / huber_delta`` so that it agrees with the squared error near zero):
+    where neighbouring samples are labelled with different drives, a squared error is minimised by
+    their mean, a blend that may drive nowhere; a loss linear in large errors by their median, one
+    of the drives."""
     import torch
 
     upper, lower = target >= EDGE, target <= -EDGE
     clipped = torch.where(upper, torch.clamp(mean, max=1.0), torch.where(lower, torch.clamp(mean, min=-1.0), mean))
-    return torch.mean((clipped - torch.clamp(target, -1.0, 1.0)) ** 2)
+    error = clipped - torch.clamp(target, -1.0, 1.0)
+    if huber_delta > 0.0:
+        return torch.mean(torch.nn.functional.huber_loss(error, torch.zeros_like(error), reduction="none",
+                                                         delta=huber_delta)) * 2.0
+    return torch.mean(error ** 2)
 
 
 @dataclass
@@ -235,7 +249,7 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
         for column in shuffled:
             x[:, column] = x[rng.permutation(len(x)), column]
         x = torch.as_tensor(student.venv.normalize_obs(x.astype(np.float64)), dtype=torch.float32)
-        return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx])
+        return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx], config.huber_delta)
 
     policy.set_training_mode(True)
     loss = adam_fit([*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()], epoch, steps,
