@@ -32,7 +32,7 @@ import numpy as np
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import atomic_path
 
-from .baselines import PUSH_CLAMP, cma_optimize
+from .baselines import PUSH_CLAMP, best_cma_run, cma_optimize
 from .evaluate import open_loop_velocity, trapezoid_action
 
 
@@ -51,9 +51,6 @@ class FieldConfig:
         sigma0: CMA-ES initial step size of both searches (action units).
         consolidate_tolerance: after the search, nodes take their neighbours' most shared drive if it
             loses at most this fraction of their velocity (``DriveField.consolidate``; 0: off) (-).
-        switch_margin: along each k, a point keeps the drive continued from the lighter point's (the
-            fixed action from its first action, the cycle from its cycle) unless a search from the
-            trapezoid or the push/clamp cycle beats it by more than this fraction (0: the best of all) (-).
     """
 
     k_values: int = 13
@@ -64,7 +61,6 @@ class FieldConfig:
     cycle_budget: int = 700
     sigma0: float = 0.25
     consolidate_tolerance: float = 0.0
-    switch_margin: float = 0.0
 
     def __post_init__(self) -> None:
         for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1)):
@@ -74,7 +70,6 @@ class FieldConfig:
             raise ValueError(f"k_range={self.k_range!r} must satisfy 0 <= low < high <= 1")
         check_range("max_load_fraction", self.max_load_fraction, 0.0, 5.0, low_open=True)
         check_range("consolidate_tolerance", self.consolidate_tolerance, 0.0, 1.0, high_open=True)
-        check_range("switch_margin", self.switch_margin, 0.0, 1.0)
         check_range("sigma0", self.sigma0, 0.0, 1.0, low_open=True)
 
     @property
@@ -94,16 +89,11 @@ def search_point(k: float, load: float, previous: np.ndarray | None, config: Fie
     fixed = cma_optimize(k, load, config.fixed_budget, sigma0=config.sigma0, seed=seed,
                          x0=None if previous is None else previous[0])
     starts = ([] if previous is None else [previous]) + [np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP]
-    runs = [cma_optimize(k, load, config.cycle_budget, popsize=16, seed=seed + i, sigma0=config.sigma0, cycle=2,
-                         x0=x0) for i, x0 in enumerate(starts)]  # as best_cma_run, every run kept
-    found = [(np.tile(fixed.action, (2, 1)), fixed.velocity)] + [
-        (np.asarray(r.action, dtype=np.float64), r.velocity) for r in runs]
-    best = max(range(len(found)), key=lambda i: (found[i][1], -i))  # ties: the fixed action, then the first start
-    if previous is not None and config.switch_margin > 0.0:  # the lighter point's family unless another is clearly better
-        own = max((0, 1), key=lambda i: (found[i][1], -i))
-        if found[best][1] <= found[own][1] + config.switch_margin * abs(found[own][1]):
-            best = own
-    return found[best]
+    cycle = best_cma_run(k, load, starts, config.cycle_budget, popsize=16, sigma0=config.sigma0, cycle=2,
+                         seed=seed)
+    if cycle.velocity > fixed.velocity:
+        return np.asarray(cycle.action, dtype=np.float64), cycle.velocity
+    return np.tile(fixed.action, (2, 1)), fixed.velocity
 
 
 def search_slice(args) -> tuple[np.ndarray, np.ndarray]:

@@ -96,31 +96,8 @@ def test_configs_reject_bad_values_naming_them():
         DistillConfig(learning_rate=0.0)
     with pytest.raises(ValueError, match="activation"):
         DistillConfig(activation="gelu")
-    with pytest.raises(ValueError, match="switch_margin"):
-        FieldConfig(switch_margin=-0.1)
     with pytest.raises(ValueError, match="huber_delta"):
         DistillConfig(huber_delta=-1.0)
-
-
-def test_a_switch_margin_keeps_the_lighter_points_family_unless_another_is_clearly_better():
-    from mdr_drive_agents.baselines import PUSH_CLAMP, cma_optimize
-    from mdr_drive_agents.drive_field import search_point
-    from mdr_drive_agents.evaluate import trapezoid_action
-
-    point, previous = (0.2, 0.2), np.array([[0.9, 0.5, 0.8, 0.2, 0.9], [-0.8, -0.8, 0.9, -0.8, 0.7]])
-    small = {"fixed_budget": 13, "cycle_budget": 17}  # a heavy load: the push/clamp start wins by about half
-    fixed = cma_optimize(*point, 13, sigma0=0.25, seed=3, x0=previous[0])
-    cycles = [cma_optimize(*point, 17, popsize=16, seed=3 + i, sigma0=0.25, cycle=2, x0=x0)
-              for i, x0 in enumerate([previous, np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP])]
-    velocities = [fixed.velocity] + [c.velocity for c in cycles]
-    own = max(velocities[:2])
-    free, free_v = search_point(*point, previous, FieldConfig(**small), seed=3)
-    assert free_v == max(velocities)  # no margin: the best of every start
-    for margin in (0.05, 1.0):
-        kept, kept_v = search_point(*point, previous, FieldConfig(**small, switch_margin=margin), seed=3)
-        expected = own if max(velocities[2:]) <= own + margin * abs(own) else max(velocities)
-        assert kept_v == expected
-    assert own < max(velocities[2:]) <= 2.0 * own  # so the two margins above chose differently
 
 
 def test_cycle_labels_follow_the_previous_action():
