@@ -52,12 +52,14 @@ def training_note(run: dict) -> str:
                     float("nan"))  # a hole round that found no hole did not fit
         return (f"distilled (`agents/distill.py`) from the drive-field teacher `{distilled['teacher']}` "
                 f"(`agents/drive_field.py`), recipe `{distilled['recipe']}`: a {'x'.join(map(str, d['net_arch']))} "
-                f"{d['activation']} network fitted for {d['steps']:,} steps to the teacher's actions on "
+                f"{d['activation']} network fitted for {d['steps']:,} steps ("
+                f"{'Huber loss, delta ' + format(d['huber_delta'], 'g') if d.get('huber_delta') else 'squared error'}) "
+                f"to the teacher's actions on "
                 f"{d['points']:,} random episodes (the teacher's neighbourhood radius {d.get('teacher_radius', 1)}; "
                 f"DAgger rounds after it: {d['rounds']}; hole rounds: {d.get('hole_rounds', 0)}); final fit loss "
                 f"{loss:.2e}. No PPO update yet ({run['total_timesteps']:,} environment "
                 f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below (measured on the "
-                f"shipped policy: 200k steps made it worse, docs/ablations.md)")
+                f"previous build: 200k steps made it worse, docs/ablations.md)")
     return (f"{run['algo'].upper()}, {run['total_timesteps']:,} environment steps (drive periods), "
             f"warm start {run['hyperparameters'].get('warm_start', 'none')}")
 
@@ -161,9 +163,10 @@ folder first: a resumed run writes into it; the observation statistics stay as d
   evaluate` warns outside the trained k and loads and at other friction coefficients.
 * It observes k and the load: a drive that knows neither needs a sensor-only policy (`MDRDriveSensor-v0`).
 * Its drives are the teacher's: a grid search with a stated budget (docs/results.md), not a proven optimum.
-* Where the teacher's best drive jumps from one optimum to another, the network plays a mixture of
-  the two, which can stall or go backwards at isolated (k, load) points (docs/results.md, Limits):
-  check a working point with `mdr-drive evaluate` before relying on it.
+* Where the teacher's best drive jumps from one optimum to another, the network must switch between
+  them within a narrow band of k and load; there it can fall between them and stall or go backwards at
+  isolated (k, load) points (docs/results.md, Limits): check a working point with `mdr-drive
+  evaluate` before relying on it.
 
 ## Evaluation
 
