@@ -195,3 +195,29 @@ def test_the_teacher_check_script_adds_the_per_point_best_of_several_policies(ca
     assert under[2] <= min(under[:2])  # at each point the best of them is at least as fast as either
     means = [float(row[3].split("/")[0]) for row in rows]
     assert means[2] >= max(means[:2]) - 1e-12
+
+
+def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_error_blends_them():
+    import torch
+
+    from mdr_drive_agents.distill import edge_loss
+
+    near, far = torch.tensor([[0.02, -0.03]]), torch.tensor([[0.5, -0.8]])
+    zero = torch.zeros(1, 2)
+    assert float(edge_loss(near, zero, 0.05)) == pytest.approx(float(edge_loss(near, zero)))  # squared within delta
+    assert float(edge_loss(far, zero, 0.05)) == pytest.approx(0.05 * ((0.5 - 0.025) + (0.8 - 0.025)))  # linear beyond
+    assert float(edge_loss(torch.tensor([[1.3]]), torch.tensor([[1.0]]), 0.05)) == 0.0  # past the box's edge: free
+    # one output, three samples labelled with one drive's entry (0.2) and two with another's (0.9)
+    labels = torch.tensor([[0.2], [0.2], [0.2], [0.9], [0.9]])
+    fitted = {}
+    for delta in (0.0, 0.05):
+        x = torch.zeros(1, 1, requires_grad=True)
+        opt = torch.optim.Adam([x], lr=0.01)
+        for _ in range(3000):
+            opt.zero_grad()
+            edge_loss(x.expand(5, 1), labels, delta).backward()
+            opt.step()
+        fitted[delta] = float(x.detach())
+    assert fitted[0.0] == pytest.approx(0.48, abs=0.01)  # the mean: a blend of the two
+    # the median, up to the pull of the outvoted labels (2 x delta each) on the quadratic part (3 x 2 (x - 0.2)):
+    assert fitted[0.05] == pytest.approx(0.2 + 2 * 0.05 / 3, abs=0.005)  # within delta of the majority's drive
