@@ -12,14 +12,17 @@ Teacher-student training, as controllers that must act without privileged inform
   that history as its input, a plain MLP is the recurrent memory's frame-stacked equivalent, and it
   loads with plain ``PPO.load`` + ``VecNormalize.load``;
 * round 0: the teacher drives random episodes (hidden k, load, mu, mu1 drawn per episode; a share
-  with a load step); every sensor observation is labelled with the teacher's action. Rounds 1 ... R:
-  the student drives, every state it reaches is labelled with what the teacher would do there (for
-  the coming period's load), and the student is refitted on everything gathered so far.
+  with a load step; in every round the actions played are perturbed by ``action_noise``); an **estimator** (``agents.estimator``)
+  is fitted from every sensor observation to the hidden entries of the full observation (k and the
+  load; squared error). Rounds 1 ... R: the teacher acting on the estimator's guesses
+  (``SensorTeacher``) drives, so the estimator meets the states its own errors lead to, and it is
+  refitted on every episode so far (DAgger);
+* the estimator and the teacher are then written as one ``MlpPolicy`` (``merged_policy``: RMA's
+  adaptation module and base policy in one network), checked against the pair they replace
+  (``merge_check``).
 
-The fit is the distillation's (``agents.distill.edge_loss``: squared error on the policy's mean
-action, free beyond the box's edge where the teacher's action is on it). Writes ``OUT/policy/``
-(``model.zip``, ``vecnormalize.pkl``, ``run.json``) and ``OUT/adapt.json`` (per-round validation,
-stage times). An existing ``OUT`` is refused unless ``--force``.
+Writes ``OUT/policy/`` (``model.zip``, ``vecnormalize.pkl``, ``run.json``) and ``OUT/adapt.json``
+(per-round validation, stage times). An existing ``OUT`` is refused unless ``--force``.
 """
 
 from __future__ import annotations
