@@ -12,9 +12,9 @@ Teacher-student training, as controllers that must act without privileged inform
   that history as its input, a plain MLP is the recurrent memory's frame-stacked equivalent, and it
   loads with plain ``PPO.load`` + ``VecNormalize.load``;
 * round 0: the teacher drives random episodes (hidden k, load, mu, mu1 drawn per episode; a share
-  with a load step; in every round the actions played are perturbed by ``action_noise``); an **estimator** (``agents.estimator``)
-  is fitted from every sensor observation to the hidden entries of the full observation (k and the
-  load; squared error). Rounds 1 ... R: the teacher acting on the estimator's guesses
+  with a load step; in every round the actions played are perturbed by ``action_noise``); an
+  **estimator** (``agents.estimator``) is fitted from every sensor observation to the hidden entries
+  of the full observation (k and the load; squared error). Rounds 1 ... R: the teacher acting on the estimator's guesses
   (``SensorTeacher``) drives, so the estimator meets the states its own errors lead to, and it is
   refitted on every episode so far (DAgger);
 * the estimator and the teacher are then written as one ``MlpPolicy`` (``merged_policy``: RMA's

@@ -185,11 +185,10 @@ def edge_loss(mean, target, huber_delta: float = 0.0):
 
     upper, lower = target >= EDGE, target <= -EDGE
     clipped = torch.where(upper, torch.clamp(mean, max=1.0), torch.where(lower, torch.clamp(mean, min=-1.0), mean))
-    error = clipped - torch.clamp(target, -1.0, 1.0)
+    target = torch.clamp(target, -1.0, 1.0)
     if huber_delta > 0.0:
-        return torch.mean(torch.nn.functional.huber_loss(error, torch.zeros_like(error), reduction="none",
-                                                         delta=huber_delta)) * 2.0
-    return torch.mean(error ** 2)
+        return 2.0 * torch.nn.functional.huber_loss(clipped, target, delta=huber_delta)
+    return torch.mean((clipped - target) ** 2)
 
 
 @dataclass

@@ -70,23 +70,23 @@ def main(argv=None) -> int:
     print("| policy | below the trapezoid (worst, mm/s) | fraction of the reference: mean / min | under 0.85 | "
           f"critical load / teacher's: min (k), k values >= 0.97 of {len(scan_ks)} | critical load / trapezoid's: min |")
     print("|---|---|---|---|---|---|")
+    def velocity_cells(v: np.ndarray) -> str:
+        """The row's velocity columns: the blind benchmark's statistics against this reference."""
+        stats = velocity_statistics(trap, reference, v)
+        return (f"{stats['points_below_trapezoid']} ({stats['worst_difference_to_trapezoid_mm_s']:.2f}) | "
+                f"{stats['fraction_of_best_mean']:.3f} / {stats['fraction_of_best_min']:.3f} | "
+                f"{int((v[scored] / reference[scored] < 0.85).sum())}")
+
     for path, v in learned.items():
-        stats = velocity_statistics(trap, reference, v)  # the blind benchmark's statistics, against this reference
-        fraction = v[scored] / reference[scored]
         crit = critical_loads_grid(scan_ks, lambda pts, pol=policies[path]: policy_velocity(pol, pts))
         to_teacher = np.array([crit[k] / max(crit_teacher[k], 1e-12) for k in scan_ks])
         to_trapezoid = np.array([crit[k] / c for k, c in zip(scan_ks, crit_trap)])
         worst = int(np.argmin(to_teacher))
-        print(f"| {path} | {stats['points_below_trapezoid']} ({stats['worst_difference_to_trapezoid_mm_s']:.2f}) | "
-              f"{stats['fraction_of_best_mean']:.3f} / {stats['fraction_of_best_min']:.3f} | "
-              f"{int((fraction < 0.85).sum())} | {to_teacher[worst]:.2f} ({scan_ks[worst]:.4g}), "
+        print(f"| {path} | {velocity_cells(v)} | {to_teacher[worst]:.2f} ({scan_ks[worst]:.4g}), "
               f"{int((to_teacher >= 0.97).sum())} | {to_trapezoid.min():.2f} |")
     if len(learned) > 1:  # not a policy: whether the policies fail at the same points or each at its own
-        v = np.max(list(learned.values()), axis=0)
-        stats = velocity_statistics(trap, reference, v)
-        print(f"| the best of these policies at each point (not a policy) | {stats['points_below_trapezoid']} "
-              f"({stats['worst_difference_to_trapezoid_mm_s']:.2f}) | {stats['fraction_of_best_mean']:.3f} / "
-              f"{stats['fraction_of_best_min']:.3f} | {int((v[scored] / reference[scored] < 0.85).sum())} | - | - |")
+        print(f"| the best of these policies at each point (not a policy) | "
+              f"{velocity_cells(np.max(list(learned.values()), axis=0))} | - | - |")
     return 0
 
 
