@@ -16,6 +16,11 @@ equal cells of [0, 0.6], so none is a k of the blind benchmark's 25-value scan) 
 own (its neighbourhood of the recipe's ``teacher_radius``, as the recipe's student was taught) and over the trapezoid's. The
 reference is weaker than the benchmark's search, so fractions read higher here; use it to compare
 policies, and report on ``mdr-drive benchmark --blind``.
+
+``--cycle-scan`` adds the blind benchmark's reference for the critical load at the same k values:
+the best two-action cycle's (``agents.baselines.cycle_critical_load``, its budget; about 6 minutes
+for 24 k on 2 cores), and prints the teacher's and each policy's critical load over it, so one can
+tell whether a shortfall against the benchmark's target is the teacher's or the student's.
 """
 
 from __future__ import annotations
@@ -38,6 +43,11 @@ def main(argv=None) -> int:
     p.add_argument("--field", type=input_file, default="results/recipe/teacher_field.npz",
                    help="the teacher's drive field (.npz, written by the recipe)")
     p.add_argument("--scan-ks", type=int_range(1), default=24, help="k values of the critical-load scan (-)")
+    p.add_argument("--cycle-scan", action="store_true",
+                   help="also the best two-action cycle's critical load at those k (CMA-ES bisection, as "
+                        "the blind benchmark's), and the teacher's and each policy's over it")
+    p.add_argument("--workers", type=int_range(1), default=None,
+                   help="local processes of the cycle scan (default: the cores available)")
     args = p.parse_args(argv)
 
     from mdr_drive_agents.blind import K_RANGE, MOVING_THRESHOLD, draw_points, trapezoid_critical, velocity_statistics
@@ -77,17 +87,41 @@ def main(argv=None) -> int:
                 f"{stats['fraction_of_best_mean']:.3f} / {stats['fraction_of_best_min']:.3f} | "
                 f"{int((v[scored] / reference[scored] < 0.85).sum())}")
 
+    crits = {}
     for path, v in learned.items():
-        crit = critical_loads_grid(scan_ks, lambda pts, pol=policies[path]: policy_velocity(pol, pts))
+        crit = crits[path] = critical_loads_grid(scan_ks, lambda pts, pol=policies[path]: policy_velocity(pol, pts))
         to_teacher = np.array([crit[k] / max(crit_teacher[k], 1e-12) for k in scan_ks])
         to_trapezoid = np.array([crit[k] / c for k, c in zip(scan_ks, crit_trap)])
         worst = int(np.argmin(to_teacher))
         print(f"| {path} | {velocity_cells(v)} | {to_teacher[worst]:.2f} ({scan_ks[worst]:.4g}), "
               f"{int((to_teacher >= 0.97).sum())} | {to_trapezoid.min():.2f} |")
+    if args.cycle_scan:
+        print_cycle_scan(scan_ks, crit_trap, {"the teacher": crit_teacher, **crits}, args.workers)
     if len(learned) > 1:  # not a policy: whether the policies fail at the same points or each at its own
         print(f"| the best of these policies at each point (not a policy) | "
               f"{velocity_cells(np.max(list(learned.values()), axis=0))} | - | - |")
     return 0
+
+
+def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers) -> None:
+    """The best two-action cycle's critical load at ``scan_ks`` (the blind benchmark's search and
+    budget), and each entry of ``crits`` ({name: {k: kg}}) over it: its minimum and the k values at
+    >= 0.97 of it."""
+    from mdr_drive_agents.baselines import CYCLE_SEARCH
+    from mdr_drive_agents.blind import cycle_scan_task
+    from mdr_drive_env.sweep import Executor
+
+    cycle = np.array(Executor(workers=workers).map(
+        cycle_scan_task, [(k, m, 8, CYCLE_SEARCH["budget"]) for k, m in zip(scan_ks, crit_trap)],
+        "critical load of the best cycle per k"))
+    print(f"\nCritical load over the best two-action cycle's ({len(scan_ks)} k; "
+          f"the cycle's over the trapezoid's: {np.min(cycle / crit_trap):.2f}-{np.max(cycle / crit_trap):.2f})")
+    print(f"| drive | min (k) | k values >= 0.97 of {len(scan_ks)} |")
+    print("|---|---|---|")
+    for name, crit in crits.items():
+        ratio = np.array([crit[k] for k in scan_ks]) / np.maximum(cycle, 1e-12)
+        worst = int(np.argmin(ratio))
+        print(f"| {name} | {ratio[worst]:.3f} ({scan_ks[worst]:.4g}) | {int((ratio >= 0.97).sum())} |")
 
 
 if __name__ == "__main__":

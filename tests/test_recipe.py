@@ -224,6 +224,26 @@ def test_the_teacher_check_script_adds_the_per_point_best_of_several_policies(ca
     assert means[2] >= max(means[:2]) - 1e-12
 
 
+def test_the_teacher_check_script_compares_critical_loads_with_the_best_cycles(capsys, monkeypatch):
+    import runpy
+
+    from mdr_drive_agents import blind
+
+    root = Path(__file__).parents[1]
+    # the best cycle's critical load: twice the trapezoid's (a stand-in for the CMA-ES bisection)
+    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: 2.0 * args[1])
+    main = runpy.run_path(str(root / "scripts" / "teacher_check.py"))["main"]
+    policy = str(root / "agents" / "pretrained" / "ppo_generalist")
+    assert main(["--n", "4", "--seed", "3", "--scan-ks", "2", "--cycle-scan", "--workers", "1", policy]) == 0
+    out = capsys.readouterr().out
+    assert "the cycle's over the trapezoid's: 2.00-2.00" in out
+    rows = [line.split("|") for line in out.split("Critical load over the best")[1].splitlines() if line.startswith("| ")]
+    assert [row[1].strip() for row in rows[1:]] == ["the teacher", policy]
+    first_table = out.split("Critical load over the best")[0]
+    trapezoid_ratio = next(float(line.split("|")[6]) for line in first_table.splitlines() if line.startswith(f"| {policy}"))
+    assert float(rows[2][2].split()[0]) == pytest.approx(trapezoid_ratio / 2.0, abs=0.01)  # half its min over the trapezoid's
+
+
 def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_error_blends_them():
     import torch
 
