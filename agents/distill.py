@@ -77,12 +77,6 @@ class DistillConfig:
         hole_learning_rate: Adam step size of those steps, decaying linearly to zero (-).
         huber_delta: 0 fits the squared error; > 0 the Huber loss with this threshold (``edge_loss``)
             (action units).
-        stall_share: share of the random points (the teacher's episodes, the DAgger rounds' and the
-            hole rounds' probes) drawn near the teacher's stall instead: the load uniform in
-            ``stall_band`` times the grid drives' stall load at that k (``DriveField.stall_fractions``).
-            Near its stall a drive's velocity changes in steps with errors of 0.02 action units,
-            so that is where a close copy matters most (-).
-        stall_band: (low, high) of those loads, as fractions of the stall load (-).
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
             the interpolation (``DriveField.best``): 1 the cell's four corners, R the 2R x 2R nodes
             around it (-).
@@ -110,8 +104,6 @@ class DistillConfig:
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
     huber_delta: float = 0.0
-    stall_share: float = 0.0
-    stall_band: tuple[float, float] = (0.8, 1.0)
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -123,10 +115,6 @@ class DistillConfig:
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
         check_range("perturbed_share", self.perturbed_share, 0.0, 1.0)
-        check_range("stall_share", self.stall_share, 0.0, 1.0)
-        low, high = self.stall_band
-        if not 0.0 <= low <= high <= 2.0:
-            raise ValueError(f"stall_band={self.stall_band!r} must satisfy 0 <= low <= high <= 2")
         check_range("load_factor", self.load_factor, 0.0, 5.0, low_open=True)
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
@@ -137,15 +125,11 @@ class DistillConfig:
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig) -> list:
     """``n`` (k, cargo mass kg) points: k uniform over the field's range, the load uniform from 0 to
     ``load_factor`` times the trapezoid's critical load (interpolated from the field's grid), a
-    share without load, and a share (``config.stall_share``) near the teacher's stall."""
+    share without load."""
     ks = rng.uniform(field_.ks[0], field_.ks[-1], n)
     crit = np.interp(ks, field_.ks, field_.trapezoid_critical)
     loads = rng.uniform(0.0, config.load_factor, n) * crit
     loads[rng.uniform(size=n) < config.no_load_share] = 0.0
-    if config.stall_share > 0.0:  # drawn only then: without it, the points of earlier recipes
-        near = rng.uniform(size=n) < config.stall_share
-        stall = np.interp(ks, field_.ks, field_.stall_fractions()) * crit
-        loads[near] = (rng.uniform(*config.stall_band, n) * stall)[near]
     return [(float(k), float(m)) for k, m in zip(ks, loads)]
 
 

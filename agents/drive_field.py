@@ -225,23 +225,6 @@ class DriveField:
                 self.drives[i, j] = align_phase(self.drives[i, j], self.drives[i, j - 1])
 
     # ------------------------------------------------------------------ queries
-    def stall_fractions(self) -> np.ndarray:
-        """Per grid k, the load (as a fraction of the trapezoid's critical load) where the grid
-        drives' velocity first drops to <= 0, interpolated linearly between the last moving node and
-        the first stalled one; the grid's heaviest fraction where every node moves (-)."""
-        out = np.full(len(self.ks), self.fractions[-1])
-        for i, v in enumerate(self.velocities):
-            stalled = np.flatnonzero(~(v > 0.0))
-            if stalled.size == 0:
-                continue
-            j = int(stalled[0])
-            if j == 0:
-                out[i] = 0.0
-                continue
-            v0, v1 = v[j - 1], v[j]
-            out[i] = self.fractions[j - 1] + (self.fractions[j] - self.fractions[j - 1]) * v0 / (v0 - v1)
-        return out
-
     def _cell(self, k: float, load: float):
         """Indices and weights of the grid cell around (k, load): (i, j, wk, ws)."""
         k = float(np.clip(k, self.ks[0], self.ks[-1]))

@@ -98,10 +98,6 @@ def test_configs_reject_bad_values_naming_them():
         DistillConfig(activation="gelu")
     with pytest.raises(ValueError, match="huber_delta"):
         DistillConfig(huber_delta=-1.0)
-    with pytest.raises(ValueError, match="stall_share"):
-        DistillConfig(stall_share=1.5)
-    with pytest.raises(ValueError, match="stall_band"):
-        DistillConfig(stall_band=(0.9, 0.8))
 
 
 def test_cycle_labels_follow_the_previous_action():
@@ -133,29 +129,6 @@ def test_the_teachers_neighbourhood_grows_with_its_radius_and_stays_on_the_grid(
         field.best([inside], radius=0)
     with pytest.raises(ValueError, match="teacher_radius"):
         DistillConfig(teacher_radius=0)
-
-
-def test_the_stall_load_is_where_the_grid_velocity_first_crosses_zero():
-    field = _synthetic_field(nk=3, ns=5)  # load fractions 0, 0.3, 0.6, 0.9, 1.2
-    field.velocities[0] = [4.0, 3.0, 1.0, -1.0, 2.0]  # first crossing halfway between 0.6 and 0.9
-    field.velocities[1] = [1.0, 1.0, 1.0, 1.0, 1.0]  # moves at every node: the grid's heaviest
-    field.velocities[2] = [0.0, 1.0, 1.0, 1.0, 1.0]  # stalls without load
-    np.testing.assert_allclose(field.stall_fractions(), [0.75, 1.2, 0.0])
-
-
-def test_a_stall_share_draws_that_share_of_the_loads_in_the_band_around_the_stall():
-    from mdr_drive_agents.distill import draw_points
-
-    field = _synthetic_field(nk=3, ns=5)
-    field.velocities[:] = [4.0, 3.0, 1.0, -1.0, 2.0]  # stall at 0.75 x the trapezoid's 0.05 kg, every k
-    plain = DistillConfig()
-    assert draw_points(field, 64, np.random.default_rng(3), plain) == draw_points(
-        field, 64, np.random.default_rng(3), DistillConfig(stall_share=0.0))  # off: the earlier draws
-    config = DistillConfig(stall_share=0.5, stall_band=(0.8, 1.0), no_load_share=0.0)
-    loads = np.array([m for _, m in draw_points(field, 4000, np.random.default_rng(3), config)])
-    in_band = (loads >= 0.8 * 0.75 * 0.05) & (loads <= 0.75 * 0.05)
-    # half drawn in the band, and the uniform half's share of [0, 1.7] that falls in it (0.0075 kg of 0.085)
-    assert abs(in_band.mean() - (0.5 + 0.5 * 0.0075 / 0.085)) < 0.03
 
 
 def test_a_wider_teacher_never_plays_a_slower_drive():
