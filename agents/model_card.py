@@ -166,7 +166,8 @@ folder first: a resumed run writes into it; the observation statistics stay as d
 * Where the teacher's best drive jumps from one optimum to another, the network must switch between
   them within a narrow band of k and load; there it can fall between them and stall or go backwards at
   isolated (k, load) points (docs/results.md, Limits): check a working point with `mdr-drive
-  evaluate` before relying on it.
+  evaluate` before relying on it. Where those points fall depends on the build: the same recipe with
+  another `seed` misses about as often, elsewhere (docs/ablations.md).
 
 ## Evaluation
 
