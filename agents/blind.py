@@ -58,6 +58,8 @@ LOAD_FACTOR = 1.25
 BELOW_TOLERANCE = 0.05e-3
 #: The fraction of the best drive counts only where the best drive moves at least this fast (m/s).
 MOVING_THRESHOLD = 2e-3
+#: Bisection steps of the best cycle's critical-load scan (``cycle_critical_load``).
+CYCLE_BISECTIONS = 8
 #: Budgets of the quick mode (CI): tiny searches, a 3-value scan with 1 bisection step.
 QUICK = {"fixed_budget": 24, "cycle_budget": 32, "scan_ks": 3, "iterations": 1}
 
@@ -149,7 +151,7 @@ def velocity_statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray)
 
 def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = False, scan_ks: int = 25,
         workers: int | None = None, fixed_budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_SEARCH["budget"],
-        iterations: int = 8, reuse: str | Path | None = None, executor: Executor | None = None,
+        iterations: int = CYCLE_BISECTIONS, reuse: str | Path | None = None, executor: Executor | None = None,
         resume: bool = False) -> dict:
     """The blind benchmark (module docstring); returns what ``blind.json`` holds.
 

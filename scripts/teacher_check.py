@@ -108,11 +108,11 @@ def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers) -> None:
     budget), and each entry of ``crits`` ({name: {k: kg}}) over it: its minimum and the k values at
     >= 0.97 of it."""
     from mdr_drive_agents.baselines import CYCLE_SEARCH
-    from mdr_drive_agents.blind import cycle_scan_task
+    from mdr_drive_agents.blind import CYCLE_BISECTIONS, cycle_scan_task
     from mdr_drive_env.sweep import Executor
 
     cycle = np.array(Executor(workers=workers).map(
-        cycle_scan_task, [(k, m, 8, CYCLE_SEARCH["budget"]) for k, m in zip(scan_ks, crit_trap)],
+        cycle_scan_task, [(k, m, CYCLE_BISECTIONS, CYCLE_SEARCH["budget"]) for k, m in zip(scan_ks, crit_trap)],
         "critical load of the best cycle per k"))
     print(f"\nCritical load over the best two-action cycle's ({len(scan_ks)} k; "
           f"the cycle's over the trapezoid's: {np.min(cycle / crit_trap):.2f}-{np.max(cycle / crit_trap):.2f})")
