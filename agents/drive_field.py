@@ -51,6 +51,11 @@ class FieldConfig:
         sigma0: CMA-ES initial step size of both searches (action units).
         consolidate_tolerance: after the search, nodes take their neighbours' most shared drive if it
             loses at most this fraction of their velocity (``DriveField.consolidate``; 0: off) (-).
+        polish: passes after the search, exchange and consolidation, each (budget, sigma): every node
+            runs a CMA-ES search over two-action cycles from its own drive and from each of its four
+            grid neighbours' drives, ``budget`` evaluations per start with initial step ``sigma``
+            (action units), keeps a faster drive, and the nodes exchange again
+            (``DriveField.polish``; empty: none) (-, action units).
     """
 
     k_values: int = 13
@@ -61,6 +66,7 @@ class FieldConfig:
     cycle_budget: int = 700
     sigma0: float = 0.25
     consolidate_tolerance: float = 0.0
+    polish: tuple[tuple[int, float], ...] = ()
 
     def __post_init__(self) -> None:
         for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1)):
@@ -71,6 +77,11 @@ class FieldConfig:
         check_range("max_load_fraction", self.max_load_fraction, 0.0, 5.0, low_open=True)
         check_range("consolidate_tolerance", self.consolidate_tolerance, 0.0, 1.0, high_open=True)
         check_range("sigma0", self.sigma0, 0.0, 1.0, low_open=True)
+        for entry in self.polish:
+            if len(entry) != 2:
+                raise ValueError(f"polish={self.polish!r}: each pass is (budget, sigma)")
+            check_int("polish budget", entry[0], 1)
+            check_range("polish sigma", entry[1], 0.0, 1.0, low_open=True)
 
     @property
     def ks(self) -> np.ndarray:
@@ -106,6 +117,17 @@ def search_slice(args) -> tuple[np.ndarray, np.ndarray]:
         velocities.append(v)
         previous = drive
     return np.array(drives), np.array(velocities)
+
+
+def polish_slice(args) -> list[tuple[np.ndarray, float]]:
+    """Per node of one k slice, the best two-action cycle (2, 5) and its velocity (m/s) found by
+    CMA-ES from each of its starts (``DriveField.polish``)."""
+    nodes, budget, sigma, seed = args
+    out = []
+    for j, (k, load, starts) in enumerate(nodes):
+        run = best_cma_run(k, load, list(starts), budget, popsize=16, sigma0=sigma, cycle=2, seed=seed + 31 * j)
+        out.append((np.asarray(run.action, dtype=np.float64), float(run.velocity)))
+    return out
 
 
 def align_phase(drive: np.ndarray, reference: np.ndarray) -> np.ndarray:
@@ -146,6 +168,9 @@ class DriveField:
         field.exchange()
         if config.consolidate_tolerance > 0.0:
             field.consolidate(config.consolidate_tolerance)
+        for n, (budget, sigma) in enumerate(config.polish):
+            field.polish(int(budget), float(sigma), executor=executor, seed=seed + 100_000 * (n + 1))
+            field.exchange()
         field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
@@ -178,6 +203,37 @@ class DriveField:
                 self.drives[i, j], self.velocities[i, j] = drive, vel
                 changed += 1
         self.meta["exchanged"] = changed
+        return changed
+
+    def polish(self, budget: int, sigma: float, executor=None, seed: int = 0) -> int:
+        """Every node runs CMA-ES over two-action cycles (``budget`` evaluations, step ``sigma``) from
+        its own drive and from each of its four grid neighbours' that differs from it, and keeps the
+        fastest drive found if it beats its own; one task per k slice on ``executor``. Returns the
+        nodes changed. The grid's searches start from the lighter node's drive and the two hand-made
+        cycles, and the velocity is so rugged in the action that they miss drives that a search from
+        a neighbour's drive, in k as well as in the load, finds."""
+        from mdr_drive_env.sweep import Executor
+
+        nk, ns = self.velocities.shape
+        tasks = []
+        for i in range(nk):
+            nodes = []
+            for j in range(ns):
+                starts = [self.drives[i, j]]
+                for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                    if 0 <= i + di < nk and 0 <= j + dj < ns and not any(
+                            np.array_equal(self.drives[i + di, j + dj], d) for d in starts):
+                        starts.append(self.drives[i + di, j + dj])
+                nodes.append((*self.point(i, j), np.array(starts)))
+            tasks.append((nodes, budget, sigma, seed + 7919 * (i + 1)))
+        found = (executor or Executor()).map(polish_slice, tasks, "teacher: polish")
+        changed = 0
+        for i, slice_ in enumerate(found):
+            for j, (drive, vel) in enumerate(slice_):
+                if vel > self.velocities[i, j] * (1.0 + 1e-3) + 1e-6:
+                    self.drives[i, j], self.velocities[i, j] = drive, vel
+                    changed += 1
+        self.meta.setdefault("polished", []).append({"budget": budget, "sigma": sigma, "changed": changed})
         return changed
 
     def consolidate(self, tolerance: float, passes: int = 4) -> int:

@@ -46,6 +46,10 @@ def main(argv=None) -> int:
     p.add_argument("--cycle-scan", action="store_true",
                    help="also the best two-action cycle's critical load at those k (CMA-ES bisection, as "
                         "the blind benchmark's), and the teacher's and each policy's over it")
+    p.add_argument("--searched", type=input_file, default=None, metavar="BLIND.json",
+                   help="also the teacher (the recipe's neighbourhood) at the points of an earlier blind "
+                        "benchmark, as a fraction of that benchmark's per-point search where it moves >= 2 mm/s "
+                        "(written by mdr-drive benchmark --blind; its seed must be a decision seed too)")
     p.add_argument("--workers", type=int_range(1), default=None,
                    help="local processes of the cycle scan (default: the cores available)")
     args = p.parse_args(argv)
@@ -97,10 +101,35 @@ def main(argv=None) -> int:
               f"{int((to_teacher >= 0.97).sum())} | {to_trapezoid.min():.2f} |")
     if args.cycle_scan:
         print_cycle_scan(scan_ks, crit_trap, {"the teacher": crit_teacher, **crits}, args.workers)
+    if args.searched:
+        print_teacher_against_search(field, args.searched, radius)
     if len(learned) > 1:  # not a policy: whether the policies fail at the same points or each at its own
         print(f"| the best of these policies at each point (not a policy) | "
               f"{velocity_cells(np.max(list(learned.values()), axis=0))} | - | - |")
     return 0
+
+
+def print_teacher_against_search(field, blind_json, radius: int, worst: int = 6) -> None:
+    """The teacher's velocity at an earlier blind benchmark's points over that benchmark's best drive
+    found there, where it moves >= 2 mm/s: mean, minimum, points under 0.85, and the ``worst`` points
+    (k, load over the trapezoid's critical load, teacher's / best mm/s)."""
+    import json
+
+    from mdr_drive_agents.blind import MOVING_THRESHOLD, trapezoid_critical
+
+    res = json.loads(Path(blind_json).read_text())
+    points = [(float(k), float(m)) for k, m in res["points"]]
+    best = np.array([b["velocity"] for b in res["best"]], dtype=np.float64)
+    _, teacher = field.best(points, radius=radius)
+    scored = np.flatnonzero(best >= MOVING_THRESHOLD)
+    frac = teacher[scored] / best[scored]
+    crit = trapezoid_critical([k for k, _ in points])
+    print(f"\nThe teacher against the per-point search of {blind_json} (seed {res['seed']}, {len(points)} points, "
+          f"{len(scored)} where the search moves >= 2 mm/s): fraction mean {frac.mean():.3f}, min {frac.min():.3f}, "
+          f"{int((frac < 0.85).sum())} under 0.85")
+    for i in scored[np.argsort(frac)[:worst]]:
+        print(f"  k = {points[i][0]:.4f}, load / trapezoid's critical = {points[i][1] / crit[i]:.2f}: "
+              f"{teacher[i] * 1e3:.1f} of {best[i] * 1e3:.1f} mm/s")
 
 
 def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers) -> None:

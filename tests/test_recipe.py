@@ -45,6 +45,9 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     assert len(history) == 3  # the teacher's round, one DAgger round, one hole round
     assert history[2]["hole_round"] == 1 and history[2]["probes"] == 16 and 0 <= history[2]["holes"] <= 16
     assert not (out / ".tasks").exists()
+    from mdr_drive_agents.drive_field import DriveField
+
+    assert [p["budget"] for p in DriveField.load(out / "teacher_field.npz").meta["polished"]] == [8]  # the polish ran
 
 
 def test_the_distilled_policy_fine_tunes_with_train_resume(recipe_run):
@@ -98,6 +101,10 @@ def test_configs_reject_bad_values_naming_them():
         DistillConfig(activation="gelu")
     with pytest.raises(ValueError, match="huber_delta"):
         DistillConfig(huber_delta=-1.0)
+    with pytest.raises(ValueError, match="polish"):
+        FieldConfig(polish=((0, 0.1),))
+    with pytest.raises(ValueError, match="polish"):
+        FieldConfig(polish=((10, 0.1, 3),))
 
 
 def test_cycle_labels_follow_the_previous_action():
@@ -129,6 +136,47 @@ def test_the_teachers_neighbourhood_grows_with_its_radius_and_stays_on_the_grid(
         field.best([inside], radius=0)
     with pytest.raises(ValueError, match="teacher_radius"):
         DistillConfig(teacher_radius=0)
+
+
+def test_polish_searches_from_each_node_and_its_distinct_neighbours_and_keeps_only_gains(monkeypatch):
+    from mdr_drive_agents import drive_field
+    from mdr_drive_env.sweep import Executor
+
+    field = _synthetic_field(nk=3, ns=3)
+    field.drives[1, 2] = field.drives[1, 1]  # a neighbour with the node's own drive is not a second start
+    field.velocities[:] = 0.01
+    seen = {}
+
+    def fake_slice(args):  # a stand-in search: node (1, 1) finds a faster drive, (0, 0) a slower one
+        nodes, budget, sigma, _ = args
+        out = []
+        for k, load, starts in nodes:
+            i, j = int(np.argmin(np.abs(field.ks - k))), len(out)
+            seen[(i, j)] = len(starts)
+            assert np.array_equal(starts[0], field.drives[i, j]) and (budget, sigma) == (8, 0.1)
+            out.append((np.full((2, 5), 0.3), {(1, 1): 0.02, (0, 0): 0.005}.get((i, j), 0.01)))
+        return out
+
+    monkeypatch.setattr(drive_field, "polish_slice", fake_slice)
+    assert field.polish(8, 0.1, executor=Executor(workers=1, progress=False)) == 1
+    assert seen[(0, 0)] == 3 and seen[(1, 0)] == 4 and seen[(1, 1)] == 4  # itself + its distinct neighbours
+    assert field.velocities[1, 1] == 0.02 and np.all(field.drives[1, 1] == 0.3)
+    assert field.velocities[0, 0] == 0.01 and not np.all(field.drives[0, 0] == 0.3)  # a slower drive is not taken
+    assert field.meta["polished"] == [{"budget": 8, "sigma": 0.1, "changed": 1}]
+
+
+def test_a_polished_node_plays_at_the_velocity_it_records():
+    from mdr_drive_agents.evaluate import open_loop_velocity
+    from mdr_drive_env.sweep import Executor
+
+    field = _synthetic_field(nk=2, ns=2)
+    field.trapezoid_critical[:] = 0.02
+    points = [field.point(i, j) for i in range(2) for j in range(2)]
+    field.velocities = open_loop_velocity(points, field.drives.reshape(4, 2, 5)).reshape(2, 2)
+    before = field.velocities.copy()
+    field.polish(32, 0.2, executor=Executor(workers=1, progress=False))
+    assert np.all(field.velocities >= before)
+    assert np.allclose(open_loop_velocity(points, field.drives.reshape(4, 2, 5)), field.velocities.ravel())
 
 
 def test_a_wider_teacher_never_plays_a_slower_drive():
@@ -241,3 +289,26 @@ def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_err
     assert fitted[0.0] == pytest.approx(0.48, abs=0.01)  # the mean: a blend of the two
     # the median, up to the pull of the outvoted labels (2 x delta each) on the quadratic part (3 x 2 (x - 0.2)):
     assert fitted[0.05] == pytest.approx(0.2 + 2 * 0.05 / 3, abs=0.005)  # within delta of the majority's drive
+
+
+def test_the_teacher_check_script_scores_the_teacher_against_an_earlier_blind_search(capsys, tmp_path):
+    import runpy
+
+    from mdr_drive_agents.drive_field import DriveField
+    from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
+
+    root = Path(__file__).parents[1]
+    field_path = root / "results" / "recipe" / "teacher_field.npz"
+    points = [(0.1, 0.01), (0.3, 0.005), (0.5, 0.0)]
+    _, teacher = DriveField.load(field_path).best(points, radius=load_recipe(DEFAULT_CONFIG)["distill"].teacher_radius)
+    assert np.all(teacher >= 2e-3)
+    best = teacher / np.array([1.0, 0.8, 0.5])  # the search beats the teacher by these fractions
+    blind_json = tmp_path / "blind.json"
+    blind_json.write_text(json.dumps({"seed": 5, "points": points, "best": [{"velocity": v} for v in best]}))
+    main = runpy.run_path(str(root / "scripts" / "teacher_check.py"))["main"]
+    policy = str(root / "agents" / "pretrained" / "ppo_generalist")
+    assert main(["--n", "2", "--seed", "3", "--scan-ks", "1", "--field", str(field_path),
+                 "--searched", str(blind_json), policy]) == 0
+    out = capsys.readouterr().out
+    assert "3 where the search moves >= 2 mm/s): fraction mean 0.767, min 0.500, 2 under 0.85" in out
+    assert out.split("2 under 0.85")[1].splitlines()[1].startswith("  k = 0.5000")  # the worst point first
