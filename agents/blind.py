@@ -58,6 +58,10 @@ LOAD_FACTOR = 1.25
 BELOW_TOLERANCE = 0.05e-3
 #: The fraction of the best drive counts only where the best drive moves at least this fast (m/s).
 MOVING_THRESHOLD = 2e-3
+#: The learning issue's targets: the fraction of the best drive at every scored point, and the
+#: critical load over the best two-action cycle's at every scanned k (-).
+FRACTION_TARGET = 0.85
+CRITICAL_LOAD_TARGET = 0.97
 #: Bisection steps of the best cycle's critical-load scan (``cycle_critical_load``).
 CYCLE_BISECTIONS = 8
 #: Budgets of the quick mode (CI): tiny searches, a 3-value scan with 1 bisection step.
@@ -126,6 +130,7 @@ def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: di
         "critical_load_over_trapezoid": ratio_trap,
         "critical_load_over_best_cycle": ratio_cycle,
         "critical_load_over_best_cycle_min": min(finite) if finite else None,
+        "k_values_at_critical_load_target": sum(r >= CRITICAL_LOAD_TARGET for r in finite),
     }
 
 
@@ -146,6 +151,7 @@ def velocity_statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray)
         "points_scored": int(scored.sum()),
         "fraction_of_best_mean": float(fraction.mean()) if fraction.size else None,
         "fraction_of_best_min": float(fraction.min()) if fraction.size else None,
+        "points_under_fraction_target": int((fraction < FRACTION_TARGET).sum()),
     }
 
 
@@ -252,8 +258,11 @@ def markdown(res: dict) -> str:
                      f"than {BELOW_TOLERANCE * 1e3:g} mm/s (policy minus trapezoid at worst: "
                      f"{_f(s['worst_difference_to_trapezoid_mm_s'])} mm/s); fraction of the best drive where it moves >= {MOVING_THRESHOLD * 1e3:g} mm/s "
                      f"({s['points_scored']} points): mean {_f(s['fraction_of_best_mean'])}, min "
-                     f"{_f(s['fraction_of_best_min'])}; critical load / best cycle's: min "
-                     f"{_f(s['critical_load_over_best_cycle_min'])}; / trapezoid's: "
+                     f"{_f(s['fraction_of_best_min'])}, {s['points_under_fraction_target']} under "
+                     f"{FRACTION_TARGET:g}; critical load / best cycle's: min "
+                     f"{_f(s['critical_load_over_best_cycle_min'])}, >= {CRITICAL_LOAD_TARGET:g} at "
+                     f"{s['k_values_at_critical_load_target']} of {len(s['critical_load_over_best_cycle'])} k; "
+                     f"/ trapezoid's: "
                      f"{min(ratios) if ratios else float('nan'):.3f}-{max(ratios) if ratios else float('nan'):.3f}")
     lines += ["", f"wall time {res['wall_time_s']} s"]
     return "\n".join(lines) + "\n"

@@ -89,7 +89,7 @@ def main(argv=None) -> int:
         stats = velocity_statistics(trap, reference, v)
         return (f"{stats['points_below_trapezoid']} ({stats['worst_difference_to_trapezoid_mm_s']:.2f}) | "
                 f"{stats['fraction_of_best_mean']:.3f} / {stats['fraction_of_best_min']:.3f} | "
-                f"{int((v[scored] / reference[scored] < 0.85).sum())}")
+                f"{stats['points_under_fraction_target']}")
 
     crits = {}
     for path, v in learned.items():
@@ -115,7 +115,7 @@ def print_teacher_against_search(field, blind_json, radius: int, worst: int = 6)
     (k, load over the trapezoid's critical load, teacher's / best mm/s)."""
     import json
 
-    from mdr_drive_agents.blind import MOVING_THRESHOLD, trapezoid_critical
+    from mdr_drive_agents.blind import FRACTION_TARGET, MOVING_THRESHOLD, trapezoid_critical
 
     res = json.loads(Path(blind_json).read_text())
     points = [(float(k), float(m)) for k, m in res["points"]]
@@ -126,7 +126,7 @@ def print_teacher_against_search(field, blind_json, radius: int, worst: int = 6)
     crit = trapezoid_critical([k for k, _ in points])
     print(f"\nThe teacher against the per-point search of {blind_json} (seed {res['seed']}, {len(points)} points, "
           f"{len(scored)} where the search moves >= 2 mm/s): fraction mean {frac.mean():.3f}, min {frac.min():.3f}, "
-          f"{int((frac < 0.85).sum())} under 0.85")
+          f"{int((frac < FRACTION_TARGET).sum())} under {FRACTION_TARGET:g}")
     for i in scored[np.argsort(frac)[:worst]]:
         print(f"  k = {points[i][0]:.4f}, load / trapezoid's critical = {points[i][1] / crit[i]:.2f}: "
               f"{teacher[i] * 1e3:.1f} of {best[i] * 1e3:.1f} mm/s")

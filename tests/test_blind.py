@@ -33,8 +33,10 @@ def test_statistics_on_known_numbers():
     assert s["points_scored"] == 3  # the best drive moves >= 2 mm/s at the first three points only
     assert s["fraction_of_best_mean"] == pytest.approx(np.mean([0.9, 0.49, 0.5]))
     assert s["fraction_of_best_min"] == pytest.approx(0.49)
+    assert s["points_under_fraction_target"] == 2  # 0.49 and 0.5 are under 0.85, 0.9 is not
     assert s["critical_load_over_best_cycle"] == pytest.approx([1.0, 0.95])
     assert s["critical_load_over_best_cycle_min"] == pytest.approx(0.95)
+    assert s["k_values_at_critical_load_target"] == 1  # 1.0 reaches 0.97, 0.95 does not
     assert s["critical_load_over_trapezoid"] == pytest.approx([1.5, 1.14])
 
 
