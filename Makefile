@@ -51,10 +51,10 @@ adaptation: $(STAMP)
 benchmark: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark_shipped
 
-## make blind: the shipped policy on 24 random points of the report seed (results/blind/seed20261126; about 6 minutes on 2 cores)
+## make blind: the shipped policy on 24 random points of the report seed (results/blind/seed20261129; about 6 minutes on 2 cores)
 blind: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --blind 24 --seed 20261126 --policies agents/pretrained/ppo_generalist \
-	    --out results/blind/seed20261126
+	$(VENV)/bin/mdr-drive benchmark --blind 24 --seed 20261129 --policies agents/pretrained/ppo_generalist \
+	    --out results/blind/seed20261129
 
 ## make claims: each claim of the paper's text against the model variants (results/paper_claims)
 claims: $(STAMP)
