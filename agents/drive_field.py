@@ -179,6 +179,13 @@ class DriveField:
         """(k, load kg) of grid node (i, j)."""
         return float(self.ks[i]), float(self.fractions[j] * self.trapezoid_critical[i])
 
+    def _grid_neighbours(self, i: int, j: int):
+        """The indices of node (i, j)'s four grid neighbours that lie on the grid."""
+        nk, ns = self.velocities.shape
+        for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+            if 0 <= i + di < nk and 0 <= j + dj < ns:
+                yield i + di, j + dj
+
     def _neighbour_trials(self) -> tuple[list, list, np.ndarray]:
         """Every node's four grid neighbours' drives (those that differ from its own), played at the
         node in one batched call: (nodes (i, j), drives, velocities m/s)."""
@@ -186,10 +193,9 @@ class DriveField:
         drives, owner = [], []
         for i in range(nk):
             for j in range(ns):
-                for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-                    if 0 <= i + di < nk and 0 <= j + dj < ns and not np.array_equal(
-                            self.drives[i + di, j + dj], self.drives[i, j]):
-                        drives.append(self.drives[i + di, j + dj].copy())  # not a view: the node may change first
+                for a, b in self._grid_neighbours(i, j):
+                    if not np.array_equal(self.drives[a, b], self.drives[i, j]):
+                        drives.append(self.drives[a, b].copy())  # not a view: the node may change first
                         owner.append((i, j))
         if not owner:
             return [], [], np.zeros(0)
@@ -220,10 +226,9 @@ class DriveField:
             nodes = []
             for j in range(ns):
                 starts = [self.drives[i, j]]
-                for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-                    if 0 <= i + di < nk and 0 <= j + dj < ns and not any(
-                            np.array_equal(self.drives[i + di, j + dj], d) for d in starts):
-                        starts.append(self.drives[i + di, j + dj])
+                for a, b in self._grid_neighbours(i, j):
+                    if not any(np.array_equal(self.drives[a, b], d) for d in starts):
+                        starts.append(self.drives[a, b])
                 nodes.append((*self.point(i, j), np.array(starts)))
             tasks.append((nodes, budget, sigma, seed + 7919 * (i + 1)))
         found = (executor or Executor()).map(polish_slice, tasks, "teacher: polish")

@@ -137,7 +137,7 @@ def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers) -> None:
     budget), and each entry of ``crits`` ({name: {k: kg}}) over it: its minimum and the k values at
     >= 0.97 of it."""
     from mdr_drive_agents.baselines import CYCLE_SEARCH
-    from mdr_drive_agents.blind import CYCLE_BISECTIONS, cycle_scan_task
+    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, CYCLE_BISECTIONS, cycle_scan_task
     from mdr_drive_env.sweep import Executor
 
     cycle = np.array(Executor(workers=workers).map(
@@ -145,12 +145,12 @@ def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers) -> None:
         "critical load of the best cycle per k"))
     print(f"\nCritical load over the best two-action cycle's ({len(scan_ks)} k; "
           f"the cycle's over the trapezoid's: {np.min(cycle / crit_trap):.2f}-{np.max(cycle / crit_trap):.2f})")
-    print(f"| drive | min (k) | k values >= 0.97 of {len(scan_ks)} |")
+    print(f"| drive | min (k) | k values >= {CRITICAL_LOAD_TARGET:g} of {len(scan_ks)} |")
     print("|---|---|---|")
     for name, crit in crits.items():
         ratio = np.array([crit[k] for k in scan_ks]) / np.maximum(cycle, 1e-12)
         worst = int(np.argmin(ratio))
-        print(f"| {name} | {ratio[worst]:.3f} ({scan_ks[worst]:.4g}) | {int((ratio >= 0.97).sum())} |")
+        print(f"| {name} | {ratio[worst]:.3f} ({scan_ks[worst]:.4g}) | {int((ratio >= CRITICAL_LOAD_TARGET).sum())} |")
 
 
 if __name__ == "__main__":
