@@ -259,6 +259,29 @@ def test_reset_option_load_ratio_is_the_make_argument():
         opt.reset(options={"load_ratio": -0.1})
 
 
+def test_reset_options_set_one_episodes_friction_as_the_make_arguments_do():
+    opt = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.05)
+    made = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.05, friction_coefficient=0.22, base_friction_coefficient=0.08)
+    obs_opt, info_opt = opt.reset(seed=1, options={"friction_coefficient": 0.22, "base_friction_coefficient": 0.08})
+    obs_made, info_made = made.reset(seed=1)
+    assert info_opt["friction_coefficient"] == 0.22 and info_opt["base_friction_coefficient"] == 0.08
+    assert np.array_equal(obs_opt, obs_made)
+    action = opt.unwrapped.trapezoid_action()
+    assert np.array_equal(opt.step(action)[0], made.step(action)[0])
+    assert opt.reset(seed=1)[1]["friction_coefficient"] == 0.3  # the option holds for one episode
+    # per sub-env in the batched vector env, as each single env would run
+    venv = gym.make_vec("MDRDrive-v0", num_envs=2, vectorization_mode="vector_entry_point", k=0.3, cargo_mass=0.05)
+    obs, _ = venv.reset(seed=1, options={"friction_coefficient": [0.22, 0.3], "base_friction_coefficient": [0.08, 0.1]})
+    stepped = venv.step(np.tile(action, (2, 1)))[0]
+    single = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.05)
+    single.reset(seed=2)
+    assert np.array_equal(stepped[1], single.step(action)[0])
+    made.reset(seed=1)
+    assert np.array_equal(stepped[0], made.step(action)[0])
+    with pytest.raises(ValueError, match="friction_coefficient"):
+        opt.reset(options={"friction_coefficient": -0.1})
+
+
 def test_defaults_are_the_documented_ones():
     _, info = gym.make("MDRDrive-v0").reset(seed=0)
     assert info["k"] == 0.2 and info["cargo_mass"] == 0.1

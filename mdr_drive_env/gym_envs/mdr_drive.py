@@ -153,7 +153,8 @@ class MDRDriveEnv(gym.Env):
     the same interval (the paper's trapezoid stalls at a ratio of 0.18 to 0.33 over k at mu = 0.3).
     ``reset(options={"load_step": (period, cargo_mass)})`` sets one episode's load step (below).
     ``friction_coefficient`` and ``base_friction_coefficient`` may be ranges too, drawn per episode
-    (after k, before the load; fixed values draw nothing). With ``load_step_period`` (a period index
+    (after k, before the load; fixed values draw nothing), or set for one episode by reset options
+    of those names. With ``load_step_period`` (a period index
     or a range of them, in [1, max_periods - 1]) the cargo changes once per episode: before the
     period with that index is simulated, the load jumps to a new value drawn like the first (a cargo
     picked up or set down); ``info["load_step_period"]`` says when, ``info["cargo_mass"]`` what.
@@ -291,19 +292,22 @@ class MDRDriveEnv(gym.Env):
     def sample_episode(self, rng: np.random.Generator, options: dict[str, Any] | None = None):
         """(k, cargo mass, DriveParams) of a new episode: from ``options`` or drawn from the ranges."""
         options = {key: v for key, v in (options or {}).items() if key != "load_step"}  # reset() reads load_step
-        unknown = set(options) - {"k", "cargo_mass", "load_ratio"}
+        unknown = set(options) - {"k", "cargo_mass", "load_ratio", "friction_coefficient", "base_friction_coefficient"}
         if unknown:
-            raise ValueError(f"reset options {sorted(unknown)} are not supported "
-                             "(use 'k', 'cargo_mass', 'load_ratio', 'load_step')")
+            raise ValueError(f"reset options {sorted(unknown)} are not supported (use 'k', 'cargo_mass', "
+                             "'load_ratio', 'friction_coefficient', 'base_friction_coefficient', 'load_step')")
         if options.get("cargo_mass") is not None and options.get("load_ratio") is not None:
             raise ValueError("reset options 'cargo_mass' and 'load_ratio' both set the load: give one of them")
         k = options.get("k", None)
         m = options.get("cargo_mass", None)
         k = float(rng.uniform(*self.k_range)) if k is None else float(k)
         contact = self._contact
-        if self.friction_range[0] != self.friction_range[1] or self.base_friction_range[0] != self.base_friction_range[1]:
-            contact = dataclasses.replace(contact, friction_coefficient=_draw(rng, self.friction_range),
-                                          base_friction_coefficient=_draw(rng, self.base_friction_range))
+        mu, mu1 = options.get("friction_coefficient"), options.get("base_friction_coefficient")
+        if (mu is not None or mu1 is not None or self.friction_range[0] != self.friction_range[1]
+                or self.base_friction_range[0] != self.base_friction_range[1]):  # a value given is not drawn
+            contact = dataclasses.replace(
+                contact, friction_coefficient=_draw(rng, self.friction_range) if mu is None else float(mu),
+                base_friction_coefficient=_draw(rng, self.base_friction_range) if mu1 is None else float(mu1))
         ratio_range = self.load_ratio_range
         if options.get("load_ratio") is not None:
             ratio_range = sample_range("load_ratio", options["load_ratio"], 0.0, 10.0)
@@ -395,12 +399,13 @@ class MDRDriveEnv(gym.Env):
         reward = displacement / self.reward_scale - self.actuation_penalty * effort
         return reward if self.reward_floor is None else np.maximum(reward, self.reward_floor)
 
-    def dynamics_of(self, displacement, mean_velocity, end_velocity, peak_fx, peak_fz, force_ref) -> np.ndarray:
-        """Observation entries 0-4 from SI values and F_ref (N): floats give (5,), (n,) arrays (n, 5)."""
+    def dynamics_of(self, displacement, mean_velocity, end_velocity, peak_fx, peak_fz, force_ref,
+                    friction_ref) -> np.ndarray:
+        """Observation entries 0-4 from SI values, F_ref and each drive's own mu F_ref (N): floats
+        give (5,), (n,) arrays (n, 5)."""
         v_scale = self.reward_scale / self.action_map.period
-        mu_fref = self._contact.friction_coefficient * force_ref
         return np.array([displacement / self.reward_scale, mean_velocity / v_scale, end_velocity / v_scale,
-                         peak_fx / mu_fref, peak_fz / force_ref]).T  # (5,) stays (5,); (5, n) becomes (n, 5)
+                         peak_fx / friction_ref, peak_fz / force_ref]).T  # (5,) stays (5,); (5, n) becomes (n, 5)
 
     def _observation(self, r) -> np.ndarray:
         """The observation after period result ``r`` (None after reset)."""

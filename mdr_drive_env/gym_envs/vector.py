@@ -121,7 +121,8 @@ class MDRDriveVectorEnv(VectorEnv):
         self.prev_action[stepped] = np.clip(actions[stepped], -1.0, 1.0)
         end_v = self.sim.state[:, K.S_V]
         dynamics = t.dynamics_of(out[:, K.O_DISPLACEMENT], out[:, K.O_MEAN_VELOCITY], end_v, out[:, K.O_PEAK_FX],
-                                 out[:, K.O_PEAK_FZ], self.force_ref)
+                                 out[:, K.O_PEAK_FZ], self.force_ref,
+                                 self.friction_ref)  # each drive's own mu: friction may be drawn per episode
         effort = amap.effort(waveforms[:, 0], waveforms[:, 2])
         rewards = t.reward_of(out[:, K.O_DISPLACEMENT], effort)
         obs = self._observe(dynamics)
