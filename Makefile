@@ -35,7 +35,7 @@ convergence: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/mdr-drive bench --out results/bench
 
-## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; about 20 minutes)
+## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; about 19.6 minutes)
 train: $(STAMP)
 	$(PY) -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --force
 
@@ -51,10 +51,10 @@ adaptation: $(STAMP)
 benchmark: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark_shipped
 
-## make blind: the shipped policy on 24 random points of the report seed (results/blind/seed20261129; about 6 minutes on 2 cores)
+## make blind: the shipped policy on 24 random points of the report seed (results/blind/seed20261131; about 11 minutes on 2 cores)
 blind: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --blind 24 --seed 20261129 --policies agents/pretrained/ppo_generalist \
-	    --out results/blind/seed20261129
+	$(VENV)/bin/mdr-drive benchmark --blind 24 --seed 20261131 --policies agents/pretrained/ppo_generalist \
+	    --out results/blind/seed20261131
 
 ## make claims: each claim of the paper's text against the model variants (results/paper_claims)
 claims: $(STAMP)

@@ -104,8 +104,9 @@ def blind_section(blind_json: str | Path, policy_key: str) -> str:
     over_trap = [r for r in s["critical_load_over_trapezoid"] if r is not None]
     return f"""## Blind results (`{Path(blind_json).as_posix()}`)
 
-`mdr-drive benchmark --blind {res['n']} --seed {res['seed']} --policies {policy_key}`: {res['n']} random
-(k, load) points of the training domain that no training or selection decision saw.
+`mdr-drive benchmark --blind {res['n']} --seed {res['seed']} --policies {' '.join(res.get('policies', [policy_key]))}`:
+{res['n']} random (k, load) points of the training domain that no training or selection decision saw
+(the best drive at a point: the search's, or any compared policy's where it is faster).
 
 * points below the trapezoid by more than 0.05 mm/s: {s['points_below_trapezoid']}
 * fraction of the best drive a CMA-ES search finds (where it moves >= 2 mm/s, {s['points_scored']} points):
