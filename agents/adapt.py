@@ -14,9 +14,7 @@ Teacher-student training, as controllers that must act without privileged inform
 * round 0: the teacher drives random episodes (hidden k, load, mu, mu1 drawn per episode; a share
   with a load step; in every round the actions played are perturbed by ``action_noise``); an
   **estimator** (``agents.estimator``) is fitted from every sensor observation to the hidden entries
-  of the full observation (k and the load; squared error), or, with ``estimator_target: told_load``,
-  to the load the teacher plays best when told it (``agents.told_load``: the teacher was trained at
-  one friction, and the true load is not what it should be told at another). Rounds 1 ... R: the teacher acting on the estimator's guesses
+  of the full observation (k and the load; squared error). Rounds 1 ... R: the teacher acting on the estimator's guesses
   (``SensorTeacher``) drives, so the estimator meets the states its own errors lead to, and it is
   refitted on every episode so far (DAgger);
 * the estimator and the teacher are then written as one ``MlpPolicy`` (``merged_policy``: RMA's
@@ -49,10 +47,6 @@ from mdr_drive_env.gym_envs.spaces import ObservationLayout, SensorLayout
 from .distill import Student, save_student
 from .estimator import FINE_TUNE_PPO, HIDDEN, SENSOR_ID, Estimator, SensorTeacher, merged_policy
 from .evaluate import Policy, steady_velocity_of
-from .told_load import TEACHER_FRICTION, told_entries, told_ratio, told_velocities
-
-#: What the estimator may learn (``AdaptConfig.estimator_target``).
-ESTIMATOR_TARGETS = ("hidden", "told_load")
 
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "sensor.yaml"
 @dataclass(frozen=True)
@@ -75,11 +69,6 @@ class AdaptConfig:
         learning_rate: Adam step size, decaying linearly to zero over each fit (-).
         log_std: the shipped policy's log standard deviation (for PPO fine-tuning) (-).
         torch_threads: torch threads of the fits (-).
-        estimator_target: what the estimator learns to tell the teacher: ``"hidden"``, the true k and
-            load; or ``"told_load"``, the true k and the load the teacher drives fastest when told it
-            at the sample's hidden values (``agents.told_load``), which costs a search per draw.
-        told_robust: with ``told_load``, judge each told load by the slowest of it and its
-            ``told_robust`` neighbours on either side of ``told_load.TOLD_RATIOS`` (-).
     """
 
     teacher: str = "agents/pretrained/ppo_generalist"
@@ -96,14 +85,11 @@ class AdaptConfig:
     learning_rate: float = 1e-3
     log_std: float = -3.0
     torch_threads: int = 1
-    estimator_target: str = "hidden"
-    told_robust: int = 0
 
     def __post_init__(self) -> None:
         for name in ("history", "episodes", "periods", "estimator_steps", "batch", "torch_threads"):
             check_int(name, getattr(self, name), 1)
         check_int("rounds", self.rounds, 0)
-        check_int("told_robust", self.told_robust, 0)
         if not self.estimator_arch or not all(isinstance(n, int) and n >= 1 for n in self.estimator_arch):
             raise ValueError(f"estimator_arch={self.estimator_arch!r} must be positive layer sizes")
         lo, hi = self.load_step_periods
@@ -112,8 +98,6 @@ class AdaptConfig:
                              f"1 <= first <= last <= periods - 1 = {self.periods - 1}")
         check_range("load_step_share", self.load_step_share, 0.0, 1.0)
         check_range("action_noise", self.action_noise, 0.0, 1.0)
-        if self.estimator_target not in ESTIMATOR_TARGETS:
-            raise ValueError(f"estimator_target={self.estimator_target!r} is not one of {list(ESTIMATOR_TARGETS)}")
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
 
 
@@ -126,26 +110,14 @@ def sensor_envs(config: AdaptConfig, n: int, seed: int) -> tuple[list, np.ndarra
     return envs, np.array([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)])
 
 
-def hidden_draw(env) -> tuple[float, float, float, float, float]:
-    """(k, cargo mass of the coming period kg, mu, mu1, F_ref N) of a sensor env now."""
-    u = env.unwrapped
-    mass = u.load_step[1] if u.load_step is not None and u.period_index == u.load_step[0] else u.cargo_mass
-    contact = u.params.contact
-    return u.k, mass, contact.friction_coefficient, contact.base_friction_coefficient, u.force_ref
-
-
-def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.random.Generator | None = None,
-            draws: list | None = None):
+def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.random.Generator | None = None):
     """One episode in every env (reset, first observations ``obs``), each period's actions
     ``driver(sensor_obs, privileged_obs)`` plus Gaussian noise of std ``noise`` (from ``rng``).
     Returns the sensor observations (periods * n, d), the privileged (full) observations
-    (periods * n, 14) and the displacements (periods, n) m; with a list ``draws``, appends to it
-    each sample's ``hidden_draw``, in the observations' order."""
+    (periods * n, 14) and the displacements (periods, n) m."""
     sensed, privileged, disp = [], [], []
     for _ in range(envs[0].unwrapped.max_periods):
         full = np.array([env.unwrapped.privileged_observation() for env in envs])
-        if draws is not None:
-            draws.extend(hidden_draw(env) for env in envs)
         action = np.clip(np.asarray(driver(obs, full), dtype=np.float32).reshape(len(envs), 5), -1.0, 1.0)
         if noise > 0.0:
             action = np.clip(action + rng.normal(0.0, noise, action.shape), -1.0, 1.0).astype(np.float32)
@@ -196,52 +168,28 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
     rng = np.random.default_rng(seed)
     hidden = [ObservationLayout.structure[name].start for name in HIDDEN]
     sensor_structure = SensorLayout(config.history).structure
-    sensed, targets, history = [], [], []
+    sensed, privileged, history = [], [], []
     estimator = sensor_teacher = None
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         envs, first = sensor_envs(config, config.episodes, seed + 1_000_003 * (r + 1))
         driver = (lambda s, p: teacher(p)) if r == 0 else sensor_teacher
-        draws = [] if config.estimator_target == "told_load" else None
-        s, p, _ = collect(envs, first, driver, config.action_noise, rng, draws)
-        record = {"round": r}
-        if draws is None:
-            targets.append(p[:, hidden])
-        else:
-            told, record["told_load"] = told_load_targets(teacher, np.array(draws), p, config.told_robust)
-            targets.append(told)
+        s, p, _ = collect(envs, first, driver, config.action_noise, rng)
         sensed.append(s)
-        x, y = np.concatenate(sensed), np.concatenate(targets)
+        privileged.append(p)
+        x, full = np.concatenate(sensed), np.concatenate(privileged)
         if estimator is None:
             estimator = Estimator(x.shape[1], config.estimator_arch, seed)
             sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
-        record.update(samples=len(x), loss=estimator.fit(x, y, config.estimator_steps, config.batch,
-                                                         config.learning_rate, seed + r, progress))
+        record = {"round": r, "samples": len(x),
+                  "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
+                                        config.learning_rate, seed + r, progress)}
         if validate is not None:
             record.update(validate(sensor_teacher))
         record["wall_time_s"] = round(time.perf_counter() - t0, 1)
         history.append(record)
         _log(record)
     return sensor_teacher, history
-
-
-def told_load_targets(teacher: Policy, draws: np.ndarray, privileged: np.ndarray,
-                      robust: int = 0) -> tuple[np.ndarray, dict]:
-    """The estimator's targets with ``estimator_target: told_load``: per sample (rows of ``draws``,
-    ``hidden_draw``), the true k and the told load's two entries (``agents.told_load``), searched once
-    per distinct hidden draw; and a summary (draws searched, share of samples told another load
-    than the truth by more than 0.05 of the teacher's mu F_ref, the search's seconds)."""
-    t0 = time.perf_counter()
-    unique, inverse = np.unique(draws[:, :4], axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    force_ref = draws[:, 4]
-    true_ratio = 10.0 * privileged[:, ObservationLayout.structure["load_over_10N"].start] / (TEACHER_FRICTION * force_ref)
-    ratio_of_draw = np.zeros(len(unique))
-    ratio_of_draw[inverse] = true_ratio  # the same draw has the same true ratio in all its samples
-    ratio = told_ratio(told_velocities(teacher, unique), ratio_of_draw, robust=robust)[inverse]
-    summary = {"draws": len(unique), "share_told_other": float(np.mean(np.abs(ratio - true_ratio) > 0.05)),
-               "search_s": round(time.perf_counter() - t0, 1)}
-    return told_entries(draws[:, 0], ratio, force_ref), summary
 
 
 def sensor_env_kwargs(config: AdaptConfig) -> dict:

@@ -1,17 +1,20 @@
 """What to tell a full-observation teacher about the load where friction is not the one it was trained at.
 
+    python -m mdr_drive_agents.told_load --seed 1777 --n 32 --adaptation results/adaptation/seed1777_validation/adaptation.json
+
 The shipped full-observation policy was trained at the paper's friction (mu = 0.3, mu1 = 0.1). Told
 the true k and load at another friction it often plays a drive for the wrong regime: at mu = 0.225 and
 a load of 0.086 mu F_ref (k = 0.419) it drives 3.9 mm/s where the same network, told a load of 0.15
 of 0.3 F_ref, drives 21.1 (the validation draws of ``agents/configs/sensor.yaml``). A sensor policy
-that estimates the true load inherits that loss. Its estimator is instead taught the **told load**:
-for each hidden draw (k, cargo mass, mu, mu1), the teacher is played at that draw once per candidate
-load ratio in ``TOLD_RATIOS`` (told as a load at the teacher's own friction, both load entries
-consistent), and the label is the candidate closest to the true load's ratio among those within
-``tolerance`` of the fastest (so the labels change smoothly where the velocity is flat in the ratio,
-and equal the truth where the truth is as good).
+whose estimator estimates the true load inherits that loss. This module measures it: for each hidden
+draw (k, cargo mass, mu, mu1), the teacher is played at that draw once per candidate load ratio in
+``TOLD_RATIOS`` (told as a load at the teacher's own friction, both load entries consistent); the
+**told load** is the candidate closest to the true load's ratio among those within ``tolerance`` of
+the fastest (equal to the truth where the truth is as good).
 
-Used by ``agents/adapt.py`` (``AdaptConfig.estimator_target: told_load``).
+A sensor estimator taught the told load instead of the truth (``agents/adapt.py`` at commit 6320145,
+``estimator_target: told_load``) was not better (docs/adaptation.md, Limits), so it was retired; the
+measurement stays, as the diagnosis of what bounds the sensor policy.
 """
 
 from __future__ import annotations
@@ -74,17 +77,11 @@ def told_velocities(teacher: Policy, draws: np.ndarray, ratios: np.ndarray = TOL
 
 
 def told_ratio(velocities: np.ndarray, true_ratio: np.ndarray, ratios: np.ndarray = TOLD_RATIOS,
-               tolerance: float = 0.03, slack: float = 1e-4, robust: int = 0) -> np.ndarray:
+               tolerance: float = 0.03, slack: float = 1e-4) -> np.ndarray:
     """Per draw, the ratio to tell (module docstring): among ``ratios`` whose velocity is within
     ``tolerance`` (relative) or ``slack`` (m/s), whichever is larger, of the fastest, the one closest
-    to ``true_ratio`` (the true load over TEACHER_FRICTION F_ref). With ``robust`` = w > 0, each
-    ratio's velocity is first the slowest of its w neighbours on either side and its own: a ratio
-    whose neighbours are slow is a poor label for an estimator that errs by a step."""
+    to ``true_ratio`` (the true load over TEACHER_FRICTION F_ref)."""
     velocities = np.atleast_2d(velocities)
-    if robust > 0:
-        n = velocities.shape[1]
-        velocities = np.min([velocities[:, np.clip(np.arange(n) + d, 0, n - 1)] for d in range(-robust, robust + 1)],
-                            axis=0)
     best = velocities.max(axis=1, keepdims=True)
     good = velocities >= best - np.maximum(tolerance * np.abs(best), slack)
     distance = np.where(good, np.abs(ratios[None, :] - np.asarray(true_ratio)[:, None]), np.inf)

@@ -149,26 +149,3 @@ def test_the_demo_drives_the_shipped_sensor_policy_through_a_load_step(tmp_path,
     load_steps(Policy(SENSOR_PRETRAINED), Policy(PRETRAINED), tmp_path)
     assert (tmp_path / "load_step.png").stat().st_size > 10_000
     assert capsys.readouterr().out.count("sensor policy") == 2  # one line per load step
-
-
-def test_the_estimator_can_learn_the_load_to_tell_the_teacher_instead_of_the_truth():
-    from mdr_drive_agents.adapt import collect, sensor_envs, told_load_targets
-    from mdr_drive_agents.evaluate import Policy
-    from mdr_drive_agents.told_load import TEACHER_FRICTION, TOLD_RATIOS
-
-    config = AdaptConfig(history=2, episodes=4, periods=6, load_step_periods=(1, 4), estimator_arch=(8,), rounds=0,
-                         estimator_steps=5, estimator_target="told_load")
-    draws = []
-    _, privileged, _ = collect(*sensor_envs(config, 4, seed=5), lambda s, p: np.zeros((len(s), 5)), draws=draws)
-    draws = np.array(draws)
-    assert draws.shape == (4 * 6, 5)
-    teacher = Policy(config.teacher)
-    told, summary = told_load_targets(teacher, draws, privileged)
-    assert told.shape == (24, 3) and np.array_equal(told[:, 0], draws[:, 0])
-    assert set(np.round(told[:, 1], 6)) <= set(TOLD_RATIOS)
-    assert told[:, 2] == pytest.approx(told[:, 1] * TEACHER_FRICTION * draws[:, 4] / 10.0)
-    assert 4 <= summary["draws"] <= 6  # one search per distinct (k, load, mu, mu1): two loads where the load steps
-    _, history = adapt.train(config, seed=0, progress=False)
-    assert history[0]["told_load"]["draws"] >= 4
-    with pytest.raises(ValueError, match="estimator_target"):
-        AdaptConfig(estimator_target="truth")

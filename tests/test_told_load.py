@@ -54,3 +54,18 @@ def test_told_velocities_play_the_teacher_at_the_draws_friction():
         obs, _, _, _, info = env.step(np.asarray(teacher(full[None]), dtype=np.float32).reshape(5))
         disp.append(info["displacement"])
     assert v[1, 1] == pytest.approx(np.mean(disp[-10:]) / env.unwrapped.action_map.period, rel=1e-6)  # the batched network's round-off
+
+
+def test_the_told_load_report_runs_and_refuses_a_mismatched_adaptation_file(tmp_path, capsys):
+    import json
+
+    from mdr_drive_agents.told_load import main
+
+    path = tmp_path / "adaptation.json"
+    path.write_text(json.dumps({"best_velocity_m_s": [0.02, 0.01]}))
+    assert main(["--seed", "3", "--n", "2", "--adaptation", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "told the truth" in out and "told the best ratio" in out
+    with pytest.raises(SystemExit):
+        main(["--seed", "3", "--n", "3", "--adaptation", str(path)])
+    assert "not --n 3" in capsys.readouterr().err
