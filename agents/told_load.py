@@ -92,8 +92,10 @@ def main(argv=None) -> int:
     """How much the teacher loses by being told the true load at other frictions: on ``--n`` draws
     of the sensor env's hidden parameters (``adaptation.draw_hidden``), its steady velocity told the
     truth (as the full-observation baseline is), told the label of :func:`told_ratio`, told the
-    best of ``TOLD_RATIOS``, and told the label one step of ``TOLD_RATIOS`` off (the slower side); as fractions of the best drive of an adaptation run on the same draws."""
+    best of ``TOLD_RATIOS``, and told the label one step of ``TOLD_RATIOS`` off (the slower side); as
+    fractions of the best drive of an adaptation run on the same draws."""
     import json
+    from pathlib import Path
 
     from mdr_drive_env.cli_args import Parser, input_file
 
@@ -111,7 +113,7 @@ def main(argv=None) -> int:
 
     torch.set_num_threads(1)
     teacher = Policy(a.teacher)
-    best = np.array(json.loads(open(a.adaptation).read())["best_velocity_m_s"], dtype=float)
+    best = np.array(json.loads(Path(a.adaptation).read_text())["best_velocity_m_s"], dtype=float)
     points = draw_hidden(a.n, a.seed)
     if len(best) != len(points):
         ap.error(f"--adaptation has {len(best)} points, not --n {a.n}")

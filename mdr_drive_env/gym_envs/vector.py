@@ -92,7 +92,8 @@ class MDRDriveVectorEnv(VectorEnv):
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
         """Reset every sub-env (or those in ``options["reset_mask"]``); ``seed`` int -> seed + i.
 
-        ``options["k"]``, ``options["cargo_mass"]`` set the next episode of every reset sub-env, or,
+        ``options["k"]``, ``options["cargo_mass"]``, ``options["friction_coefficient"]`` and
+        ``options["base_friction_coefficient"]`` set the next episode of every reset sub-env, or,
         given as sequences of ``num_envs`` values, of each sub-env its own.
         """
         options = dict(options or {})
