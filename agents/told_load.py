@@ -25,6 +25,7 @@ import numpy as np
 from mdr_drive_env.core.params import Contact
 from mdr_drive_env.gym_envs.spaces import ActionMap, ObservationLayout
 
+from .estimator import HIDDEN
 from .evaluate import AVERAGE_PERIODS, EVAL_PERIODS, Policy, steady_velocity_of
 
 #: Friction coefficient the full-observation teacher was trained at (the paper's, ``Contact``'s default).
@@ -35,8 +36,8 @@ _FULL = ObservationLayout.structure
 
 
 def told_entries(k: np.ndarray, ratio: np.ndarray, force_ref: np.ndarray) -> np.ndarray:
-    """(n, 3) values of the full observation's k, load_over_friction and load_over_10N entries that
-    tell the teacher a load of ``ratio`` TEACHER_FRICTION F_ref (N) at k (``force_ref``: F_ref, N)."""
+    """(n, 3) values of the full observation's ``estimator.HIDDEN`` entries (k, load_over_friction,
+    load_over_10N) that tell the teacher a load of ``ratio`` TEACHER_FRICTION F_ref (N) at k (``force_ref``: F_ref, N)."""
     return np.stack([k, ratio, ratio * TEACHER_FRICTION * force_ref / 10.0], axis=1)
 
 
@@ -52,17 +53,17 @@ def told_velocities(teacher: Policy, draws: np.ndarray, ratios: np.ndarray = TOL
     jobs = [(i, j) for i in range(len(draws)) for j in range(len(ratios))]
     out = np.empty(len(jobs))
     dyn = np.arange(_FULL["dynamics"].start, _FULL["dynamics"].stop)
-    hidden = [_FULL[name].start for name in ("k", "load_over_friction", "load_over_10N")]
+    hidden = [_FULL[name].start for name in HIDDEN]
     for start in range(0, len(jobs), chunk):
         part = jobs[start:start + chunk]
         rows = draws[[i for i, _ in part]]
-        told_ratio = ratios[[j for _, j in part]]
+        ratio_told = ratios[[j for _, j in part]]
         venv = gym.make_vec("MDRDrive-v0", num_envs=len(part), vectorization_mode="vector_entry_point",
                             max_periods=periods)
         obs, _ = venv.reset(seed=0, options={"k": rows[:, 0], "cargo_mass": rows[:, 1],
                                              "friction_coefficient": rows[:, 2],
                                              "base_friction_coefficient": rows[:, 3]})
-        told = told_entries(rows[:, 0], told_ratio, venv.unwrapped.force_ref).astype(np.float32)
+        told = told_entries(rows[:, 0], ratio_told, venv.unwrapped.force_ref).astype(np.float32)
         disp = []
         for _ in range(periods):
             full = np.array(obs, dtype=np.float32)

@@ -54,7 +54,7 @@ def main(argv=None) -> int:
                    help="local processes of the cycle scan (default: the cores available)")
     args = p.parse_args(argv)
 
-    from mdr_drive_agents.blind import K_RANGE, MOVING_THRESHOLD, draw_points, trapezoid_critical, velocity_statistics
+    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, K_RANGE, MOVING_THRESHOLD, draw_points, trapezoid_critical, velocity_statistics
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import (
         critical_loads_grid,
@@ -82,7 +82,7 @@ def main(argv=None) -> int:
     print(f"{args.n} points of seed {args.seed}; reference: the teacher's 6 x 6 neighbourhood ({args.field}) "
           f"or any better drive; {int(scored.sum())} points where it moves >= 2 mm/s")
     print("| policy | below the trapezoid (worst, mm/s) | fraction of the reference: mean / min | under 0.85 | "
-          f"critical load / teacher's: min (k), k values >= 0.97 of {len(scan_ks)} | critical load / trapezoid's: min |")
+          f"critical load / teacher's: min (k), k values >= {CRITICAL_LOAD_TARGET:g} of {len(scan_ks)} | critical load / trapezoid's: min |")
     print("|---|---|---|---|---|---|")
     def velocity_cells(v: np.ndarray) -> str:
         """The row's velocity columns: the blind benchmark's statistics against this reference."""
@@ -98,7 +98,7 @@ def main(argv=None) -> int:
         to_trapezoid = np.array([crit[k] / c for k, c in zip(scan_ks, crit_trap)])
         worst = int(np.argmin(to_teacher))
         print(f"| {path} | {velocity_cells(v)} | {to_teacher[worst]:.2f} ({scan_ks[worst]:.4g}), "
-              f"{int((to_teacher >= 0.97).sum())} | {to_trapezoid.min():.2f} |")
+              f"{int((to_teacher >= CRITICAL_LOAD_TARGET).sum())} | {to_trapezoid.min():.2f} |")
     if args.cycle_scan:
         print_cycle_scan(scan_ks, crit_trap, {"the teacher": crit_teacher, **crits}, args.workers)
     if args.searched:

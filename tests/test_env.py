@@ -263,7 +263,7 @@ def test_reset_options_set_one_episodes_friction_as_the_make_arguments_do():
     opt = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.05)
     made = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.05, friction_coefficient=0.22, base_friction_coefficient=0.08)
     obs_opt, info_opt = opt.reset(seed=1, options={"friction_coefficient": 0.22, "base_friction_coefficient": 0.08})
-    obs_made, info_made = made.reset(seed=1)
+    obs_made, _ = made.reset(seed=1)
     assert info_opt["friction_coefficient"] == 0.22 and info_opt["base_friction_coefficient"] == 0.08
     assert np.array_equal(obs_opt, obs_made)
     action = opt.unwrapped.trapezoid_action()
@@ -271,7 +271,7 @@ def test_reset_options_set_one_episodes_friction_as_the_make_arguments_do():
     assert opt.reset(seed=1)[1]["friction_coefficient"] == 0.3  # the option holds for one episode
     # per sub-env in the batched vector env, as each single env would run
     venv = gym.make_vec("MDRDrive-v0", num_envs=2, vectorization_mode="vector_entry_point", k=0.3, cargo_mass=0.05)
-    obs, _ = venv.reset(seed=1, options={"friction_coefficient": [0.22, 0.3], "base_friction_coefficient": [0.08, 0.1]})
+    venv.reset(seed=1, options={"friction_coefficient": [0.22, 0.3], "base_friction_coefficient": [0.08, 0.1]})
     stepped = venv.step(np.tile(action, (2, 1)))[0]
     single = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.05)
     single.reset(seed=2)
