@@ -21,7 +21,9 @@ from 0 to 0.4 of mu F_ref, mu in [0.2, 0.4], mu1 in [0.07, 0.13]) from ``--seed`
 
 Writes ``adaptation.json``, ``adaptation.md``, ``points.csv``, ``load_steps.csv`` and the plots
 ``adaptation_load_steps.png`` and ``adaptation_tracking.png``. The per-point searches run on the
-sweep executor (``--workers``, ``--ray-address``) and are kept as they finish (``--resume``).
+sweep executor (``--workers``, ``--ray-address``) and are kept as they finish (``--resume``);
+``--reuse-search ADAPTATION.json`` takes them from an earlier run of the same seed, sizes and
+budgets, so that several sensor policies are compared on one search (only the drives run).
 """
 
 from __future__ import annotations
@@ -114,20 +116,36 @@ def recovery(v: np.ndarray) -> tuple[float, float | None, bool | None]:
     return steady, periods, bool(window >= RECOVERY_FRACTION * steady)
 
 
+def reusable_search(path: str | Path, seed: int, n: int, search: dict) -> list[dict]:
+    """The per-point searches of the earlier ``adaptation.json`` at ``path`` if it drew and searched
+    as this run asks (``seed``, ``n`` blind points, ``search`` budgets), else ``ValueError`` saying
+    what differs."""
+    previous = json.loads(Path(path).read_text())
+    for key, value in (("seed", seed), ("n", n), ("search", search)):
+        if previous.get(key) != value:
+            raise ValueError(f"--reuse-search {path}: its {key} {previous.get(key)!r} is not this run's {value!r}")
+    return previous["best_search"]
+
+
 def run(sensor_policy: str, full_policy: str, n: int, n_steps: int, seed: int, out: str | Path, quick: bool = False,
-        executor: Executor | None = None, resume: bool = False) -> dict:
-    """Both experiments (module docstring) into ``out``; returns what ``adaptation.json`` holds."""
+        executor: Executor | None = None, resume: bool = False, reuse: str | Path | None = None) -> dict:
+    """Both experiments (module docstring) into ``out``; returns what ``adaptation.json`` holds.
+    ``reuse``: an earlier ``adaptation.json`` whose per-point searches are taken (``reusable_search``)."""
     out = Path(out)
     executor = executor or Executor()
     fixed_budget = QUICK["fixed_budget"] if quick else CMA_BUDGET
     cycle_budget = QUICK["cycle_budget"] if quick else CYCLE_SEARCH["budget"]
     policies = {"sensor policy": Policy(sensor_policy), "full-observation policy": Policy(full_policy),
                 "trapezoid": None, "tuned once": FixedAction(tuned_once_action(fixed_budget))}
+    search = {"fixed_budget": fixed_budget, "cycle_budget": cycle_budget}
     points = draw_hidden(n, seed)
     tasks = [(d["k"], d["cargo_mass"], fixed_budget, cycle_budget, d["friction_coefficient"],
               d["base_friction_coefficient"]) for d in points]
     store = TaskStore(task_folder(out, resume) / "best")
-    best_runs = executor.map(best_drive, tasks, "adaptation: best drive per point", store=store)
+    if reuse:
+        best_runs = reusable_search(reuse, seed, n, search)
+    else:
+        best_runs = executor.map(best_drive, tasks, "adaptation: best drive per point", store=store)
     steady, actions = {}, {}
     for drive in DRIVES:
         runs = [play(drive, policies, d, EVAL_PERIODS) for d in points]
@@ -159,7 +177,7 @@ def run(sensor_policy: str, full_policy: str, n: int, n_steps: int, seed: int, o
     res = {"seed": seed, "n": n, "load_steps": n_steps, "quick": quick, "sensor_policy": str(sensor_policy),
            "full_policy": str(full_policy), "tuned_once_point": TUNED_ONCE_POINT,
            "tuned_once_action": policies["tuned once"].action.tolist(),
-           "search": {"fixed_budget": fixed_budget, "cycle_budget": cycle_budget},
+           "search": search, "search_reused_from": None if reuse is None else str(reuse),
            "protocol": f"steady velocity: mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}; "
                        f"load steps before period {STEP_PERIOD} of {STEP_EPISODE_PERIODS}, recovery within "
                        f"{RECOVERY_PERIODS} periods to {RECOVERY_FRACTION} of the steady velocity at the new load",
@@ -273,7 +291,7 @@ def plot(res: dict, out: Path) -> None:
 
 
 def main(argv=None) -> int:
-    from mdr_drive_env.cli_args import Parser, folder_with, output_dir, positive_int
+    from mdr_drive_env.cli_args import Parser, folder_with, input_file, output_dir, positive_int
 
     ap = Parser(prog="python -m mdr_drive_agents.adaptation", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -291,6 +309,9 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="tiny per-point searches (CI)")
     ap.add_argument("--replot", action="store_true",
                     help="only redraw the plots and adaptation.md from OUT/adaptation.json (nothing recomputed)")
+    ap.add_argument("--reuse-search", default=None, metavar="ADAPTATION.json", type=input_file,
+                    help="take the per-point searches from an earlier adaptation.json of the same seed, --blind "
+                         "and budgets; only the drives run")
     add_executor_arguments(ap)
     a = ap.parse_args(argv)
     out = a.out or f"results/adaptation/seed{a.seed}"
@@ -305,7 +326,7 @@ def main(argv=None) -> int:
         return 0
     try:
         res = run(a.sensor_policy, a.full_policy, a.blind, a.load_steps, a.seed, out, quick=a.quick,
-                  executor=executor_from(a), resume=a.resume)
+                  executor=executor_from(a), resume=a.resume, reuse=a.reuse_search)
     except ValueError as e:
         print(f"python -m mdr_drive_agents.adaptation: error: {e}", file=sys.stderr)
         return 2

@@ -124,6 +124,14 @@ def test_the_adaptation_report_runs_in_quick_mode(sensor_run, tmp_path):
         assert (tmp_path / name).stat().st_size > 0
     assert res["points"] == adaptation.draw_hidden(2, 5)  # the draws follow the seed
 
+    again = adaptation.run(str(out / "policy"), adaptation.FULL_POLICY, 2, 1, seed=5, out=tmp_path / "again", quick=True,
+                           reuse=tmp_path / "adaptation.json")  # another policy judged on the same searches
+    assert again["best_search"] == json.loads((tmp_path / "adaptation.json").read_text())["best_search"]
+    assert again["search_reused_from"] == str(tmp_path / "adaptation.json")
+    with pytest.raises(ValueError, match="--reuse-search .* seed"):
+        adaptation.run(str(out / "policy"), adaptation.FULL_POLICY, 2, 1, seed=6, out=tmp_path / "other", quick=True,
+                       reuse=tmp_path / "adaptation.json")
+
 
 def test_the_sensor_policy_fine_tunes_with_ppo_through_train_resume(sensor_run, tmp_path):
     import shutil
