@@ -42,10 +42,10 @@ from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import write_text
 
-from mdr_drive_env.gym_envs.spaces import ObservationLayout, SensorLayout
+from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
 
 from .distill import Student, save_student
-from .estimator import FINE_TUNE_PPO, HIDDEN, SENSOR_ID, Estimator, SensorTeacher, merged_policy
+from .estimator import FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy, teacher_layout
 from .evaluate import Policy, steady_velocity_of
 
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "sensor.yaml"
@@ -110,14 +110,15 @@ def sensor_envs(config: AdaptConfig, n: int, seed: int) -> tuple[list, np.ndarra
     return envs, np.array([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)])
 
 
-def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.random.Generator | None = None):
+def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.random.Generator | None = None,
+            friction: bool = False):
     """One episode in every env (reset, first observations ``obs``), each period's actions
     ``driver(sensor_obs, privileged_obs)`` plus Gaussian noise of std ``noise`` (from ``rng``).
-    Returns the sensor observations (periods * n, d), the privileged (full) observations
-    (periods * n, 14) and the displacements (periods, n) m."""
+    Returns the sensor observations (periods * n, d), the privileged observations (periods * n, 14;
+    with ``friction`` 16, mu and mu1 appended) and the displacements (periods, n) m."""
     sensed, privileged, disp = [], [], []
     for _ in range(envs[0].unwrapped.max_periods):
-        full = np.array([env.unwrapped.privileged_observation() for env in envs])
+        full = np.array([env.unwrapped.privileged_observation(friction=friction) for env in envs])
         action = np.clip(np.asarray(driver(obs, full), dtype=np.float32).reshape(len(envs), 5), -1.0, 1.0)
         if noise > 0.0:
             action = np.clip(action + rng.normal(0.0, noise, action.shape), -1.0, 1.0).astype(np.float32)
@@ -138,11 +139,13 @@ class Validation:
         self.config = AdaptConfig(**{**asdict(config), "periods": 30, "load_step_share": 0.0,
                                      "load_step_periods": (1, 1)})
         self.seed, self.n = seed, n
+        self.friction = teacher_layout(teacher) is PrivilegedLayout
         self.v_teacher = self.steady(lambda s, p: teacher(p))
 
     def steady(self, driver) -> np.ndarray:
         """``driver``'s steady velocities (m/s) on the draws."""
-        return steady_velocity_of(collect(*sensor_envs(self.config, self.n, self.seed), driver)[2])
+        return steady_velocity_of(collect(*sensor_envs(self.config, self.n, self.seed), driver,
+                                          friction=self.friction)[2])
 
     def __call__(self, driver) -> dict:
         keep = self.v_teacher >= 2e-3
@@ -166,7 +169,8 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
     torch.set_num_threads(config.torch_threads)
     teacher = Policy(config.teacher)
     rng = np.random.default_rng(seed)
-    hidden = [ObservationLayout.structure[name].start for name in HIDDEN]
+    layout = teacher_layout(teacher)
+    hidden = hidden_entries(layout)
     sensor_structure = SensorLayout(config.history).structure
     sensed, privileged, history = [], [], []
     estimator = sensor_teacher = None
@@ -174,12 +178,12 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
         t0 = time.perf_counter()
         envs, first = sensor_envs(config, config.episodes, seed + 1_000_003 * (r + 1))
         driver = (lambda s, p: teacher(p)) if r == 0 else sensor_teacher
-        s, p, _ = collect(envs, first, driver, config.action_noise, rng)
+        s, p, _ = collect(envs, first, driver, config.action_noise, rng, friction=layout is PrivilegedLayout)
         sensed.append(s)
         privileged.append(p)
         x, full = np.concatenate(sensed), np.concatenate(privileged)
         if estimator is None:
-            estimator = Estimator(x.shape[1], config.estimator_arch, seed)
+            estimator = Estimator(x.shape[1], config.estimator_arch, seed, n_out=len(hidden))
             sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
         record = {"round": r, "samples": len(x),
                   "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,

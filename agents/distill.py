@@ -36,7 +36,7 @@ from tqdm import tqdm
 
 import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
 
-from .drive_field import DriveField, cycle_action
+from .drive_field import PAPER_FRICTION, DriveField, cycle_action
 from .evaluate import steady_velocity_of
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
@@ -122,25 +122,36 @@ class DistillConfig:
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
 
 
-def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig) -> list:
+def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig,
+                friction=None) -> list:
     """``n`` (k, cargo mass kg) points: k uniform over the field's range, the load uniform from 0 to
     ``load_factor`` times the trapezoid's critical load (interpolated from the field's grid), a
-    share without load."""
+    share without load. With ``friction`` ((mu low, high), (mu1 low, high)): (k, cargo mass kg, mu,
+    mu1) points, mu and mu1 uniform, the load scaled by mu / 0.3 (the same load over mu F_ref)."""
     ks = rng.uniform(field_.ks[0], field_.ks[-1], n)
     crit = np.interp(ks, field_.ks, field_.trapezoid_critical)
     loads = rng.uniform(0.0, config.load_factor, n) * crit
     loads[rng.uniform(size=n) < config.no_load_share] = 0.0
-    return [(float(k), float(m)) for k, m in zip(ks, loads)]
+    if friction is None:
+        return [(float(k), float(m)) for k, m in zip(ks, loads)]
+    mu, mu1 = rng.uniform(*friction[0], n), rng.uniform(*friction[1], n)
+    return [(float(k), float(m * a / PAPER_FRICTION[0]), float(a), float(b)) for k, m, a, b in zip(ks, loads, mu, mu1)]
 
 
 def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0):
-    """Play at each point: the teacher's drive (``act`` None) or ``act(obs) -> actions``. Returns the
-    observations (periods * n, 14), the teacher's drive of each observation's episode (periods * n,
-    2, 5) and the displacements (periods, n) m."""
+    """Play at each (k, load kg) point, or (k, load kg, mu, mu1) point in the privileged observation:
+    the teacher's drive (``act`` None) or ``act(obs) -> actions``. Returns the observations
+    (periods * n, 14 or 16), the teacher's drive of each observation's episode (periods * n, 2, 5)
+    and the displacements (periods, n) m."""
     n = len(points)
-    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods)
+    options = {"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]}
+    kwargs = {}
+    if len(points[0]) == 4:
+        kwargs["observation"] = "privileged"
+        options.update(friction_coefficient=[p[2] for p in points], base_friction_coefficient=[p[3] for p in points])
+    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods, **kwargs)
     prev_slice = venv.template.observation_structure["previous_action"]
-    obs, _ = venv.reset(seed=seed, options={"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]})
+    obs, _ = venv.reset(seed=seed, options=options)
     all_obs, disp = [], []
     for _ in range(periods):
         all_obs.append(obs.copy())
@@ -236,8 +247,9 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
     (``perturb_previous_actions``)."""
     import torch
 
-    structure = ObservationLayout.structure
-    shuffled = [*range(*structure["dynamics"].indices(14)), *range(*structure["episode_fraction"].indices(14))]
+    structure = ObservationLayout.structure  # the privileged layout has the same entries first
+    shuffled = [*range(*structure["dynamics"].indices(obs.shape[1])),
+                *range(*structure["episode_fraction"].indices(obs.shape[1]))]
     prev_slice = structure["previous_action"]
     policy = student.model.policy
     rng = np.random.default_rng(seed)
@@ -290,10 +302,13 @@ def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: 
 
 
 def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs: dict | None = None,
-            hyperparameters: dict | None = None, validation_points=None, progress: bool = True) -> Student:
+            hyperparameters: dict | None = None, validation_points=None, progress: bool = True,
+            friction=None) -> Student:
     """Fit a new PPO student to the drive field's teacher (module docstring), then ``config.rounds``
     DAgger rounds; prints each stage and, with ``validation_points``, the student's velocity as a
-    fraction of the teacher's there."""
+    fraction of the teacher's there. With ``friction`` ((mu low, high), (mu1 low, high)) the episodes'
+    friction is drawn too (``draw_points``), ``field_`` is queried at (k, load, mu, mu1) points (a
+    ``FrictionField``) and ``env_kwargs`` must give the privileged observation."""
     import torch
 
     torch.set_num_threads(config.torch_threads)
@@ -305,7 +320,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     obs_all, drive_all = [], []
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
-        points = draw_points(field_, config.points, rng, config)
+        points = draw_points(field_, config.points, rng, config, friction)
         obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r)
         obs_all.append(obs)
         drive_all.append(sample_drives)
@@ -324,7 +339,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     k_range = (float(field_.ks[0]), float(field_.ks[-1]))
     for h in range(1, config.hole_rounds + 1):
         t0 = time.perf_counter()
-        holes, probe = find_holes(student, field_, config, rng)
+        holes, probe = find_holes(student, field_, config, rng, friction)
         loss = None  # no hole found: no fit this round
         if holes:
             obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
@@ -357,16 +372,19 @@ def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, se
 
 
 def student_velocity(student: Student, points) -> np.ndarray:
-    """The student's steady velocity (m/s) at each (k, load kg) point, closed loop over 30 periods."""
+    """The student's steady velocity (m/s) at each (k, load kg) or (k, load kg, mu, mu1) point, closed
+    loop over 30 periods."""
     _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30)
     return steady_velocity_of(disp)
 
 
-def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator):
-    """The student and the teacher at ``config.hole_probes`` fresh random points: the points where
-    the student's steady velocity falls short of the teacher's (``config.hole_shortfall``), and the
-    probe statistics (share of holes, the student's mean velocity over the teacher's where it moves)."""
-    points = draw_points(field_, config.hole_probes, rng, config)
+def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator,
+               friction=None):
+    """The student and the teacher at ``config.hole_probes`` fresh random points (``draw_points``
+    with ``friction``): the points where the student's steady velocity falls short of the teacher's
+    (``config.hole_shortfall``), and the probe statistics (share of holes, the student's mean
+    velocity over the teacher's where it moves)."""
+    points = draw_points(field_, config.hole_probes, rng, config, friction)
     _, v_teacher = field_.best(points, radius=config.teacher_radius)
     v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), 1e-3)
@@ -377,12 +395,14 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
 
 
 def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float]) -> list:
-    """Each point and ``n`` jittered copies: k +- 0.01 (kept in ``k_range``), load +- 5 %."""
+    """Each point and ``n`` jittered copies: k +- 0.01 (kept in ``k_range``), load +- 5 % (friction,
+    of (k, load, mu, mu1) points, kept)."""
     out = []
-    for k, m in points:
-        out.append((k, m))
+    for k, m, *friction in points:
+        out.append((k, m, *friction))
         for _ in range(n):
-            out.append((float(np.clip(k + rng.uniform(-0.01, 0.01), *k_range)), float(m * rng.uniform(0.95, 1.05))))
+            out.append((float(np.clip(k + rng.uniform(-0.01, 0.01), *k_range)), float(m * rng.uniform(0.95, 1.05)),
+                        *friction))
     return out
 
 

@@ -35,6 +35,9 @@ from mdr_drive_env.files import atomic_path
 from .baselines import PUSH_CLAMP, best_cma_run, cma_optimize
 from .evaluate import open_loop_velocity, trapezoid_action
 
+#: The paper's friction coefficients (mu indenter-slider, mu1 slider-base), the env's defaults.
+PAPER_FRICTION = (0.3, 0.1)
+
 
 @dataclass(frozen=True)
 class FieldConfig:
@@ -56,6 +59,9 @@ class FieldConfig:
             grid neighbours' drives, ``budget`` evaluations per start with initial step ``sigma``
             (action units), keeps a faster drive, and the nodes exchange again
             (``DriveField.polish``; empty: none) (-, action units).
+        friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
+            searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
+            paper's friction (0.3, 0.1).
     """
 
     k_values: int = 13
@@ -67,6 +73,7 @@ class FieldConfig:
     sigma0: float = 0.25
     consolidate_tolerance: float = 0.0
     polish: tuple[tuple[int, float], ...] = ()
+    friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
         for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1)):
@@ -82,6 +89,10 @@ class FieldConfig:
                 raise ValueError(f"polish={self.polish!r}: each pass is (budget, sigma)")
             check_int("polish budget", entry[0], 1)
             check_range("polish sigma", entry[1], 0.0, 1.0, low_open=True)
+        if len(self.friction) != 2:
+            raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
+        check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
+        check_range("friction mu1", self.friction[1], 0.0, 2.0)
 
     @property
     def ks(self) -> np.ndarray:
@@ -97,11 +108,12 @@ def search_point(k: float, load: float, previous: np.ndarray | None, config: Fie
     """The best drive (2, 5) found at (k, load kg) and its steady velocity (m/s): CMA-ES over fixed
     actions (from the lighter point's first action, or the trapezoid) and over two-action cycles
     (from the lighter point's drive, the trapezoid and the push/clamp cycle)."""
+    friction = tuple(config.friction)
     fixed = cma_optimize(k, load, config.fixed_budget, sigma0=config.sigma0, seed=seed,
-                         x0=None if previous is None else previous[0])
+                         x0=None if previous is None else previous[0], friction=friction)
     starts = ([] if previous is None else [previous]) + [np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP]
     cycle = best_cma_run(k, load, starts, config.cycle_budget, popsize=16, sigma0=config.sigma0, cycle=2,
-                         seed=seed)
+                         seed=seed, friction=friction)
     if cycle.velocity > fixed.velocity:
         return np.asarray(cycle.action, dtype=np.float64), cycle.velocity
     return np.tile(fixed.action, (2, 1)), fixed.velocity
@@ -122,10 +134,11 @@ def search_slice(args) -> tuple[np.ndarray, np.ndarray]:
 def polish_slice(args) -> list[tuple[np.ndarray, float]]:
     """Per node of one k slice, the best two-action cycle (2, 5) and its velocity (m/s) found by
     CMA-ES from each of its starts (``DriveField.polish``)."""
-    nodes, budget, sigma, seed = args
+    nodes, budget, sigma, seed, friction = args
     out = []
     for j, (k, load, starts) in enumerate(nodes):
-        run = best_cma_run(k, load, list(starts), budget, popsize=16, sigma0=sigma, cycle=2, seed=seed + 31 * j)
+        run = best_cma_run(k, load, list(starts), budget, popsize=16, sigma0=sigma, cycle=2, seed=seed + 31 * j,
+                           friction=tuple(friction))
         out.append((np.asarray(run.action, dtype=np.float64), float(run.velocity)))
     return out
 
@@ -146,6 +159,7 @@ class DriveField:
         self.drives = np.asarray(drives, dtype=np.float64)
         self.velocities = np.asarray(velocities, dtype=np.float64)
         self.meta = dict(meta or {})
+        self.friction = tuple(float(f) for f in self.meta.get("config", {}).get("friction", PAPER_FRICTION))
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -175,9 +189,9 @@ class DriveField:
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
 
-    def point(self, i: int, j: int) -> tuple[float, float]:
-        """(k, load kg) of grid node (i, j)."""
-        return float(self.ks[i]), float(self.fractions[j] * self.trapezoid_critical[i])
+    def point(self, i: int, j: int) -> tuple[float, float, float, float]:
+        """(k, load kg, mu, mu1) of grid node (i, j): its point at the field's friction."""
+        return float(self.ks[i]), float(self.fractions[j] * self.trapezoid_critical[i]), *self.friction
 
     def _grid_neighbours(self, i: int, j: int):
         """The indices of node (i, j)'s four grid neighbours that lie on the grid."""
@@ -229,8 +243,8 @@ class DriveField:
                 for a, b in self._grid_neighbours(i, j):
                     if not any(np.array_equal(self.drives[a, b], d) for d in starts):
                         starts.append(self.drives[a, b])
-                nodes.append((*self.point(i, j), np.array(starts)))
-            tasks.append((nodes, budget, sigma, seed + 7919 * (i + 1)))
+                nodes.append((*self.point(i, j)[:2], np.array(starts)))
+            tasks.append((nodes, budget, sigma, seed + 7919 * (i + 1), self.friction))
         found = (executor or Executor()).map(polish_slice, tasks, "teacher: polish")
         changed = 0
         for i, slice_ in enumerate(found):
@@ -315,25 +329,25 @@ class DriveField:
                 if not (i <= a <= i + 1 and j <= b <= j + 1)]
         return np.array([mixed, *corners, *ring])
 
+    def with_friction(self, points) -> list[tuple[float, float, float, float]]:
+        """``points`` as (k, load kg, mu, mu1): (k, load) points at the field's friction."""
+        return [tuple(map(float, p)) if len(p) == 4 else (float(p[0]), float(p[1]), *self.friction) for p in points]
+
+    def field_load(self, point) -> float:
+        """The load (kg) at the field's friction that matches ``point`` (k, load kg, mu, mu1): the same
+        load over mu F_ref (the load scales with mu at a given ratio of mu1 to mu)."""
+        return float(point[1]) * self.friction[0] / float(point[2])
+
     def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1) -> tuple[np.ndarray, np.ndarray]:
-        """The teacher's drive (n, 2, 5) and its velocity (n,) at each (k, load kg) point: the best of
-        :meth:`candidates` (with ``radius``) played at the point, the interpolation unless another
-        candidate is better by more than ``prefer_interpolation`` (relative), so neighbouring labels
-        stay smooth."""
+        """The teacher's drive (n, 2, 5) and its velocity (n,) at each (k, load kg) point, or (k, load
+        kg, mu, mu1) point at other friction (the grid is read at the same load over mu F_ref,
+        ``field_load``): the best of :meth:`candidates` (with ``radius``) played at the point, the
+        interpolation unless another candidate is better by more than ``prefer_interpolation``
+        (relative), so neighbouring labels stay smooth."""
         check_int("radius", radius, 1)
-        cands = [self.candidates(k, m, radius) for k, m in points]  # c may differ by point at the grid's edge
-        flat = np.concatenate(cands)
-        v = open_loop_velocity([p for p, c in zip(points, cands) for _ in c], flat)
-        drives, velocities, start = [], [], 0
-        for c in cands:
-            vc = v[start:start + len(c)]
-            pick = int(np.argmax(vc))
-            if vc[pick] <= vc[0] + prefer_interpolation * abs(vc[0]):
-                pick = 0
-            drives.append(c[pick])
-            velocities.append(vc[pick])
-            start += len(c)
-        return np.array(drives), np.array(velocities)
+        points = self.with_friction(points)
+        cands = [self.candidates(p[0], self.field_load(p), radius) for p in points]  # c may differ at the edge
+        return pick_best(points, cands, prefer_interpolation)
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:
@@ -354,6 +368,23 @@ class DriveField:
         with np.load(path) as f:
             return cls(f["ks"], f["fractions"], f["trapezoid_critical"], f["drives"], f["velocities"],
                        json.loads(str(f["meta"])))
+
+
+def pick_best(points, cands: list, prefer_interpolation: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per point, the best of its candidate drives ``cands[i]`` (c_i, 2, 5) played there (one batched
+    call), the first (an interpolation) unless another is better by more than
+    ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s."""
+    v = open_loop_velocity([p for p, c in zip(points, cands) for _ in c], np.concatenate(cands))
+    drives, velocities, start = [], [], 0
+    for c in cands:
+        vc = v[start:start + len(c)]
+        pick = int(np.argmax(vc))
+        if vc[pick] <= vc[0] + prefer_interpolation * abs(vc[0]):
+            pick = 0
+        drives.append(c[pick])
+        velocities.append(vc[pick])
+        start += len(c)
+    return np.array(drives), np.array(velocities)
 
 
 def cycle_action(drives: np.ndarray, previous_actions: np.ndarray) -> np.ndarray:

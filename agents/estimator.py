@@ -9,26 +9,39 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-from mdr_drive_env.gym_envs.spaces import ObservationLayout
+from mdr_drive_env.gym_envs.spaces import ObservationLayout, PrivilegedLayout
 
 from .distill import Student, adam_fit
 from .evaluate import Policy
 
 SENSOR_ID = "MDRDriveSensor-v0"
-#: The full observation's entries the sensor observation hides (ObservationLayout.structure names).
+#: The full observation's entries the sensor observation hides (ObservationLayout.structure names);
+#: a teacher on the privileged observation is told ``"friction"`` (mu, mu1) too.
 HIDDEN = ("k", "load_over_friction", "load_over_10N")
-N_FULL = len(ObservationLayout.NAMES)
 #: PPO settings of the shipped network: what ``mdr-drive train --resume`` fine-tunes it with (small
 #: steps: near an optimal drive the velocity changes steeply with the action).
 FINE_TUNE_PPO = {"n_steps": 128, "batch_size": 128, "n_epochs": 10, "gamma": 0.98, "gae_lambda": 0.95,
                  "learning_rate": 3e-5, "clip_range": 0.1, "ent_coef": 0.0, "n_envs": 8}
 
 
+def teacher_layout(teacher: Policy):
+    """The observation layout ``teacher`` was trained on: ``ObservationLayout`` (the full
+    observation) or ``PrivilegedLayout`` (friction too), from its run.json."""
+    return PrivilegedLayout if teacher.observation_kwargs.get("observation") == "privileged" else ObservationLayout
+
+
+def hidden_entries(layout) -> list[int]:
+    """Indices of the entries of ``layout`` the sensor observation hides: ``HIDDEN``, and friction
+    in the privileged layout."""
+    names = HIDDEN + (("friction",) if layout is PrivilegedLayout else ())
+    return [i for name in names for i in range(*layout.structure[name].indices(len(layout.NAMES)))]
+
+
 class Estimator:
-    """An MLP from the sensor observation to the entries the sensor hides (``HIDDEN``), both
+    """An MLP from the sensor observation to the entries the sensor hides (``hidden_entries``), both
     standardised with the statistics of the first data it is fitted on."""
 
-    def __init__(self, obs_dim: int, arch: tuple[int, ...], seed: int):
+    def __init__(self, obs_dim: int, arch: tuple[int, ...], seed: int, n_out: int = len(HIDDEN)):
         import torch
 
         torch.manual_seed(seed)
@@ -36,7 +49,7 @@ class Estimator:
         for n in arch:
             layers += [torch.nn.Linear(width, n), torch.nn.ReLU()]
             width = n
-        self.net = torch.nn.Sequential(*layers, torch.nn.Linear(width, len(HIDDEN)))
+        self.net = torch.nn.Sequential(*layers, torch.nn.Linear(width, n_out))
         self.scales = None  # (x mean, x std, y mean, y std)
 
     def fit(self, x: np.ndarray, y: np.ndarray, steps: int, batch: int, learning_rate: float, seed: int,
@@ -71,8 +84,10 @@ class SensorTeacher:
 
     def __init__(self, teacher: Policy, estimator: Estimator, sensor_structure: dict):
         self.teacher, self.estimator = teacher, estimator
-        full = ObservationLayout.structure
-        self.hidden = [full[name].start for name in HIDDEN]
+        layout = teacher_layout(teacher)
+        self.n_full = len(layout.NAMES)
+        full = layout.structure
+        self.hidden = hidden_entries(layout)
         self.dynamics = list(range(full["dynamics"].start, full["dynamics"].stop))
         actions = sensor_structure["actions"]
         # full-observation entries copied from the sensor observation: the newest action, the fraction
@@ -82,7 +97,7 @@ class SensorTeacher:
 
     def full_observation(self, sensed: np.ndarray) -> np.ndarray:
         """The full observation the teacher is given for sensor observations ``sensed`` (n, d)."""
-        full = np.zeros((len(sensed), N_FULL), dtype=np.float32)
+        full = np.zeros((len(sensed), self.n_full), dtype=np.float32)
         full[:, self.dynamics] = self.teacher.obs_rms.mean[self.dynamics]
         full[:, self.copied] = sensed[:, self.sources]
         full[:, self.hidden] = self.estimator(sensed)
@@ -109,6 +124,7 @@ def merged_policy(sensor_teacher: SensorTeacher, history: int, periods: int, log
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
 
     est, teacher = sensor_teacher.estimator, sensor_teacher.teacher
+    n_full = sensor_teacher.n_full
     xm, xs, ym, ys = est.scales
     est_linear = [m for m in est.net if isinstance(m, torch.nn.Linear)]
     t_net = teacher.model.policy.mlp_extractor.policy_net
@@ -148,9 +164,9 @@ def merged_policy(sensor_teacher: SensorTeacher, history: int, periods: int, log
             lin.bias.copy_(b)
         # the teacher's normalised input z = A h + B (c+ - c-) + c0, then its first layer
         out, h = est_linear[-1], est_linear[-1].in_features
-        a_mat = torch.zeros((N_FULL, h), dtype=torch.float64)
-        b_mat = torch.zeros((N_FULL, n_c), dtype=torch.float64)
-        c0 = torch.zeros(N_FULL, dtype=torch.float64)
+        a_mat = torch.zeros((n_full, h), dtype=torch.float64)
+        b_mat = torch.zeros((n_full, n_c), dtype=torch.float64)
+        c0 = torch.zeros(n_full, dtype=torch.float64)
         for j, idx in enumerate(sensor_teacher.hidden):  # estimate, in the full observation's units
             a_mat[idx] = out.weight[j].double() * ys[j] / ts[idx]
             c0[idx] = (out.bias[j].double() * ys[j] + ym[j] - tm[idx]) / ts[idx]

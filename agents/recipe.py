@@ -58,6 +58,24 @@ def load_recipe(path: str | Path) -> dict:
             "env_kwargs": dict(data["env_kwargs"])}
 
 
+def student_record(seed: int, env_kwargs: dict, ppo: dict, config: DistillConfig, student, wall_time_s: float,
+                   command: str, teacher: dict) -> dict:
+    """The distilled student's ``run.json``: what ``mdr-drive train --resume`` and ``evaluate`` read
+    (env keywords, PPO settings, network), and where it came from (``teacher``: {"teacher" or
+    "fields", "recipe"}, with the distillation settings and fit history added)."""
+    return {
+        "algo": "ppo", "seed": seed, "env_id": ENV_ID, "env_kwargs": env_kwargs,
+        "hyperparameters": {**dict(ppo), "normalize": True, "warm_start": "none",
+                            "policy_kwargs": {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]},
+                                              "activation_fn": config.activation, "log_std_init": config.log_std}},
+        "distilled_from": {**teacher, "distill": {key: getattr(config, key) for key in config.__dataclass_fields__},
+                           "history": student.history},
+        "command": command, "versions": versions(), "torch_threads": config.torch_threads,
+        "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall_time_s, "steps_per_s_this_run": 0.0,
+        "resumes": 0, "held_out_points": HELD_OUT_POINTS, "interrupted": False,
+    }
+
+
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
         force: bool = False, progress: bool = True, teacher: str | Path | None = None) -> dict:
     """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1); returns
@@ -94,21 +112,8 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     student = distill(field, recipe["distill"], seed=seed, env_kwargs=recipe["env_kwargs"],
                       hyperparameters=recipe["ppo"], progress=progress)
     stages["student_s"] = round(time.perf_counter() - t1, 1)
-    ppo = dict(recipe["ppo"])
-    record = {
-        "algo": "ppo", "seed": seed, "env_id": ENV_ID, "env_kwargs": recipe["env_kwargs"],
-        "hyperparameters": {**ppo, "normalize": True, "warm_start": "none",
-                            "policy_kwargs": {"net_arch": {"pi": list(recipe["distill"].net_arch), "vf": [64, 64]},
-                                              "activation_fn": recipe["distill"].activation,
-                                              "log_std_init": recipe["distill"].log_std}},
-        "distilled_from": {"teacher": str(out / "teacher_field.npz"), "recipe": str(config_path),
-                           "distill": {key: getattr(recipe["distill"], key) for key in
-                                       recipe["distill"].__dataclass_fields__},
-                           "history": student.history},
-        "command": command, "versions": versions(), "torch_threads": recipe["distill"].torch_threads,
-        "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": stages["student_s"], "steps_per_s_this_run": 0.0,
-        "resumes": 0, "held_out_points": HELD_OUT_POINTS, "interrupted": False,
-    }
+    record = student_record(seed, recipe["env_kwargs"], recipe["ppo"], recipe["distill"], student, stages["student_s"],
+                            command, {"teacher": str(out / "teacher_field.npz"), "recipe": str(config_path)})
     save_student(student, out / "policy", record)
     stages["total_s"] = round(time.perf_counter() - t0, 1)
     print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",

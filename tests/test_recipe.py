@@ -148,7 +148,7 @@ def test_polish_searches_from_each_node_and_its_distinct_neighbours_and_keeps_on
     seen = {}
 
     def fake_slice(args):  # a stand-in search: node (1, 1) finds a faster drive, (0, 0) a slower one
-        nodes, budget, sigma, _ = args
+        nodes, budget, sigma, *_ = args
         out = []
         for k, load, starts in nodes:
             i, j = int(np.argmin(np.abs(field.ks - k))), len(out)

@@ -15,9 +15,11 @@ from ..core.materials import normal_force_analytic
 from ..core.params import VARIANTS
 from ..core.waveform import PAPER_X, PAPER_Z, Waveform
 from .sensor import SensorHistory
-from .spaces import ActionMap, ObservationLayout, SensorLayout, sample_range
+from .spaces import ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, sample_range
 
 
+#: The observation modes (``observation=``) and their layouts; the sensor layout depends on ``history``.
+OBSERVATIONS = {"full": ObservationLayout, "sensor": SensorLayout, "privileged": PrivilegedLayout}
 #: Observation bounds as Python floats (ObservationLayout's, for the env's per-step clip).
 _OBS_BOUNDS = (ObservationLayout.low.astype(float).tolist(), ObservationLayout.high.astype(float).tolist())
 #: Periods per episode unless ``max_periods`` says otherwise.
@@ -129,6 +131,13 @@ class MDRDriveEnv(gym.Env):
     a load step falls on it): what a privileged teacher is told while a sensor policy learns
     (``agents/adapt.py``, docs/adaptation.md).
 
+    **Privileged observation** (``observation="privileged"``): the full observation and then the
+    episode's friction coefficients, entry 14 mu and entry 15 mu1 (-), bounds [0, 2]
+    (``observation_structure["friction"]``). For a teacher trained with friction drawn per episode:
+    the full observation gives the load over mu F_ref, on which the drive depends little at a given
+    ratio mu1 / mu, but not that ratio, on which it depends much.
+    ``privileged_observation(friction=True)`` returns it from any env.
+
     ## Rewards
 
     ``reward = max(displacement / reward_scale - actuation_penalty * effort, reward_floor)`` per
@@ -184,15 +193,16 @@ class MDRDriveEnv(gym.Env):
     solver, see docs/performance.md; ``"default"`` or ``"paper"`` for the reference solver), ``period`` (s), ``max_periods``,
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
     ``max_rise_fraction``, ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
-    (``"full"``, the default, or ``"sensor"``), ``history`` (periods in the sensor observation),
+    (``"full"``, the default, ``"sensor"`` or ``"privileged"``), ``history`` (periods in the sensor observation),
     ``sensor_forces`` (bool), ``load_step_period`` (int or (low, high), or None), ``render_mode``
     (``"rgb_array"`` or ``"human"``). ``friction_coefficient`` and ``base_friction_coefficient`` take
     a float or a (low, high) range. Bad values raise ``ValueError`` naming the argument.
 
     ## Version History
 
-    * v0: initial version; later within v0: the sensor observation, friction ranges, load steps and
-      ``MDRDriveSensor-v0`` (the full observation and its defaults are unchanged).
+    * v0: initial version; later within v0: the sensor observation, friction ranges, load steps,
+      ``MDRDriveSensor-v0`` and the privileged observation (the full observation and its defaults are
+      unchanged).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -265,11 +275,11 @@ class MDRDriveEnv(gym.Env):
                                     z_amplitude_max=z_amplitude_max, min_rise_fraction=min_rise_fraction,
                                     max_rise_fraction=max_rise_fraction, time_step=self.numerics.time_step)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(ActionMap.SIZE,), dtype=np.float32)
-        if observation not in ("full", "sensor"):
-            raise ValueError(f"observation={observation!r} is not one of ['full', 'sensor']")
+        if observation not in OBSERVATIONS:
+            raise ValueError(f"observation={observation!r} is not one of {list(OBSERVATIONS)}")
         self.observation = observation
         self.sensor = SensorHistory(SensorLayout(history, sensor_forces)) if observation == "sensor" else None
-        layout = self.sensor.layout if self.sensor else ObservationLayout
+        layout = self.sensor.layout if self.sensor else OBSERVATIONS[observation]
         self.observation_space = spaces.Box(layout.low, layout.high, dtype=np.float32)
         self.observation_structure: dict[str, slice] = dict(layout.structure)
         self.load_step_range = None
@@ -411,18 +421,27 @@ class MDRDriveEnv(gym.Env):
         """The observation after period result ``r`` (None after reset)."""
         if self.sensor is not None:
             return self.sensor.observation(self.period_index / self.max_periods)
-        return self._full_observation(r, self.params)
+        full = self._full_observation(r, self.params)
+        return self._with_friction(full) if self.observation == "privileged" else full
 
-    def privileged_observation(self) -> np.ndarray:
+    def _with_friction(self, full: np.ndarray) -> np.ndarray:
+        """``full`` with the episode's mu and mu1 appended (``PrivilegedLayout``)."""
+        c = self.params.contact
+        friction = [min(max(c.friction_coefficient, 0.0), 2.0), min(max(c.base_friction_coefficient, 0.0), 2.0)]
+        return np.concatenate([full, np.array(friction, dtype=np.float32)])
+
+    def privileged_observation(self, friction: bool = False) -> np.ndarray:
         """The full observation (``ObservationLayout``: k and the load included) of the current state,
         whatever ``observation`` is, with the load of the coming period (the new one when a load step
-        falls on it): what a privileged teacher is told while a sensor policy learns (float32)."""
+        falls on it): what a privileged teacher is told while a sensor policy learns (float32). With
+        ``friction``, the ``PrivilegedLayout`` (mu and mu1 appended)."""
         if self.sim is None:
             raise RuntimeError("call reset() before privileged_observation()")
         params = self.params
         if self.load_step is not None and self.period_index == self.load_step[0]:
             params = params.with_cargo_mass(self.load_step[1])
-        return self._full_observation(self._last_result, params)
+        full = self._full_observation(self._last_result, params)
+        return self._with_friction(full) if friction else full
 
     def _full_observation(self, r, p: DriveParams) -> np.ndarray:
         """The full observation after period result ``r`` (None after reset) under model ``p``. The

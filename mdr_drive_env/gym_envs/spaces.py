@@ -198,6 +198,23 @@ class ObservationLayout:
         return obs.astype(np.float32)
 
 
+class PrivilegedLayout(ObservationLayout):
+    """The full observation and the episode's friction coefficients, mu (indenter-slider) and mu1
+    (slider-base), bounds [0, 2]: what a teacher is told when friction is drawn per episode (the full
+    observation holds the load over mu F_ref, but not the ratio mu1 / mu, which moves the best drive)."""
+
+    NAMES = ObservationLayout.NAMES + ("friction_coefficient", "base_friction_coefficient")
+    low = np.concatenate([ObservationLayout.low, np.zeros(2, dtype=np.float32)])
+    high = np.concatenate([ObservationLayout.high, np.full(2, 2.0, dtype=np.float32)])
+    structure = {**ObservationLayout.structure, "friction": slice(14, 16)}
+
+    @classmethod
+    def build(cls, dynamics, prev_action, k, load, friction_ref, episode_fraction, friction=None) -> np.ndarray:
+        """:meth:`ObservationLayout.build`, then ``friction`` (n, 2): mu and mu1 of each drive (-)."""
+        full = ObservationLayout.build(dynamics, prev_action, k, load, friction_ref, episode_fraction)
+        return np.concatenate([full, np.clip(friction, 0.0, 2.0).astype(np.float32)], axis=1)
+
+
 class SensorLayout:
     """The sensor observation: only what a position encoder on the slider measures, ``history``
     periods deep (newest first), the actions that produced it, and the elapsed episode fraction.

@@ -12,7 +12,7 @@ from gymnasium.vector.utils import batch_space
 from ..core import kernel as K
 from ..core.batch import BatchedDriveSimulator
 from .mdr_drive import MDRDriveEnv
-from .spaces import ActionMap, ObservationLayout
+from .spaces import ActionMap, ObservationLayout, PrivilegedLayout
 
 _INFO_KEYS = ("displacement", "mean_velocity", "end_velocity", "peak_tangential_force", "peak_normal_force",
               "indenter_dissipation", "base_dissipation", "load_work")
@@ -66,12 +66,13 @@ class MDRDriveVectorEnv(VectorEnv):
         self.cargo_mass = np.zeros(n)
         self.load = np.zeros(n)
         self.friction_ref = np.ones(n)
+        self.friction = np.zeros((n, 2))  # mu, mu1 of each drive (the privileged observation's last entries)
         self.force_ref = np.ones(n)
         self.period_index = np.zeros(n, dtype=np.int64)
         self.prev_action = np.zeros((n, ActionMap.SIZE))
         self._rngs = [seeding.np_random(None)[0] for _ in range(n)]
         self._autoreset = np.zeros(n, dtype=bool)
-        self._last_obs = np.zeros((n, ObservationLayout.low.size), dtype=np.float32)
+        self._last_obs = np.zeros((n, self.single_observation_space.shape[0]), dtype=np.float32)
 
     def _reset_one(self, i: int, options: dict[str, Any] | None) -> None:
         t = self.template
@@ -82,12 +83,16 @@ class MDRDriveVectorEnv(VectorEnv):
         self.load[i] = params.drive.load
         self.force_ref[i] = t.reference_force(params)
         self.friction_ref[i] = params.contact.friction_coefficient * self.force_ref[i]
+        self.friction[i] = params.contact.friction_coefficient, params.contact.base_friction_coefficient
         self.period_index[i] = 0
         self.prev_action[i] = 0.0
 
     def _observe(self, dynamics: np.ndarray) -> np.ndarray:
-        return ObservationLayout.build(dynamics, self.prev_action, self.k, self.load, self.friction_ref,
-                                       self.period_index / self.template.max_periods)
+        fraction = self.period_index / self.template.max_periods
+        if self.template.observation == "privileged":
+            return PrivilegedLayout.build(dynamics, self.prev_action, self.k, self.load, self.friction_ref, fraction,
+                                          self.friction)
+        return ObservationLayout.build(dynamics, self.prev_action, self.k, self.load, self.friction_ref, fraction)
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
         """Reset every sub-env (or those in ``options["reset_mask"]``); ``seed`` int -> seed + i.
