@@ -331,7 +331,7 @@ class DriveField:
 
     def with_friction(self, points) -> list[tuple[float, float, float, float]]:
         """``points`` as (k, load kg, mu, mu1): (k, load) points at the field's friction."""
-        return [tuple(map(float, p)) if len(p) == 4 else (float(p[0]), float(p[1]), *self.friction) for p in points]
+        return with_friction(points, self.friction)
 
     def field_load(self, point) -> float:
         """The load (kg) at the field's friction that matches ``point`` (k, load kg, mu, mu1): the same
@@ -370,6 +370,11 @@ class DriveField:
                        json.loads(str(f["meta"])))
 
 
+def with_friction(points, friction) -> list[tuple[float, float, float, float]]:
+    """``points`` as (k, load kg, mu, mu1) tuples of floats: (k, load) points at ``friction`` (mu, mu1)."""
+    return [tuple(map(float, p)) if len(p) == 4 else (float(p[0]), float(p[1]), *map(float, friction)) for p in points]
+
+
 def pick_best(points, cands: list, prefer_interpolation: float) -> tuple[np.ndarray, np.ndarray]:
     """Per point, the best of its candidate drives ``cands[i]`` (c_i, 2, 5) played there (one batched
     call), the first (an interpolation) unless another is better by more than
@@ -397,4 +402,5 @@ def cycle_action(drives: np.ndarray, previous_actions: np.ndarray) -> np.ndarray
     return np.where(after_first[:, None], second, first)
 
 
-__all__ = ["DriveField", "FieldConfig", "align_phase", "cycle_action", "search_point"]
+__all__ = ["PAPER_FRICTION", "DriveField", "FieldConfig", "align_phase", "cycle_action", "pick_best", "search_point",
+           "with_friction"]

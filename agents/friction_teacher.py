@@ -42,7 +42,7 @@ from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import write_text
 from mdr_drive_env.sweep import Executor, TaskStore, add_executor_arguments, executor_from, task_folder
 
-from .drive_field import PAPER_FRICTION, DriveField, FieldConfig, align_phase, pick_best
+from .drive_field import PAPER_FRICTION, DriveField, FieldConfig, align_phase, pick_best, with_friction
 
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "friction_teacher.yaml"
 #: mu of every field: the fields differ in mu1 only (the load scales with mu).
@@ -95,7 +95,7 @@ class FrictionField:
         """The teacher's drive (n, 2, 5) and its velocity (n,) m/s at each (k, load kg, mu, mu1)
         point ((k, load) points: the paper's friction): the best of :meth:`candidates` played there."""
         check_int("radius", radius, 1)
-        points = [tuple(map(float, p)) if len(p) == 4 else (float(p[0]), float(p[1]), *PAPER_FRICTION) for p in points]
+        points = with_friction(points, PAPER_FRICTION)
         return pick_best(points, [self.candidates(p, radius) for p in points], prefer_interpolation)
 
     @classmethod
@@ -115,7 +115,7 @@ class FrictionTeacherConfig:
         base_friction_coefficient: (low, high) of mu1 drawn per training episode (-).
     """
 
-    rhos: tuple[float, ...] = (0.175, 0.24, 0.46, 0.65)
+    rhos: tuple[float, ...] = (0.175, 0.46, 0.65)
     fields: tuple[str, ...] = ()
     friction_coefficient: tuple[float, float] = (0.2, 0.4)
     base_friction_coefficient: tuple[float, float] = (0.07, 0.13)
