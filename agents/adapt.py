@@ -69,6 +69,10 @@ class AdaptConfig:
         learning_rate: Adam step size, decaying linearly to zero over each fit (-).
         log_std: the shipped policy's log standard deviation (for PPO fine-tuning) (-).
         torch_threads: torch threads of the fits (-).
+        action_steps: after the rounds, Adam steps that fit the estimator through the frozen teacher
+            to the teacher's actions told the truth, on every episode (``SensorTeacher.fit_actions``;
+            0: none) (-).
+        action_learning_rate: Adam step size of that fit, decaying linearly to zero (-).
     """
 
     teacher: str = "agents/pretrained/ppo_generalist"
@@ -85,11 +89,15 @@ class AdaptConfig:
     learning_rate: float = 1e-3
     log_std: float = -3.0
     torch_threads: int = 1
+    action_steps: int = 0
+    action_learning_rate: float = 3e-4
 
     def __post_init__(self) -> None:
         for name in ("history", "episodes", "periods", "estimator_steps", "batch", "torch_threads"):
             check_int(name, getattr(self, name), 1)
         check_int("rounds", self.rounds, 0)
+        check_int("action_steps", self.action_steps, 0)
+        check_range("action_learning_rate", self.action_learning_rate, 0.0, 1.0, low_open=True)
         if not self.estimator_arch or not all(isinstance(n, int) and n >= 1 for n in self.estimator_arch):
             raise ValueError(f"estimator_arch={self.estimator_arch!r} must be positive layer sizes")
         lo, hi = self.load_step_periods
@@ -188,6 +196,17 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
         record = {"round": r, "samples": len(x),
                   "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
                                         config.learning_rate, seed + r, progress)}
+        if validate is not None:
+            record.update(validate(sensor_teacher))
+        record["wall_time_s"] = round(time.perf_counter() - t0, 1)
+        history.append(record)
+        _log(record)
+    if config.action_steps:
+        t0 = time.perf_counter()
+        x, full = np.concatenate(sensed), np.concatenate(privileged)
+        record = {"action_fit": config.action_steps, "samples": len(x),
+                  "loss": sensor_teacher.fit_actions(x, sensor_teacher.told_truth(x, full), config.action_steps,
+                                                     config.batch, config.action_learning_rate, seed + 99, progress=progress)}
         if validate is not None:
             record.update(validate(sensor_teacher))
         record["wall_time_s"] = round(time.perf_counter() - t0, 1)

@@ -106,6 +106,61 @@ class SensorTeacher:
     def __call__(self, sensed: np.ndarray, privileged: np.ndarray | None = None) -> np.ndarray:
         return np.asarray(self.teacher(self.full_observation(sensed)), dtype=np.float32)
 
+    def told_truth(self, sensed: np.ndarray, privileged: np.ndarray) -> np.ndarray:
+        """The teacher's mean action (n, 5), before SB3's clip, told the true hidden entries of
+        ``privileged`` and otherwise what this composition tells it: the label of
+        :meth:`fit_actions`."""
+        import torch
+
+        from .distill import policy_mean
+
+        full = self.full_observation(sensed)
+        full[:, self.hidden] = privileged[:, self.hidden]
+        with torch.no_grad():
+            return policy_mean(self.teacher.model.policy, torch.as_tensor(self._normalise(full))).numpy()
+
+    def _normalise(self, full: np.ndarray) -> np.ndarray:
+        t = self.teacher
+        return np.clip((full - t.obs_rms.mean) / np.sqrt(t.obs_rms.var + t.epsilon), -t.clip_obs,
+                       t.clip_obs).astype(np.float32)
+
+    def fit_actions(self, sensed: np.ndarray, labels: np.ndarray, steps: int, batch: int, learning_rate: float,
+                    seed: int, huber_delta: float = 0.05, progress: bool = True) -> float:
+        """Fit the estimator through the frozen teacher: ``steps`` Adam steps (``distill.adam_fit``)
+        on the loss between the teacher's mean action on the estimator's guesses and ``labels`` (the
+        teacher's action told the truth, :meth:`told_truth`), Huber with ``huber_delta``
+        (``distill.edge_loss``). The guesses then serve the actions rather than the hidden values:
+        an entry the sensor cannot tell apart costs what it changes in the drive, not its variance.
+        Returns the last epoch's loss."""
+        import torch
+
+        from .distill import edge_loss, policy_mean
+
+        est, t = self.estimator, self.teacher
+        xm, xs, ym, ys = est.scales
+        base = torch.as_tensor(self._normalise(self.full_observation(sensed)))  # hidden columns replaced below
+        xt = torch.as_tensor((sensed - xm) / xs, dtype=torch.float32)
+        yt = torch.as_tensor(labels, dtype=torch.float32)
+        cols = torch.as_tensor(self.hidden)
+        mean = torch.as_tensor(t.obs_rms.mean[self.hidden], dtype=torch.float32)
+        std = torch.as_tensor(np.sqrt(t.obs_rms.var[self.hidden] + t.epsilon), dtype=torch.float32)
+        ym_t, ys_t = torch.as_tensor(ym, dtype=torch.float32), torch.as_tensor(ys, dtype=torch.float32)
+        for param in t.model.policy.parameters():
+            param.requires_grad_(False)
+
+        def loss_of(idx):
+            guess = est.net(xt[idx]) * ys_t + ym_t
+            z = base[idx].clone()
+            z[:, cols] = torch.clamp((guess - mean) / std, -t.clip_obs, t.clip_obs)
+            return edge_loss(policy_mean(t.model.policy, z), yt[idx], huber_delta)
+
+        try:
+            return adam_fit(est.net.parameters(), lambda: (len(xt), loss_of), steps, batch, learning_rate, seed,
+                            "adapt: estimator through the teacher", progress)
+        finally:
+            for param in t.model.policy.parameters():
+                param.requires_grad_(True)
+
 
 def merged_policy(sensor_teacher: SensorTeacher, history: int, periods: int, log_std: float, seed: int = 0) -> Student:
     """One SB3 PPO ``MlpPolicy`` (ReLU) on the sensor observation that computes ``sensor_teacher``

@@ -157,3 +157,34 @@ def test_the_demo_drives_the_shipped_sensor_policy_through_a_load_step(tmp_path,
     load_steps(Policy(SENSOR_PRETRAINED), Policy(PRETRAINED), tmp_path)
     assert (tmp_path / "load_step.png").stat().st_size > 10_000
     assert capsys.readouterr().out.count("sensor policy") == 2  # one line per load step
+
+
+def test_fitting_the_estimator_through_the_teacher_brings_its_actions_to_the_told_truth():
+    import torch
+
+    from mdr_drive_agents.adapt import collect, sensor_envs
+    from mdr_drive_agents.distill import edge_loss
+    from mdr_drive_agents.estimator import Estimator, SensorTeacher, hidden_entries, teacher_layout
+    from mdr_drive_agents.evaluate import Policy
+    from mdr_drive_env.gym_envs.spaces import SensorLayout
+
+    config = AdaptConfig(history=2, episodes=8, periods=6, load_step_periods=(1, 4), estimator_arch=(16,))
+    teacher = Policy(config.teacher)
+    sensed, privileged, _ = collect(*sensor_envs(config, 8, seed=4), lambda s, p: teacher(p))
+    hidden = hidden_entries(teacher_layout(teacher))
+    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0)
+    estimator.fit(sensed, privileged[:, hidden], 3, 16, 1e-3, 0, False)  # a poor estimate to start from
+    composed = SensorTeacher(teacher, estimator, SensorLayout(2).structure)
+    labels = composed.told_truth(sensed, privileged)
+    told = composed.full_observation(sensed)
+    told[:, hidden] = privileged[:, hidden]
+    assert np.allclose(np.clip(labels, -1, 1), teacher(told), atol=1e-5)  # the teacher's action told the truth
+
+    def loss() -> float:
+        with torch.no_grad():
+            return float(edge_loss(torch.as_tensor(composed(sensed)), torch.as_tensor(labels), 0.05))
+
+    before = loss()
+    composed.fit_actions(sensed, labels, 300, 16, 1e-3, 0, progress=False)
+    assert loss() < 0.85 * before
+    assert all(p.requires_grad for p in teacher.model.policy.parameters())  # the teacher is left as it was
