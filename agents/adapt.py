@@ -73,6 +73,9 @@ class AdaptConfig:
             to the teacher's actions told the truth, on every episode (``SensorTeacher.fit_actions``;
             0: none) (-).
         action_learning_rate: Adam step size of that fit, decaying linearly to zero (-).
+        action_rounds: 0: that fit once after the rounds; N: instead, the last N rounds fit the
+            estimator on the actions only (warm), so the rounds after the first of them drive with an
+            estimator fitted on actions (DAgger for that fit) (-).
     """
 
     teacher: str = "agents/pretrained/ppo_generalist"
@@ -91,12 +94,16 @@ class AdaptConfig:
     torch_threads: int = 1
     action_steps: int = 0
     action_learning_rate: float = 3e-4
+    action_rounds: int = 0
 
     def __post_init__(self) -> None:
         for name in ("history", "episodes", "periods", "estimator_steps", "batch", "torch_threads"):
             check_int(name, getattr(self, name), 1)
         check_int("rounds", self.rounds, 0)
         check_int("action_steps", self.action_steps, 0)
+        check_int("action_rounds", self.action_rounds, 0)
+        if self.action_rounds > self.rounds:
+            raise ValueError(f"action_rounds={self.action_rounds!r} is outside the allowed range [0, rounds = {self.rounds}]")
         check_range("action_learning_rate", self.action_learning_rate, 0.0, 1.0, low_open=True)
         if not self.estimator_arch or not all(isinstance(n, int) and n >= 1 for n in self.estimator_arch):
             raise ValueError(f"estimator_arch={self.estimator_arch!r} must be positive layer sizes")
@@ -193,15 +200,21 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
         if estimator is None:
             estimator = Estimator(x.shape[1], config.estimator_arch, seed, n_out=len(hidden))
             sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
-        record = {"round": r, "samples": len(x),
-                  "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
-                                        config.learning_rate, seed + r, progress)}
+        if config.action_steps and config.action_rounds and r > config.rounds - config.action_rounds:
+            record = {"round": r, "samples": len(x), "action_fit": config.action_steps,  # on the actions only
+                      "loss": sensor_teacher.fit_actions(x, sensor_teacher.told_truth(x, full), config.action_steps,
+                                                         config.batch, config.action_learning_rate, seed + r,
+                                                         progress=progress)}
+        else:
+            record = {"round": r, "samples": len(x),
+                      "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
+                                            config.learning_rate, seed + r, progress)}
         if validate is not None:
             record.update(validate(sensor_teacher))
         record["wall_time_s"] = round(time.perf_counter() - t0, 1)
         history.append(record)
         _log(record)
-    if config.action_steps:
+    if config.action_steps and not config.action_rounds:
         t0 = time.perf_counter()
         x, full = np.concatenate(sensed), np.concatenate(privileged)
         record = {"action_fit": config.action_steps, "samples": len(x),

@@ -67,6 +67,7 @@ def test_the_sensor_student_is_a_plain_sb3_policy_on_the_sensor_observation(sens
     assert [r["round"] for r in summary["rounds"]] == [0, 1]
     assert summary["rounds"][1]["samples"] == 2 * 8 * 12
     assert "val_mean_fraction_of_teacher" in summary["rounds"][0]
+    assert "action_fit" not in summary["rounds"][0] and summary["rounds"][1]["action_fit"] == 10  # action_rounds: 1
     assert summary["merged"]["merge_max_action_difference"] < 1e-4  # one MlpPolicy = estimator + teacher
     run = json.loads((out / "policy" / "run.json").read_text())
     assert run["env_id"] == "MDRDriveSensor-v0" and run["env_kwargs"]["history"] == 3
@@ -84,7 +85,9 @@ def test_the_sensor_student_is_a_plain_sb3_policy_on_the_sensor_observation(sens
 
 @pytest.mark.parametrize("kwargs, name", [({"history": 0}, "history"), ({"action_noise": 2.0}, "action_noise"),
                                           ({"load_step_periods": (5, 40)}, "load_step_periods"),
-                                          ({"estimator_arch": ()}, "estimator_arch")])
+                                          ({"estimator_arch": ()}, "estimator_arch"),
+                                          ({"action_rounds": 9}, "action_rounds"),
+                                          ({"action_learning_rate": 0.0}, "action_learning_rate")])
 def test_bad_adapt_settings_name_themselves(kwargs, name):
     with pytest.raises(ValueError, match=name):
         AdaptConfig(**kwargs)
