@@ -11,6 +11,11 @@ of the report's best drive where that moves >= 2 mm/s (mean, minimum, draws unde
 report's full-observation and sensor policies, overall and by the draw's ratio mu1 / mu. Only the
 fields given are used, so ``results/recipe/teacher_field.npz`` alone is the paper-friction teacher
 read at each draw's load over mu F_ref. A decision tool: use a decision seed's report.
+
+``--scaling N`` first replays the report's best drive at each of its first N draws, open loop: at
+the draw's friction; at mu = 0.3 with mu1 and the load scaled by 0.3 / mu (the same ratio mu1 / mu
+and load over mu F_ref); and with mu1 1.3 times larger and smaller. Why the teacher is searched
+along mu1 / mu only.
 """
 
 from __future__ import annotations
@@ -32,6 +37,8 @@ def main(argv=None) -> int:
     p.add_argument("adaptation", type=input_file, help="an adaptation.json (written by mdr_drive_agents.adaptation)")
     p.add_argument("fields", nargs="+", type=input_file, help="drive fields (.npz) of the teacher")
     p.add_argument("--radius", type=int_range(1), default=2, help="the teacher's grid neighbourhood (-)")
+    p.add_argument("--scaling", type=int_range(0), default=0, metavar="N",
+                   help="first replay the best drives of the first N draws at scaled friction (-)")
     args = p.parse_args(argv)
 
     from mdr_drive_agents.blind import MOVING_THRESHOLD
@@ -39,6 +46,8 @@ def main(argv=None) -> int:
 
     res = json.loads(Path(args.adaptation).read_text())
     points = [(d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]) for d in res["points"]]
+    if args.scaling:
+        print_scaling(res["points"][:args.scaling], res["best_search"][:args.scaling])
     best = np.asarray(res["best_velocity_m_s"], dtype=np.float64)
     _, teacher = FrictionField.load(args.fields).best(points, radius=args.radius)
     scored = best >= MOVING_THRESHOLD
@@ -62,6 +71,24 @@ def main(argv=None) -> int:
                          if keep.any() else "-")
         print(f"| {name} | " + " | ".join(cells) + " |")
     return 0
+
+
+def print_scaling(draws: list[dict], searched: list[dict]) -> None:
+    """Each searched best drive (the report's ``best_search`` entries) replayed at its draw (the
+    report's ``points`` entries) and at scaled friction (``--scaling``), in mm/s."""
+    from mdr_drive_agents.evaluate import open_loop_velocity
+
+    print("| k | load / (mu F_ref) | mu | mu1 / mu | at the draw | mu = 0.3, same ratio and load / (mu F_ref) | "
+          "mu1 x 1.3 | mu1 / 1.3 |")
+    print("|---|---|---|---|---|---|---|---|")
+    for d, found in zip(draws, searched):
+        k, m, mu, mu1 = d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]
+        drive = np.asarray(found["action"], dtype=np.float64).reshape(-1, 5)
+        s = 0.3 / mu
+        trials = [(k, m, mu, mu1), (k, m * s, 0.3, mu1 * s), (k, m, mu, mu1 * 1.3), (k, m, mu, mu1 / 1.3)]
+        v = open_loop_velocity(trials, np.repeat(drive[None], len(trials), axis=0)) * 1e3
+        print(f"| {k:.3f} | {d['load_ratio']:.3f} | {mu:.3f} | {mu1 / mu:.2f} | " + " | ".join(f"{x:.2f}" for x in v) + " |")
+    print()
 
 
 if __name__ == "__main__":

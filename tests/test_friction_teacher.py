@@ -143,3 +143,18 @@ def test_a_sensor_policy_learns_friction_too_from_a_privileged_teacher(teacher_r
     composed = SensorTeacher(teacher, estimator, SensorLayout(2).structure)
     merged = merged_policy(composed, config.history, config.periods, config.log_std)
     assert np.abs(merged.act(sensed) - np.clip(composed(sensed), -1, 1)).max() < 1e-4
+
+
+def test_the_friction_teacher_check_scores_fields_against_an_adaptation_report(capsys, tmp_path):
+    import runpy
+
+    root = Path(__file__).resolve().parents[1]
+    main = runpy.run_path(str(root / "scripts" / "friction_teacher_check.py"))["main"]
+    report = root / "results" / "adaptation" / "seed1777_validation" / "adaptation.json"
+    assert main([str(report), str(root / "results" / "recipe" / "teacher_field.npz"), "--scaling", "2",
+                 "--radius", "1"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("\n| 0.") == 2  # two replayed drives
+    assert "| friction-aware teacher (fields) |" in out and "| sensor policy |" in out
+    with pytest.raises(SystemExit):
+        main([str(tmp_path / "missing.json"), str(root / "results" / "recipe" / "teacher_field.npz")])
