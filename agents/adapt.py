@@ -297,7 +297,7 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
 
 
 def main(argv=None) -> int:
-    from mdr_drive_env.cli_args import Parser, input_file, output_dir
+    from mdr_drive_env.cli_args import Parser, input_file, output_dir, run_command
 
     ap = Parser(prog="python -m mdr_drive_agents.adapt", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -308,15 +308,8 @@ def main(argv=None) -> int:
     ap.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
     ap.add_argument("--no-progress", action="store_true", help="no progress bars")
     a = ap.parse_args(argv)
-    try:
-        run(a.config, a.out, force=a.force, progress=not a.no_progress)
-    except ValueError as e:
-        print(f"python -m mdr_drive_agents.adapt: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("python -m mdr_drive_agents.adapt: interrupted; nothing was saved", file=sys.stderr)
-        return 130
-    return 0
+    return run_command(ap.prog, lambda: run(a.config, a.out, force=a.force, progress=not a.no_progress),
+                       "nothing was saved")
 
 
 if __name__ == "__main__":

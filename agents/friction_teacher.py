@@ -209,7 +209,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
 
 
 def main(argv=None) -> int:
-    from mdr_drive_env.cli_args import Parser, input_file, output_dir
+    from mdr_drive_env.cli_args import Parser, input_file, output_dir, run_command
 
     ap = Parser(prog="python -m mdr_drive_agents.friction_teacher", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -222,16 +222,9 @@ def main(argv=None) -> int:
     ap.add_argument("--no-progress", action="store_true", help="no progress bars")
     add_executor_arguments(ap)
     a = ap.parse_args(argv)
-    try:
-        run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force, progress=not a.no_progress)
-    except ValueError as e:
-        print(f"python -m mdr_drive_agents.friction_teacher: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"python -m mdr_drive_agents.friction_teacher: interrupted; finished fields are kept, continue with "
-              f"--resume --out {a.out}", file=sys.stderr)
-        return 130
-    return 0
+    return run_command(ap.prog, lambda: run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force,
+                                            progress=not a.no_progress),
+                       f"finished fields are kept, continue with --resume --out {a.out}")
 
 
 if __name__ == "__main__":

@@ -129,7 +129,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
 
 
 def main(argv=None) -> int:
-    from mdr_drive_env.cli_args import Parser, input_file, output_dir
+    from mdr_drive_env.cli_args import Parser, input_file, output_dir, run_command
 
     ap = Parser(prog="python -m mdr_drive_agents.recipe", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -142,17 +142,9 @@ def main(argv=None) -> int:
                     help="a saved teacher field (.npz, a recipe's teacher_field.npz): skip the teacher search")
     add_executor_arguments(ap)
     a = ap.parse_args(argv)
-    try:
-        run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force, progress=not a.no_progress,
-            teacher=a.teacher)
-    except ValueError as e:
-        print(f"python -m mdr_drive_agents.recipe: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"python -m mdr_drive_agents.recipe: interrupted; the teacher's finished slices are kept, continue with "
-              f"--resume --out {a.out}", file=sys.stderr)
-        return 130
-    return 0
+    return run_command(ap.prog, lambda: run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force,
+                                            progress=not a.no_progress, teacher=a.teacher),
+                       f"the teacher's finished slices are kept, continue with --resume --out {a.out}")
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@
 * :class:`Parser`: an ``ArgumentParser`` whose errors are one line (``prog: error: ...``, exit 2).
 * :class:`HelpFormatter`: appends ``(default: X)`` to an option's help only when the help does
   not state its default already and X means something (not None, not a switch's False).
+* :func:`run_command`: a command's work with one-line errors and a one-line Ctrl-C message.
 * argparse ``type=`` functions that check a value or a path when the command line is read, before
   any work: integers in a range, input files and folders that must exist, output files and folders
   that must be creatable.
@@ -39,6 +40,20 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str):  # noqa: D401  (argparse's hook)
         print(f"{self.prog}: error: {message}", file=sys.stderr)
         raise SystemExit(2)
+
+
+def run_command(prog: str, work, interrupted: str) -> int:
+    """Run ``work()`` for command ``prog``: 0; a ``ValueError`` as one line ``prog: error: ...``, 2;
+    Ctrl-C as one line ``prog: interrupted; <interrupted>`` (what was kept, how to continue), 130."""
+    try:
+        work()
+    except ValueError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted; {interrupted}", file=sys.stderr)
+        return 130
+    return 0
 
 
 def int_range(low: int, high: int | None = None):

@@ -252,3 +252,19 @@ def test_reproduce_cli_names_its_variant(tmp_path, capsys):
     assert main(["reproduce", "--numerics", "fast", "--quick", "--periods", "2", "--workers", "1",
                  "--variant", "as-published", "--out", str(tmp_path)]) == 0
     assert json.loads((tmp_path / "summary.json").read_text())["variant"] == "as-published"
+
+
+def test_run_command_turns_bad_values_and_ctrl_c_into_one_line_each(capsys):
+    from mdr_drive_env.cli_args import run_command
+
+    def bad():
+        raise ValueError("k=2 is outside the allowed range [0, 1]")
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    assert run_command("prog", lambda: None, "kept") == 0
+    assert run_command("prog", bad, "kept") == 2
+    assert capsys.readouterr().err == "prog: error: k=2 is outside the allowed range [0, 1]\n"
+    assert run_command("prog", interrupted, "finished parts are kept") == 130
+    assert capsys.readouterr().err == "prog: interrupted; finished parts are kept\n"
