@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -47,6 +46,7 @@ from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
 from .distill import Student, save_student
 from .estimator import FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy, teacher_layout
 from .evaluate import Policy, steady_velocity_of
+from .recipe import command_line
 
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "sensor.yaml"
 @dataclass(frozen=True)
@@ -265,8 +265,7 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
     out = Path(out)
     if out.exists() and any(out.iterdir()) and not force:
         raise ValueError(f"{out} is not empty: overwrite with --force")
-    command = " ".join(["python -m mdr_drive_agents.adapt", *sys.argv[1:]]) if sys.argv[0].endswith("adapt.py") else \
-        " ".join(sys.argv)
+    command = command_line("adapt")
     t0 = time.perf_counter()
     validate = None if validation_seed is None else Validation(Policy(config.teacher), config, validation_seed)
     sensor_teacher, history = train(config, seed, validate, progress)

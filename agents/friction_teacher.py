@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -172,15 +171,10 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         force: bool = False, progress: bool = True) -> dict:
     """Fields, then the student (module docstring), into ``out``; returns what ``friction_teacher.json`` holds."""
     from .distill import distill, save_student
-    from .recipe import student_record
+    from .recipe import command_line, start_run, student_record
 
     cfg = load_config(config_path)
-    out = Path(out)
-    if out.exists() and any(out.iterdir()) and not (resume or force):
-        raise ValueError(f"{out} is not empty: continue with --resume, or overwrite with --force")
-    executor = executor or Executor()
-    if not progress:
-        executor = dataclasses.replace(executor, progress=False)
+    out, executor = start_run(out, resume, force, executor, progress)
     stages = {}
     t0 = time.perf_counter()
     field = FrictionField(search_fields(cfg["friction"], cfg["teacher"], out, cfg["seed"], executor, resume))
@@ -192,7 +186,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     student = distill(field, cfg["distill"], seed=cfg["seed"], env_kwargs=env_kwargs, hyperparameters=cfg["ppo"],
                       progress=progress, friction=(f.friction_coefficient, f.base_friction_coefficient))
     stages["student_s"] = round(time.perf_counter() - t1, 1)
-    command = " ".join(["python -m mdr_drive_agents.friction_teacher", *sys.argv[1:]])
+    command = command_line("friction_teacher")
     record = student_record(cfg["seed"], env_kwargs, cfg["ppo"], cfg["distill"], student, stages["student_s"], command,
                             {"fields": [str(p) for p in cfg["friction"].fields] + [
                                 str(out / "fields" / f"rho{rho:.3f}.npz") for rho in cfg["friction"].rhos],

@@ -76,20 +76,33 @@ def student_record(seed: int, env_kwargs: dict, ppo: dict, config: DistillConfig
     }
 
 
+def start_run(out: str | Path, resume: bool, force: bool, executor: Executor | None,
+              progress: bool) -> tuple[Path, Executor]:
+    """A training command's output folder (``ValueError`` if it is not empty, unless ``resume`` or
+    ``force``) and its executor (default: local processes; no progress bars unless ``progress``)."""
+    out = Path(out)
+    if out.exists() and any(out.iterdir()) and not (resume or force):
+        raise ValueError(f"{out} is not empty: continue with --resume, or overwrite with --force")
+    executor = executor or Executor()
+    return out, executor if progress else dataclasses.replace(executor, progress=False)
+
+
+def command_line(module: str) -> str:
+    """The command line that runs this process, as ``python -m mdr_drive_agents.<module> ...`` when
+    it is that module (for run.json)."""
+    if sys.argv[0].endswith(f"{module}.py"):
+        return " ".join([f"python -m mdr_drive_agents.{module}", *sys.argv[1:]])
+    return " ".join(sys.argv)
+
+
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
         force: bool = False, progress: bool = True, teacher: str | Path | None = None) -> dict:
     """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1); returns
     what ``recipe.json`` holds."""
     recipe = load_recipe(config_path)
-    out = Path(out)
-    if out.exists() and any(out.iterdir()) and not (resume or force):
-        raise ValueError(f"{out} is not empty: continue with --resume, or overwrite with --force")
-    executor = executor or Executor()
-    if not progress:
-        executor = dataclasses.replace(executor, progress=False)
+    out, executor = start_run(out, resume, force, executor, progress)
     seed, stages = recipe["seed"], {}
-    command = " ".join(["python -m mdr_drive_agents.recipe", *sys.argv[1:]]) if sys.argv[0].endswith("recipe.py") else \
-        " ".join(sys.argv)
+    command = command_line("recipe")
 
     t0 = time.perf_counter()
     if teacher is None:
