@@ -17,6 +17,11 @@ Teacher-student training, as controllers that must act without privileged inform
   of the full observation (k and the load; squared error). Rounds 1 ... R: the teacher acting on the estimator's guesses
   (``SensorTeacher``) drives, so the estimator meets the states its own errors lead to, and it is
   refitted on every episode so far (DAgger);
+* optionally (``action_steps``, ``action_rounds``), the estimator is fitted through the frozen
+  teacher to the teacher's actions told the truth instead of to the hidden values, once after the
+  rounds or in the last rounds: an entry the slider's motion hardly shows (friction, for a teacher
+  on the privileged observation, ``agents/friction_teacher.py``) then costs what it changes in the
+  drive (tried; docs/adaptation.md);
 * the estimator and the teacher are then written as one ``MlpPolicy`` (``merged_policy``: RMA's
   adaptation module and base policy in one network), checked against the pair they replace
   (``merge_check``).
@@ -202,9 +207,7 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
             sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
         if config.action_steps and config.action_rounds and r > config.rounds - config.action_rounds:
             record = {"round": r, "samples": len(x), "action_fit": config.action_steps,  # on the actions only
-                      "loss": sensor_teacher.fit_actions(x, sensor_teacher.told_truth(x, full), config.action_steps,
-                                                         config.batch, config.action_learning_rate, seed + r,
-                                                         progress=progress)}
+                      "loss": fit_on_actions(sensor_teacher, x, full, config, seed + r, progress)}
         else:
             record = {"round": r, "samples": len(x),
                       "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
@@ -218,14 +221,21 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
         t0 = time.perf_counter()
         x, full = np.concatenate(sensed), np.concatenate(privileged)
         record = {"action_fit": config.action_steps, "samples": len(x),
-                  "loss": sensor_teacher.fit_actions(x, sensor_teacher.told_truth(x, full), config.action_steps,
-                                                     config.batch, config.action_learning_rate, seed + 99, progress=progress)}
+                  "loss": fit_on_actions(sensor_teacher, x, full, config, seed + 99, progress)}
         if validate is not None:
             record.update(validate(sensor_teacher))
         record["wall_time_s"] = round(time.perf_counter() - t0, 1)
         history.append(record)
         _log(record)
     return sensor_teacher, history
+
+
+def fit_on_actions(sensor_teacher: SensorTeacher, sensed: np.ndarray, privileged: np.ndarray, config: AdaptConfig,
+                   seed: int, progress: bool) -> float:
+    """``config.action_steps`` steps of the estimator's fit through the teacher to the teacher's
+    actions told the truth of ``privileged`` (``SensorTeacher.fit_actions``); its last epoch's loss."""
+    return sensor_teacher.fit_actions(sensed, sensor_teacher.told_truth(sensed, privileged), config.action_steps,
+                                      config.batch, config.action_learning_rate, seed, progress=progress)
 
 
 def sensor_env_kwargs(config: AdaptConfig) -> dict:
