@@ -159,12 +159,16 @@ def load_config(path: str | Path) -> dict:
         raise ValueError(f"{path}: sections {sorted(data)} are not {sorted(expected)}")
     as_tuples = lambda d: {key: tuple(v) if isinstance(v, list) else v for key, v in d.items()}  # noqa: E731
     try:
-        return {"seed": int(data["seed"]), "friction": FrictionTeacherConfig(**as_tuples(data["friction"])),
-                "teacher": FieldConfig(**as_tuples(data["teacher"])),
-                "distill": DistillConfig(**as_tuples(data["distill"])), "ppo": dict(data["ppo"]),
-                "env_kwargs": dict(data["env_kwargs"])}
+        config = {"seed": int(data["seed"]), "friction": FrictionTeacherConfig(**as_tuples(data["friction"])),
+                  "teacher": FieldConfig(**as_tuples(data["teacher"])),
+                  "distill": DistillConfig(**as_tuples(data["distill"])), "ppo": dict(data["ppo"]),
+                  "env_kwargs": dict(data["env_kwargs"])}
     except TypeError as e:
         raise ValueError(f"{path}: {e}") from None
+    missing = [f for f in config["friction"].fields if not Path(f).is_file()]
+    if missing:
+        raise ValueError(f"{path}: friction.fields {missing} are not files (saved drive fields, .npz)")
+    return config
 
 
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,

@@ -158,3 +158,12 @@ def test_the_friction_teacher_check_scores_fields_against_an_adaptation_report(c
     assert "| friction-aware teacher (fields) |" in out and "| sensor policy |" in out
     with pytest.raises(SystemExit):
         main([str(tmp_path / "missing.json"), str(root / "results" / "recipe" / "teacher_field.npz")])
+
+
+def test_a_friction_teacher_config_with_a_missing_field_is_one_line(tmp_path, capsys):
+    config = yaml.safe_load(TINY.read_text())
+    config["friction"]["fields"] = [str(tmp_path / "nowhere.npz")]
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    assert friction_teacher.main([str(tmp_path / "config.yaml"), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "nowhere.npz" in err and "friction.fields" in err
