@@ -40,7 +40,6 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-import yaml
 
 from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
 from mdr_drive_env.core.params import check_int, check_range
@@ -51,7 +50,7 @@ from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
 from .distill import Student, save_student
 from .estimator import FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy, teacher_layout
 from .evaluate import Policy, steady_velocity_of
-from .recipe import command_line
+from .recipe import command_line, config_of, read_sections
 
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "sensor.yaml"
 @dataclass(frozen=True)
@@ -255,13 +254,8 @@ def merge_check(student: Student, sensor_teacher: SensorTeacher, config: AdaptCo
 
 def load_config(path: str | Path) -> tuple[int, int | None, AdaptConfig]:
     """(seed, validation seed, AdaptConfig) from a YAML with ``seed``, ``validation_seed`` and ``adapt``."""
-    data = yaml.safe_load(Path(path).read_text())
-    if set(data) != {"seed", "validation_seed", "adapt"}:
-        raise ValueError(f"{path}: sections {sorted(data)} are not ['adapt', 'seed', 'validation_seed']")
-    try:
-        config = AdaptConfig(**{key: tuple(v) if isinstance(v, list) else v for key, v in data["adapt"].items()})
-    except TypeError as e:
-        raise ValueError(f"{path}: {e}") from None
+    data = read_sections(path, {"seed", "validation_seed", "adapt"})
+    config = config_of(AdaptConfig, data["adapt"], path)
     if not (Path(config.teacher) / "model.zip").is_file():
         raise ValueError(f"{path}: teacher={config.teacher!r} is not a policy folder (no model.zip)")
     return int(data["seed"]), data["validation_seed"], config

@@ -95,12 +95,13 @@ class SensorTeacher:
                        full["episode_fraction"].start]
         self.sources = [*range(actions.start, actions.start + 5), sensor_structure["episode_fraction"].start]
 
-    def full_observation(self, sensed: np.ndarray) -> np.ndarray:
-        """The full observation the teacher is given for sensor observations ``sensed`` (n, d)."""
+    def full_observation(self, sensed: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray:
+        """The full observation the teacher is given for sensor observations ``sensed`` (n, d): the
+        estimator's guesses for the hidden entries, or ``hidden`` (n, len(self.hidden)) if given."""
         full = np.zeros((len(sensed), self.n_full), dtype=np.float32)
         full[:, self.dynamics] = self.teacher.obs_rms.mean[self.dynamics]
         full[:, self.copied] = sensed[:, self.sources]
-        full[:, self.hidden] = self.estimator(sensed)
+        full[:, self.hidden] = self.estimator(sensed) if hidden is None else hidden
         return full
 
     def __call__(self, sensed: np.ndarray, privileged: np.ndarray | None = None) -> np.ndarray:
@@ -114,8 +115,7 @@ class SensorTeacher:
 
         from .distill import policy_mean
 
-        full = self.full_observation(sensed)
-        full[:, self.hidden] = privileged[:, self.hidden]
+        full = self.full_observation(sensed, hidden=privileged[:, self.hidden])
         with torch.no_grad():
             return policy_mean(self.teacher.model.policy, torch.as_tensor(self._normalise(full))).numpy()
 
@@ -138,7 +138,8 @@ class SensorTeacher:
 
         est, t = self.estimator, self.teacher
         xm, xs, ym, ys = est.scales
-        base = torch.as_tensor(self._normalise(self.full_observation(sensed)))  # hidden columns replaced below
+        base = torch.as_tensor(self._normalise(self.full_observation(  # hidden columns replaced below
+            sensed, hidden=np.zeros((len(sensed), len(self.hidden)), dtype=np.float32))))
         xt = torch.as_tensor((sensed - xm) / xs, dtype=torch.float32)
         yt = torch.as_tensor(labels, dtype=torch.float32)
         cols = torch.as_tensor(self.hidden)

@@ -35,7 +35,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import write_text
@@ -152,19 +151,13 @@ def load_config(path: str | Path) -> dict:
     """The YAML as {"seed", "friction": FrictionTeacherConfig, "teacher": FieldConfig, "distill":
     DistillConfig, "ppo", "env_kwargs"}; unknown sections or keys are a ``ValueError``."""
     from .distill import DistillConfig
+    from .recipe import config_of, read_sections
 
-    data = yaml.safe_load(Path(path).read_text())
-    expected = {"seed", "friction", "teacher", "distill", "ppo", "env_kwargs"}
-    if set(data) != expected:
-        raise ValueError(f"{path}: sections {sorted(data)} are not {sorted(expected)}")
-    as_tuples = lambda d: {key: tuple(v) if isinstance(v, list) else v for key, v in d.items()}  # noqa: E731
-    try:
-        config = {"seed": int(data["seed"]), "friction": FrictionTeacherConfig(**as_tuples(data["friction"])),
-                  "teacher": FieldConfig(**as_tuples(data["teacher"])),
-                  "distill": DistillConfig(**as_tuples(data["distill"])), "ppo": dict(data["ppo"]),
-                  "env_kwargs": dict(data["env_kwargs"])}
-    except TypeError as e:
-        raise ValueError(f"{path}: {e}") from None
+    data = read_sections(path, {"seed", "friction", "teacher", "distill", "ppo", "env_kwargs"})
+    config = {"seed": int(data["seed"]), "friction": config_of(FrictionTeacherConfig, data["friction"], path),
+              "teacher": config_of(FieldConfig, data["teacher"], path),
+              "distill": config_of(DistillConfig, data["distill"], path), "ppo": dict(data["ppo"]),
+              "env_kwargs": dict(data["env_kwargs"])}
     missing = [f for f in config["friction"].fields if not Path(f).is_file()]
     if missing:
         raise ValueError(f"{path}: friction.fields {missing} are not files (saved drive fields, .npz)")

@@ -42,19 +42,29 @@ from .train import ENV_ID, HELD_OUT_POINTS, versions
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "recipe.yaml"
 
 
+def read_sections(path: str | Path, expected: set[str]) -> dict:
+    """A config YAML's top-level sections; ``ValueError`` unless they are exactly ``expected``."""
+    data = yaml.safe_load(Path(path).read_text())
+    if set(data) != expected:
+        raise ValueError(f"{path}: sections {sorted(data)} are not {sorted(expected)}")
+    return data
+
+
+def config_of(cls, section: dict, path: str | Path):
+    """The frozen config dataclass ``cls`` from a YAML section (lists as tuples); an unknown key is a
+    ``ValueError`` naming it and ``path``."""
+    try:
+        return cls(**{key: tuple(v) if isinstance(v, list) else v for key, v in section.items()})
+    except TypeError as e:
+        raise ValueError(f"{path}: {e}") from None
+
+
 def load_recipe(path: str | Path) -> dict:
     """The recipe YAML as {"seed", "teacher": FieldConfig, "distill": DistillConfig, "ppo", "env_kwargs"};
     unknown keys are a ``ValueError`` naming them."""
-    data = yaml.safe_load(Path(path).read_text())
-    expected = {"seed", "teacher", "distill", "ppo", "env_kwargs"}
-    if set(data) != expected:
-        raise ValueError(f"{path}: sections {sorted(data)} are not {sorted(expected)}")
-    try:
-        teacher = FieldConfig(**{key: tuple(v) if isinstance(v, list) else v for key, v in data["teacher"].items()})
-        student = DistillConfig(**{key: tuple(v) if isinstance(v, list) else v for key, v in data["distill"].items()})
-    except TypeError as e:
-        raise ValueError(f"{path}: {e}") from None
-    return {"seed": int(data["seed"]), "teacher": teacher, "distill": student, "ppo": dict(data["ppo"]),
+    data = read_sections(path, {"seed", "teacher", "distill", "ppo", "env_kwargs"})
+    return {"seed": int(data["seed"]), "teacher": config_of(FieldConfig, data["teacher"], path),
+            "distill": config_of(DistillConfig, data["distill"], path), "ppo": dict(data["ppo"]),
             "env_kwargs": dict(data["env_kwargs"])}
 
 
