@@ -312,3 +312,29 @@ def test_the_teacher_check_script_scores_the_teacher_against_an_earlier_blind_se
     out = capsys.readouterr().out
     assert "3 where the search moves >= 2 mm/s): fraction mean 0.767, min 0.500, 2 under 0.85" in out
     assert out.split("2 under 0.85")[1].splitlines()[1].startswith("  k = 0.5000")  # the worst point first
+
+
+def test_stall_lines_find_a_pocket_near_the_critical_load_that_the_shortfall_rule_misses(monkeypatch):
+    from mdr_drive_agents import distill
+
+    class Field:  # the teacher moves at 0.5 mm/s at every load up to 1.3 x the trapezoid's critical load
+        ks, trapezoid_critical = np.array([0.0, 0.6]), np.array([0.1, 0.1])
+
+        def best(self, points, radius=1):
+            return None, np.array([5e-4 if m <= 0.13 else -1e-4 for _, m in points])
+
+    # the student matches it, but stalls in a pocket 2 % of the load wide at 0.95 x the critical load
+    monkeypatch.setattr(distill, "student_velocity", lambda student, points: np.array(
+        [-3e-4 if 0.094 <= m <= 0.096 else (5e-4 if m <= 0.13 else -1e-4) for _, m in points]))
+    config = DistillConfig(hole_probes=64, stall_lines=3, stall_line_loads=101, stall_band=(0.5, 1.5))
+    holes, stats = distill.find_holes(None, Field(), config, np.random.default_rng(0))
+    assert stats["holes"] == 0 and stats["probes"] == 64  # -0.3 against 0.5 mm/s: short by under 1 mm/s
+    assert stats["stall_probes"] == 3 * 101 and stats["stall_holes"] == 3 * 3  # loads 0.094, 0.095, 0.096 per line
+    assert sorted({round(m, 4) for _, m in holes}) == [0.094, 0.095, 0.096]
+    assert all(0.0 <= k <= 0.6 for k, _ in holes)
+    without, _ = distill.find_holes(None, Field(), DistillConfig(hole_probes=64), np.random.default_rng(0))
+    assert without == []
+    with pytest.raises(ValueError, match="stall_band"):
+        DistillConfig(stall_band=(1.2, 0.8))
+    with pytest.raises(ValueError, match="stall_lines"):
+        DistillConfig(stall_lines=-1)
