@@ -71,15 +71,6 @@ class DistillConfig:
         hole_probes: random points per hole round where the student and the teacher drive (-).
         hole_shortfall: a probe is a hole where the student's steady velocity is below the
             teacher's by more than this fraction of it, and by more than 1 mm/s (-).
-        stall_lines: 0, or per hole round also this many lines of constant k (k uniform), each
-            ``stall_line_loads`` evenly spaced loads over ``stall_band``; there a probe is a hole
-            also where the student stalls (steady velocity <= 0) and the teacher moves. Near its
-            critical load the teacher moves at well under 1 mm/s, so the shortfall rule never
-            flags a pocket there, and a pocket a per cent of the load wide is where a
-            critical-load scan (the first stall) stops (-).
-        stall_line_loads: probes per stall line (-).
-        stall_band: the stall lines' loads, as fractions of the trapezoid's critical load at their
-            k (from, to) (-).
         hole_neighbours: teacher episodes added at jittered points around each hole, besides the
             hole itself (k +- 0.01, load +- 5 %) (-).
         hole_steps: gradient steps after each hole round (-).
@@ -109,9 +100,6 @@ class DistillConfig:
     hole_rounds: int = 0
     hole_probes: int = 4096
     hole_shortfall: float = 0.1
-    stall_lines: int = 0
-    stall_line_loads: int = 96
-    stall_band: tuple[float, float] = (0.8, 1.7)
     hole_neighbours: int = 8
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
@@ -121,12 +109,8 @@ class DistillConfig:
         if self.activation not in ("relu", "tanh"):
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
-                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "stall_lines", "stall_line_loads"):
-            check_int(name, getattr(self, name),
-                      0 if name in ("rounds", "hole_rounds", "hole_neighbours", "stall_lines") else 1)
-        if len(self.stall_band) != 2 or not 0.0 <= self.stall_band[0] < self.stall_band[1] <= 5.0:
-            raise ValueError(f"stall_band={self.stall_band!r} must be two fractions (from, to) with "
-                             f"0 <= from < to <= 5")
+                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps"):
+            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -152,21 +136,6 @@ def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: Di
         return [(float(k), float(m)) for k, m in zip(ks, loads)]
     mu, mu1 = rng.uniform(*friction[0], n), rng.uniform(*friction[1], n)
     return [(float(k), float(m * a / PAPER_FRICTION[0]), float(a), float(b)) for k, m, a, b in zip(ks, loads, mu, mu1)]
-
-
-def draw_stall_lines(field_: DriveField, config: DistillConfig, rng: np.random.Generator, friction=None) -> list:
-    """``config.stall_lines`` values of k uniform over the field's range, each with
-    ``config.stall_line_loads`` evenly spaced loads (kg) over ``config.stall_band`` times the
-    trapezoid's critical load there; with ``friction`` ((mu low, high), (mu1 low, high)) one mu and
-    mu1 per line, the loads scaled by mu / 0.3 as in ``draw_points``."""
-    ks = rng.uniform(field_.ks[0], field_.ks[-1], config.stall_lines)
-    crit = np.interp(ks, field_.ks, field_.trapezoid_critical)
-    fractions = np.linspace(*config.stall_band, config.stall_line_loads)
-    if friction is None:
-        return [(float(k), float(f * c)) for k, c in zip(ks, crit) for f in fractions]
-    mu, mu1 = rng.uniform(*friction[0], config.stall_lines), rng.uniform(*friction[1], config.stall_lines)
-    return [(float(k), float(f * c * a / PAPER_FRICTION[0]), float(a), float(b))
-            for k, c, a, b in zip(ks, crit, mu, mu1) for f in fractions]
 
 
 def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0):
@@ -412,24 +381,17 @@ def student_velocity(student: Student, points) -> np.ndarray:
 def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator,
                friction=None):
     """The student and the teacher at ``config.hole_probes`` fresh random points (``draw_points``
-    with ``friction``) and on ``config.stall_lines`` load lines (``draw_stall_lines``): the points
-    where the student's steady velocity falls short of the teacher's (``config.hole_shortfall``), or,
-    on the stall lines, where the student stalls and the teacher moves; and the probe statistics
-    (holes of each kind, the student's mean velocity over the teacher's where it moves, of the
-    random probes)."""
+    with ``friction``): the points where the student's steady velocity falls short of the teacher's
+    (``config.hole_shortfall``), and the probe statistics (share of holes, the student's mean
+    velocity over the teacher's where it moves)."""
     points = draw_points(field_, config.hole_probes, rng, config, friction)
-    lines = draw_stall_lines(field_, config, rng, friction) if config.stall_lines else []
-    _, v_teacher = field_.best(points + lines, radius=config.teacher_radius)
-    v_student = student_velocity(student, points + lines)
+    _, v_teacher = field_.best(points, radius=config.teacher_radius)
+    v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), 1e-3)
-    on_line = np.arange(len(short)) >= len(points)
-    stalls = on_line & ~short & (v_student <= 0.0) & (v_teacher > 0.0)
-    hole = short | stalls
-    n, moving = len(points), v_teacher[:len(points)] >= 2e-3
-    return [p for p, h in zip(points + lines, hole) if h], {
-        "probes": n, "holes": int(short[:n].sum()), "stall_probes": len(lines),
-        "stall_holes": int((hole & on_line).sum()),
-        "probe_mean_fraction": float(np.mean(v_student[:n][moving] / v_teacher[:n][moving])) if moving.any() else None}
+    moving = v_teacher >= 2e-3
+    return [p for p, h in zip(points, short) if h], {
+        "probes": len(points), "holes": int(short.sum()),
+        "probe_mean_fraction": float(np.mean(v_student[moving] / v_teacher[moving])) if moving.any() else None}
 
 
 def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float]) -> list:
@@ -468,6 +430,6 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "draw_stall_lines", "edge_loss", "find_holes", "fit",
+__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "edge_loss", "find_holes", "fit",
            "labelled_episodes", "perturb_previous_actions",
            "policy_mean", "rollout", "save_student", "student_velocity"]

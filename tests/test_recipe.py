@@ -314,27 +314,21 @@ def test_the_teacher_check_script_scores_the_teacher_against_an_earlier_blind_se
     assert out.split("2 under 0.85")[1].splitlines()[1].startswith("  k = 0.5000")  # the worst point first
 
 
-def test_stall_lines_find_a_pocket_near_the_critical_load_that_the_shortfall_rule_misses(monkeypatch):
-    from mdr_drive_agents import distill
+def test_the_load_line_script_marks_where_a_policy_stalls_and_the_teacher_moves(capsys):
+    import runpy
 
-    class Field:  # the teacher moves at 0.5 mm/s at every load up to 1.3 x the trapezoid's critical load
-        ks, trapezoid_critical = np.array([0.0, 0.6]), np.array([0.1, 0.1])
-
-        def best(self, points, radius=1):
-            return None, np.array([5e-4 if m <= 0.13 else -1e-4 for _, m in points])
-
-    # the student matches it, but stalls in a pocket 2 % of the load wide at 0.95 x the critical load
-    monkeypatch.setattr(distill, "student_velocity", lambda student, points: np.array(
-        [-3e-4 if 0.094 <= m <= 0.096 else (5e-4 if m <= 0.13 else -1e-4) for _, m in points]))
-    config = DistillConfig(hole_probes=64, stall_lines=3, stall_line_loads=101, stall_band=(0.5, 1.5))
-    holes, stats = distill.find_holes(None, Field(), config, np.random.default_rng(0))
-    assert stats["holes"] == 0 and stats["probes"] == 64  # -0.3 against 0.5 mm/s: short by under 1 mm/s
-    assert stats["stall_probes"] == 3 * 101 and stats["stall_holes"] == 3 * 3  # loads 0.094, 0.095, 0.096 per line
-    assert sorted({round(m, 4) for _, m in holes}) == [0.094, 0.095, 0.096]
-    assert all(0.0 <= k <= 0.6 for k, _ in holes)
-    without, _ = distill.find_holes(None, Field(), DistillConfig(hole_probes=64), np.random.default_rng(0))
-    assert without == []
-    with pytest.raises(ValueError, match="stall_band"):
-        DistillConfig(stall_band=(1.2, 0.8))
-    with pytest.raises(ValueError, match="stall_lines"):
-        DistillConfig(stall_lines=-1)
+    root = Path(__file__).parents[1]
+    main = runpy.run_path(str(root / "scripts" / "load_line.py"))["main"]
+    policy = str(root / "agents" / "pretrained" / "ppo_generalist")
+    assert main(["--k", "0.5", "--from", "0.94", "--to", "0.96", "--loads", "5", "--labels", policy]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")][1:]
+    assert len(rows) == 5
+    for row in rows:
+        cells = [c.strip() for c in row.split("|")[1:-1]]
+        teacher, student = float(cells[2]), float(cells[3])
+        assert len(cells[4].split()) == 10  # the teacher's two actions
+        assert row.endswith("<<") == (teacher > 0.0 and student <= 0.0)
+    with pytest.raises(SystemExit):
+        main(["--k", "0.9", policy])  # outside the field's k range
+    with pytest.raises(SystemExit):
+        main(["--k", "0.3", "--from", "1.0", "--to", "0.5"])
