@@ -191,3 +191,18 @@ def test_fitting_the_estimator_through_the_teacher_brings_its_actions_to_the_tol
     composed.fit_actions(sensed, labels, 300, 16, 1e-3, 0, progress=False)
     assert loss() < 0.85 * before
     assert all(p.requires_grad for p in teacher.model.policy.parameters())  # the teacher is left as it was
+
+
+def test_the_memory_script_scores_a_frame_stack_and_an_lstm_on_the_same_episodes(capsys):
+    import runpy
+    from pathlib import Path
+
+    main = runpy.run_path(str(Path(__file__).parents[1] / "scripts" / "estimation_memory.py"))["main"]
+    assert main(["--episodes", "8", "--periods", "6", "--history", "2", "--steps", "5", "--lstm", "8",
+                 "--seed", "3"]) == 0
+    rows = [line.split("|")[1:-1] for line in capsys.readouterr().out.splitlines() if line.startswith("| ")][1:]
+    assert [row[0].strip() for row in rows] == ["frame-stacked MLP", "LSTM over the episode"]
+    for row in rows:
+        values = [float(cell) for cell in row[1:]]
+        assert len(values) == 11 and all(np.isfinite(v) and v >= 0.0 for v in values)
+        assert values[5] == pytest.approx(np.mean(values[:5]), abs=1e-3)  # "all" is the entries' mean
