@@ -39,12 +39,12 @@ def episodes(n: int, periods: int, history: int, noise: float, seed: int, teache
     """Sensor observations (periods, n, d) and hidden entries (periods, n, 5) of ``n`` episodes."""
     from mdr_drive_agents.adapt import AdaptConfig, collect, sensor_envs
     from mdr_drive_agents.estimator import hidden_entries
-    from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
+    from mdr_drive_env.gym_envs.spaces import ObservationLayout, PrivilegedLayout
 
     config = AdaptConfig(history=history, periods=periods, load_step_share=0.0, load_step_periods=(1, 1))
     envs, first = sensor_envs(config, n, seed)
     rng = np.random.default_rng(seed)
-    full_dim = 14  # the teacher's full observation: the privileged one without friction
+    full_dim = len(ObservationLayout.NAMES)  # the teacher's full observation: the privileged one without friction
     sensed, privileged, _ = collect(envs, first, lambda s, p: teacher(p[:, :full_dim]), noise, rng, friction=True)
     hidden = hidden_entries(PrivilegedLayout)
     return sensed.reshape(periods, n, -1), privileged[:, hidden].reshape(periods, n, -1)
@@ -66,6 +66,8 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if args.history >= args.periods:
         p.error(f"--history {args.history} must be below --periods {args.periods}")
+    if not 0.0 <= args.action_noise <= 1.0:
+        p.error(f"--action-noise {args.action_noise!r} is outside the allowed range [0, 1]")
 
     import torch
 
@@ -78,29 +80,31 @@ def main(argv=None) -> int:
     n_val = max(args.episodes // 4, 2)
     (xs, ys), (xv, yv) = (episodes(args.episodes, args.periods, args.history, args.action_noise, args.seed, teacher),
                           episodes(n_val, args.periods, args.history, args.action_noise, args.seed + 7_000_001, teacher))
-    y_train = ys
-    y_mean, y_std = y_train.reshape(-1, 5).mean(0), y_train.reshape(-1, 5).std(0) + 1e-12
+    y_mean, y_std = ys.reshape(-1, 5).mean(0), ys.reshape(-1, 5).std(0) + 1e-12
 
-    def standard(x, ref):
+    def standardiser(ref):
+        """x -> x standardised with the statistics of ``ref`` (training data), as a float32 tensor."""
         flat = ref.reshape(-1, ref.shape[-1])
-        return torch.as_tensor((x - flat.mean(0)) / (flat.std(0) + 1e-6), dtype=torch.float32)
+        mean, std = flat.mean(0), flat.std(0) + 1e-6
+        return lambda x: torch.as_tensor((x - mean) / std, dtype=torch.float32)
 
     errors = {}
     # the frame stack: every period from `history` on is a sample
     start = args.history - 1
-    x = standard(xs[start:].reshape(-1, xs.shape[-1]), xs[start:])
+    standard = standardiser(xs[start:])
+    x = standard(xs[start:].reshape(-1, xs.shape[-1]))
     y = torch.as_tensor(((ys[start:] - y_mean) / y_std).reshape(-1, 5), dtype=torch.float32)
     mlp = torch.nn.Sequential(torch.nn.Linear(x.shape[1], 512), torch.nn.ReLU(), torch.nn.Linear(512, 512),
                               torch.nn.ReLU(), torch.nn.Linear(512, 5))
     adam_fit(mlp.parameters(), lambda: (len(x), lambda idx: torch.mean((mlp(x[idx]) - y[idx]) ** 2)), args.steps,
              256, 1e-3, args.seed, "frame stack", progress=False)
     with torch.no_grad():
-        flat = xs[start:].reshape(-1, xs.shape[-1])
-        guess = mlp(torch.as_tensor((xv[start:] - flat.mean(0)) / (flat.std(0) + 1e-6), dtype=torch.float32))
+        guess = mlp(standard(xv[start:]))
     errors["frame-stacked MLP"] = (guess.numpy() - (yv[start:] - y_mean) / y_std) ** 2
 
     # the LSTM: whole episodes, one period per step
-    x = standard(xs, xs).transpose(0, 1)  # (n, periods, d)
+    standard = standardiser(xs)
+    x = standard(xs).transpose(0, 1)  # (n, periods, d)
     y = torch.as_tensor((ys - y_mean) / y_std, dtype=torch.float32).transpose(0, 1)
     lstm = torch.nn.LSTM(x.shape[-1], args.lstm, batch_first=True)
     head = torch.nn.Linear(args.lstm, 5)
@@ -112,8 +116,7 @@ def main(argv=None) -> int:
     adam_fit([*lstm.parameters(), *head.parameters()], lambda: (len(x), loss_of), args.steps, 32, 1e-3,
              args.seed, "LSTM", progress=False)
     with torch.no_grad():
-        flat = xs.reshape(-1, xs.shape[-1])
-        out, _ = lstm(torch.as_tensor((xv - flat.mean(0)) / (flat.std(0) + 1e-6), dtype=torch.float32).transpose(0, 1))
+        out, _ = lstm(standard(xv).transpose(0, 1))
         guess = head(out).transpose(0, 1).numpy()
     errors["LSTM over the episode"] = (guess[start:] - (yv[start:] - y_mean) / y_std) ** 2
 
