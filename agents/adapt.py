@@ -193,6 +193,14 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
     sensor_structure = SensorLayout(config.history).structure
     sensed, privileged, history = [], [], []
     estimator = sensor_teacher = None
+
+    def finish(record: dict, t0: float) -> None:  # validate, time, keep and print a stage's record
+        if validate is not None:
+            record.update(validate(sensor_teacher))
+        record["wall_time_s"] = round(time.perf_counter() - t0, 1)
+        history.append(record)
+        _log(record)
+
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         envs, first = sensor_envs(config, config.episodes, seed + 1_000_003 * (r + 1))
@@ -211,21 +219,11 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
             record = {"round": r, "samples": len(x),
                       "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
                                             config.learning_rate, seed + r, progress)}
-        if validate is not None:
-            record.update(validate(sensor_teacher))
-        record["wall_time_s"] = round(time.perf_counter() - t0, 1)
-        history.append(record)
-        _log(record)
-    if config.action_steps and not config.action_rounds:
+        finish(record, t0)
+    if config.action_steps and not config.action_rounds:  # x, full: every episode, from the last round
         t0 = time.perf_counter()
-        x, full = np.concatenate(sensed), np.concatenate(privileged)
-        record = {"action_fit": config.action_steps, "samples": len(x),
-                  "loss": fit_on_actions(sensor_teacher, x, full, config, seed + 99, progress)}
-        if validate is not None:
-            record.update(validate(sensor_teacher))
-        record["wall_time_s"] = round(time.perf_counter() - t0, 1)
-        history.append(record)
-        _log(record)
+        finish({"action_fit": config.action_steps, "samples": len(x),
+                "loss": fit_on_actions(sensor_teacher, x, full, config, seed + 99, progress)}, t0)
     return sensor_teacher, history
 
 

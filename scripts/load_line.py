@@ -41,9 +41,8 @@ def main(argv=None) -> int:
     if not 0.0 <= args.low < args.high <= 5.0:
         p.error(f"--from {args.low!r} --to {args.high!r}: need 0 <= FROM < TO <= 5")
 
-    from mdr_drive_agents.distill import rollout
     from mdr_drive_agents.drive_field import DriveField
-    from mdr_drive_agents.evaluate import load_policy, steady_velocity_of
+    from mdr_drive_agents.evaluate import load_policy, policy_velocity
     from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
 
     field = DriveField.load(args.field)
@@ -54,8 +53,7 @@ def main(argv=None) -> int:
     fractions = np.linspace(args.low, args.high, args.loads)
     points = [(args.k, float(f * crit)) for f in fractions]
     drives, v_teacher = field.best(points, radius=radius)
-    v_policies = [steady_velocity_of(rollout(points, np.zeros((len(points), 2, 5)), load_policy(path), 30)[2])
-                  for path in args.policies]
+    v_policies = [policy_velocity(load_policy(path), points) for path in args.policies]
     print(f"k = {args.k:g}; the trapezoid's critical load {crit:.5g} kg; velocities in mm/s")
     head = ["load / trapezoid's critical", "load (kg)", "teacher", *(str(path) for path in args.policies)]
     print("| " + " | ".join(head + (["teacher's drive"] if args.labels else [])) + " |")
