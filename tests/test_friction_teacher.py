@@ -167,3 +167,26 @@ def test_a_friction_teacher_config_with_a_missing_field_is_one_line(tmp_path, ca
     assert friction_teacher.main([str(tmp_path / "config.yaml"), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "nowhere.npz" in err and "friction.fields" in err
+
+
+def test_the_probe_check_scores_robust_and_probing_choices_among_the_fields_drives(capsys, tmp_path):
+    import runpy
+
+    root = Path(__file__).resolve().parents[1]
+    main = runpy.run_path(str(root / "scripts" / "friction_probe_check.py"))["main"]
+    report = root / "results" / "adaptation" / "seed1777_validation" / "adaptation.json"
+    fields = [root / "results" / "recipe" / "teacher_field.npz",
+              *sorted((root / "results" / "adaptation" / "friction_fields").glob("rho*.npz"))]
+    assert len(fields) == 4
+    assert main([str(report), *map(str, fields), "--limit", "3", "--radius", "1", "--probe-periods", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "3 draws of seed 1777" in out and "0.175, 0.333, 0.460, 0.650" in out
+    rows = {line.split(" | ")[0].strip("| "): line for line in out.splitlines() if line.startswith("| ") and not line.startswith("| drive")}
+    assert {"told rho: the best of the drives", "robust, max-min", "robust, max-mean",
+            "probe 2 periods each, then pick", "sensor policy"} <= set(rows)
+    # the told-rho row is the best of the drives each choice picks from: no choice has a higher mean
+    mean = {name: float(line.split(" | ")[2].split(" / ")[0]) for name, line in rows.items()}
+    assert all(mean[name] <= mean["told rho: the best of the drives"] + 1e-9
+               for name in ("robust, max-min", "robust, max-mean", "probe 2 periods each, then pick"))
+    with pytest.raises(SystemExit):
+        main([str(report), str(tmp_path / "missing.npz")])
