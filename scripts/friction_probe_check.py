@@ -19,7 +19,8 @@ what a drive told the true k and load over mu F_ref, but not friction, could rea
   over friction would make;
 * **probe, then pick**: each of those drives played from rest at the draw for P periods, the one
   whose last two periods move the slider furthest kept (P = ``--probe-periods``; the probes of all
-  drives take their number times P periods, within the 20 before the protocol measures).
+  drives take their number times P periods, within the 20 before the protocol measures);
+  ``--sequential`` plays them one after another in one run instead, as a policy would.
 
 Each row: the steady velocity at the draw's friction (the protocol's 30 periods, mean of 21-30)
 with the blind statistics: points below the trapezoid (more than 0.05 mm/s, where either moves),
@@ -64,12 +65,18 @@ def robust_choice(fields, points, drives: np.ndarray) -> dict[str, np.ndarray]:
     return {"max-min": shortfall.max(axis=1).argmin(axis=1), "max-mean": shortfall.mean(axis=1).argmin(axis=1)}
 
 
-def probe_choice(points, drives: np.ndarray, periods: int) -> np.ndarray:
+def probe_choice(points, drives: np.ndarray, periods: int, sequential: bool = False) -> np.ndarray:
     """Per point, the index of the drive that moves the slider furthest in the last two of ``periods``
-    periods played from rest at the point."""
+    periods played at the point: each from rest, or (``sequential``) one after another in one run, each
+    starting where the one before left the slider."""
     from mdr_drive_agents.evaluate import open_loop_displacements
 
     n, nf = drives.shape[:2]
+    if sequential:
+        schedule = np.stack([drives[:, j, t % 2] for j in range(nf) for t in range(periods)], axis=1)
+        disp, _ = open_loop_displacements(points, schedule, nf * periods)
+        ends = [j * periods + periods for j in range(nf)]
+        return np.stack([disp[e - 2:e].sum(axis=0) for e in ends], axis=1).argmax(axis=1)
     disp, _ = open_loop_displacements([p for p in points for _ in range(nf)], drives.reshape(n * nf, 2, 5), periods)
     return disp[-2:].sum(axis=0).reshape(n, nf).argmax(axis=1)
 
@@ -85,6 +92,9 @@ def main(argv=None) -> int:
     p.add_argument("--radius", type=int_range(1), default=2, help="each field's grid neighbourhood (-)")
     p.add_argument("--probe-periods", type=int_range(2), nargs="+", default=[2, 4, 6], metavar="P",
                    help="periods each drive is probed for (-)")
+    p.add_argument("--sequential", action="store_true",
+                   help="probe the drives one after another in one run (each from the state the one before "
+                        "left), not each from rest")
     p.add_argument("--limit", type=int_range(1), default=None, help="only the report's first N draws (-)")
     args = p.parse_args(argv)
 
@@ -103,8 +113,8 @@ def main(argv=None) -> int:
     rows = {"told rho: the best of the drives": v.max(axis=1)}
     rows.update({f"robust, {name}": v[np.arange(n), pick]
                  for name, pick in robust_choice(fields, points, drives).items()})
-    rows.update({f"probe {P} periods each, then pick": v[np.arange(n), probe_choice(points, drives, P)]
-                 for P in args.probe_periods})
+    rows.update({f"probe {P} periods each{', in turn' if args.sequential else ''}, then pick":
+                 v[np.arange(n), probe_choice(points, drives, P, args.sequential)] for P in args.probe_periods})
     rows.update({name: np.asarray(res["steady_velocity_m_s"][name][:n], dtype=np.float64)
                  for name in ("sensor policy", "full-observation policy")})
     best = np.asarray(res["best_velocity_m_s"][:n], dtype=np.float64)

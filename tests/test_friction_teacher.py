@@ -188,5 +188,8 @@ def test_the_probe_check_scores_robust_and_probing_choices_among_the_fields_driv
     mean = {name: float(line.split(" | ")[2].split(" / ")[0]) for name, line in rows.items()}
     assert all(mean[name] <= mean["told rho: the best of the drives"] + 1e-9
                for name in ("robust, max-min", "robust, max-mean", "probe 2 periods each, then pick"))
+    assert main([str(report), *map(str, fields), "--limit", "2", "--radius", "1", "--probe-periods", "2",
+                 "--sequential"]) == 0
+    assert "| probe 2 periods each, in turn, then pick |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         main([str(report), str(tmp_path / "missing.npz")])
