@@ -187,6 +187,9 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
 
     torch.set_num_threads(config.torch_threads)
     teacher = Policy(config.teacher)
+    if teacher.play_kwargs.get("z_phase_origin", 0.0) != 0.0:
+        raise ValueError(f"teacher {config.teacher} acts with z_phase_origin="
+                         f"{teacher.play_kwargs['z_phase_origin']}; the sensor envs use the default action map (0)")
     rng = np.random.default_rng(seed)
     layout = teacher_layout(teacher)
     hidden = hidden_entries(layout)

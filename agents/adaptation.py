@@ -98,7 +98,7 @@ def play(drive: str, policies: dict, d: dict, periods: int, load_step=None):
     friction = {"friction_coefficient": d["friction_coefficient"],
                 "base_friction_coefficient": d["base_friction_coefficient"]}
     policy = policies[drive]
-    kwargs = {**friction, **(policy.observation_kwargs if isinstance(policy, Policy) else {})}
+    kwargs = {**friction, **(policy.play_kwargs if isinstance(policy, Policy) else {})}
     return env_rollout(policy, d["k"], d["cargo_mass"], periods, load_step, **kwargs)
 
 

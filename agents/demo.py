@@ -129,8 +129,8 @@ def load_steps(sensor, full, out: Path) -> None:
 
     from mdr_drive_env.files import save_figure
 
-    drives = (("sensor policy", sensor, sensor.observation_kwargs), ("full-observation policy", full,
-              full.observation_kwargs), ("trapezoid", None, {}))
+    drives = (("sensor policy", sensor, sensor.play_kwargs), ("full-observation policy", full,
+              full.play_kwargs), ("trapezoid", None, {}))
     print(f"\n3. a drive that does not know its load: k = {STEP_K:g}, the cargo changes before period "
           f"{LOAD_STEPS[0][1]} (counted from 0); mean velocity (mm/s) of periods 1-{LOAD_STEPS[0][1]} -> "
           f"{LOAD_STEPS[0][1] + 6}-{STEP_PERIODS}")

@@ -39,7 +39,7 @@ import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
 from .drive_field import PAPER_FRICTION, DriveField, cycle_action
 from .evaluate import steady_velocity_of
 from mdr_drive_env.core.params import check_int, check_range
-from mdr_drive_env.gym_envs.spaces import ObservationLayout
+from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
 
 ENV_ID = "MDRDrive-v0"
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
@@ -138,14 +138,15 @@ def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: Di
     return [(float(k), float(m * a / PAPER_FRICTION[0]), float(a), float(b)) for k, m, a, b in zip(ks, loads, mu, mu1)]
 
 
-def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0):
+def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0, z_phase_origin: float = 0.0):
     """Play at each (k, load kg) point, or (k, load kg, mu, mu1) point in the privileged observation:
-    the teacher's drive (``act`` None) or ``act(obs) -> actions``. Returns the observations
-    (periods * n, 14 or 16), the teacher's drive of each observation's episode (periods * n, 2, 5)
-    and the displacements (periods, n) m."""
+    the teacher's drive (``act`` None) or ``act(obs) -> actions``, in the action units of an env with
+    ``z_phase_origin`` (``drives`` too). Returns the observations (periods * n, 14 or 16), the
+    teacher's drive of each observation's episode (periods * n, 2, 5) and the displacements
+    (periods, n) m."""
     n = len(points)
     options = {"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]}
-    kwargs = {}
+    kwargs = {"z_phase_origin": z_phase_origin}
     if len(points[0]) == 4:
         kwargs["observation"] = "privileged"
         options.update(friction_coefficient=[p[2] for p in points], base_friction_coefficient=[p[3] for p in points])
@@ -209,6 +210,8 @@ class Student:
     model: object
     venv: object
     history: list = field(default_factory=list)
+    #: The z phase at action -1 of the env it acts in (``MDRDrive-v0``'s ``z_phase_origin``).
+    z_phase_origin: float = 0.0
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         action, _ = self.model.predict(self.venv.normalize_obs(obs), deterministic=True)
@@ -231,7 +234,7 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
     policy_kwargs = {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]}, "activation_fn": activation,
                      "log_std_init": config.log_std}
     model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs, **hyper)
-    return Student(model, venv)
+    return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)))
 
 
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
@@ -321,7 +324,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config, friction)
-        obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r)
+        obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r,
+                                               student.z_phase_origin)
         obs_all.append(obs)
         drive_all.append(sample_drives)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
@@ -343,7 +347,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         loss = None  # no hole found: no fit this round
         if holes:
             obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
-                                                   config, seed + 100 + h)
+                                                   config, seed + 100 + h, student.z_phase_origin)
             obs_all.append(obs)
             drive_all.append(sample_drives)
             loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
@@ -362,19 +366,21 @@ def _print_record(record: dict) -> None:
                    for key, value in record.items()), flush=True)
 
 
-def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, seed: int):
+def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, seed: int, z_phase_origin: float = 0.0):
     """Episodes of ``config.periods`` periods at ``points``, played by the teacher (``act`` None) or by
     ``act``: their observations and each one's teacher drive (``rollout``; the teacher's drive at each
-    point from ``DriveField.best`` with ``config.teacher_radius``)."""
+    point from ``DriveField.best`` with ``config.teacher_radius``), all in the action units of an env
+    with ``z_phase_origin`` (the field's drives are in the default units, origin 0)."""
     drives, _ = field_.best(points, radius=config.teacher_radius)
-    obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed)
+    drives = shift_phase_origin(drives, 0.0, z_phase_origin)
+    obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed, z_phase_origin=z_phase_origin)
     return obs, sample_drives
 
 
 def student_velocity(student: Student, points) -> np.ndarray:
     """The student's steady velocity (m/s) at each (k, load kg) or (k, load kg, mu, mu1) point, closed
     loop over 30 periods."""
-    _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30)
+    _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30, z_phase_origin=student.z_phase_origin)
     return steady_velocity_of(disp)
 
 

@@ -27,7 +27,7 @@ FINE_TUNE_PPO = {"n_steps": 128, "batch_size": 128, "n_epochs": 10, "gamma": 0.9
 def teacher_layout(teacher: Policy):
     """The observation layout ``teacher`` was trained on: ``ObservationLayout`` (the full
     observation) or ``PrivilegedLayout`` (friction too), from its run.json."""
-    return PrivilegedLayout if teacher.observation_kwargs.get("observation") == "privileged" else ObservationLayout
+    return PrivilegedLayout if teacher.play_kwargs.get("observation") == "privileged" else ObservationLayout
 
 
 def hidden_entries(layout) -> list[int]:

@@ -24,7 +24,7 @@ from mdr_drive_env.core import DriveParams, Waveform
 from mdr_drive_env.core import kernel as K
 from mdr_drive_env.core.analysis import is_runaway
 from mdr_drive_env.core.batch import BatchedDriveSimulator
-from mdr_drive_env.gym_envs.spaces import ActionMap
+from mdr_drive_env.gym_envs.spaces import ActionMap, shift_phase_origin
 
 #: The shipped policy.
 PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
@@ -179,11 +179,11 @@ class Policy:
         self.run = run
 
     @property
-    def observation_kwargs(self) -> dict:
-        """The env keywords that shape the observation it was trained on (``OBSERVATION_KEYS`` of its
-        run.json): an env built with them gives it the observation it expects."""
+    def play_kwargs(self) -> dict:
+        """The env keywords that shape the observation it was trained on and what its actions mean
+        (``PLAY_KEYS`` of its run.json): an env built with them is the env it expects."""
         env_kwargs = self.run.get("env_kwargs", {})
-        return {key: env_kwargs[key] for key in OBSERVATION_KEYS if key in env_kwargs}
+        return {key: env_kwargs[key] for key in PLAY_KEYS if key in env_kwargs}
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         if self.obs_rms is not None:
@@ -199,11 +199,13 @@ def load_policy(path: str | Path):
 
 
 def policy_rollout(policy, points, periods: int = EVAL_PERIODS, variant: str = "as-specified"):
-    """Run ``policy`` closed loop at each (k, cargo mass) point; returns (displacements (periods, n) m,
-    actions (periods, n, 5), runaway (n,) bool)."""
+    """Run ``policy`` closed loop at each (k, cargo mass) point, in the env it expects (a ``Policy``'s
+    ``play_kwargs``); returns (displacements (periods, n) m, actions (periods, n, 5) in the default
+    action units (``ACTION_MAP``, whatever the policy's ``z_phase_origin``), runaway (n,) bool)."""
     n = len(points)
+    play = policy.play_kwargs if isinstance(policy, Policy) else {}
     venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods,
-                        variant=variant)
+                        variant=variant, **play)
     obs, _ = venv.reset(seed=0, options={"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]})
     disp, acts = [], []
     for _ in range(periods):
@@ -212,7 +214,8 @@ def policy_rollout(policy, points, periods: int = EVAL_PERIODS, variant: str = "
         disp.append(info["displacement"])
         acts.append(a)
     params = [DriveParams.paper(k=k, cargo_mass=m, variant=variant) for k, m in points]
-    return np.array(disp), np.array(acts), runaway_of(np.array(disp), info["peak_normal_force"], params)
+    acts = shift_phase_origin(np.array(acts), play.get("z_phase_origin", 0.0), ACTION_MAP.z_phase_origin)
+    return np.array(disp), acts.astype(np.float32), runaway_of(np.array(disp), info["peak_normal_force"], params)
 
 
 def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS,
@@ -222,16 +225,20 @@ def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = 
     return steady_velocity_of(disp, average, runaway if mark_runaway else None)
 
 
-#: Keys of a policy's env kwargs that shape its observation (run.json): evaluation builds the same.
-OBSERVATION_KEYS = ("observation", "history", "sensor_forces")
+#: Keys of a policy's env kwargs that shape its observation or what its actions mean (run.json):
+#: evaluation builds the same.
+PLAY_KEYS = ("observation", "history", "sensor_forces", "z_phase_origin")
 
 
 def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS, load_step=None,
                 seed: int = 0, **env_kwargs):
     """One run of the single env ``MDRDrive-v0`` at (k, cargo mass): closed loop with ``policy``
     (``obs -> action``), or the trapezoid every period if ``policy`` is None. ``load_step``:
-    (period, cargo mass in kg). Returns (per-period mean velocities (periods,) m/s, actions
-    (periods, 5), whether the load ran away)."""
+    (period, cargo mass in kg); a ``Policy`` plays in the env it expects (its ``play_kwargs``, under
+    ``env_kwargs``). Returns (per-period mean velocities (periods,) m/s, actions (periods, 5) in the
+    default action units (``ACTION_MAP``, whatever ``z_phase_origin`` the env has), whether the load
+    ran away)."""
+    env_kwargs = {**(policy.play_kwargs if isinstance(policy, Policy) else {}), **env_kwargs}
     env = gym.make("MDRDrive-v0", k=k, cargo_mass=cargo_mass, max_periods=periods, **env_kwargs)
     obs, _ = env.reset(seed=seed, options={"load_step": load_step} if load_step else None)
     trapezoid = env.unwrapped.trapezoid_action()
@@ -243,7 +250,8 @@ def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS
         actions.append(a)
     v = np.array(velocities)
     runaway = runaway_of(v[:, None] * ACTION_MAP.period, [info["peak_normal_force"]], [env.unwrapped.params])
-    return v, np.array(actions), bool(runaway[0])
+    actions = shift_phase_origin(np.array(actions), env.unwrapped.action_map.z_phase_origin, ACTION_MAP.z_phase_origin)
+    return v, actions.astype(np.float32), bool(runaway[0])
 
 
 def load_step_type(text: str) -> tuple[int, float]:
@@ -353,14 +361,15 @@ def main(args: argparse.Namespace) -> int:
 
             raise with_option_name(e, FIELD_OPTIONS) from None
     policy = Policy(args.policy)
-    env_kwargs = policy.observation_kwargs
+    env_kwargs = policy.play_kwargs
     friction = {name: getattr(args, name) for name in ("friction_coefficient", "base_friction_coefficient")
                 if getattr(args, name) is not None}
     for warning in trained_range_warnings(policy.run, points if not args.critical_load else [], friction):
         print(f"mdr-drive evaluate: warning: {warning}", file=sys.stderr)
     if args.load_step is not None and args.load_step[0] >= args.periods:
         raise ValueError(f"--load-step period {args.load_step[0]} is not before the last of --periods {args.periods}")
-    single_env = bool(env_kwargs or friction or args.load_step or args.periods != EVAL_PERIODS)
+    shaped = {key: value for key, value in env_kwargs.items() if key != "z_phase_origin"}  # its observation
+    single_env = bool(shaped or friction or args.load_step or args.periods != EVAL_PERIODS)
     if args.critical_load and single_env:
         raise ValueError("--critical-load uses the fixed protocol: without --friction-coefficient, "
                          "--base-friction-coefficient, --load-step, --periods, and for full-observation policies")

@@ -94,6 +94,12 @@ def snippet(dst: Path, run: dict) -> str:
                               make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, max_periods=30, '
                                         "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
                                         "base_friction_coefficient=0.1")
+    origin = run["env_kwargs"].get("z_phase_origin", 0.0)
+    if origin:  # its actions mean what they mean in an env with its seam of the z phase
+        return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(),
+                              comment=f"# z_phase_origin={origin:g}: the env it was trained in (phase 0 at action "
+                                      f"{2 * ((1 - origin) % 1) - 1:g}), as in its run.json\n",
+                              make_args=f'"MDRDrive-v0", k=0.2, cargo_mass=0.1, z_phase_origin={origin:g}')
     return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(), comment="", make_args='"MDRDrive-v0", k=0.2, cargo_mass=0.1')
 
 

@@ -105,6 +105,15 @@ def command_line(module: str) -> str:
     return " ".join(sys.argv)
 
 
+def searched_with_another_config(field: DriveField, config: FieldConfig) -> bool:
+    """Whether ``field`` was searched with settings other than ``config`` (keys its saved config
+    lacks, added to ``FieldConfig`` since, count at their defaults)."""
+    def as_json(c) -> dict:
+        return json.loads(json.dumps(dataclasses.asdict(c)))
+
+    return {**as_json(FieldConfig()), **field.meta.get("config", {})} != as_json(config)
+
+
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
         force: bool = False, progress: bool = True, teacher: str | Path | None = None) -> dict:
     """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1); returns
@@ -123,7 +132,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
             field = DriveField.load(teacher)
         except (OSError, ValueError, KeyError, zipfile.BadZipFile) as e:
             raise ValueError(f"--teacher {teacher} is not a saved teacher field ({type(e).__name__}: {e})") from None
-        if field.meta.get("config") != json.loads(json.dumps(dataclasses.asdict(recipe["teacher"]))):
+        if searched_with_another_config(field, recipe["teacher"]):
             print(f"recipe: warning: {teacher} was searched with another teacher config than {config_path}'s",
                   file=sys.stderr)
     field.save(out / "teacher_field.npz")

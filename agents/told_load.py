@@ -59,7 +59,7 @@ def told_velocities(teacher: Policy, draws: np.ndarray, ratios: np.ndarray = TOL
         rows = draws[[i for i, _ in part]]
         ratio_told = ratios[[j for _, j in part]]
         venv = gym.make_vec("MDRDrive-v0", num_envs=len(part), vectorization_mode="vector_entry_point",
-                            max_periods=periods)
+                            max_periods=periods, **teacher.play_kwargs)
         obs, _ = venv.reset(seed=0, options={"k": rows[:, 0], "cargo_mass": rows[:, 1],
                                              "friction_coefficient": rows[:, 2],
                                              "base_friction_coefficient": rows[:, 3]})

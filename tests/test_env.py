@@ -126,6 +126,25 @@ def test_trapezoid_action_reproduces_the_simulator_bit_for_bit():
         assert reward == expected.displacement / 30e-6
 
 
+def test_the_z_phase_origin_moves_the_seam_of_the_phase_not_the_waveforms():
+    from mdr_drive_env.gym_envs.spaces import ActionMap, shift_phase_origin
+
+    default, moved = ActionMap(), ActionMap(z_phase_origin=0.5)
+    actions = np.random.default_rng(0).uniform(-1.0, 1.0, (2000, 5))
+    actions[:4, 4] = [1.0, -1.0, 0.0, 0.9]
+    shifted = shift_phase_origin(actions, 0.0, 0.5)
+    assert np.array_equal(shifted[:, :4], actions[:, :4])
+    np.testing.assert_allclose(shifted[:4, 4], [0.0, 0.0, -1.0, -0.1], atol=1e-12)
+    phase_gap = np.abs(default.to_params_batch(actions) - moved.to_params_batch(shifted))
+    assert phase_gap[:, :4].max() == 0.0 and phase_gap[:, 4].max() <= 1 / default.quanta + 1e-12  # at most a rounding tie
+    np.testing.assert_allclose(shift_phase_origin(shifted, 0.5, 0.0)[4:, 4], actions[4:, 4], atol=1e-12)
+    # the paper's phase 0 is action 0 with the seam moved; the trapezoid is the same waveform
+    env = gym.make("MDRDrive-v0", z_phase_origin=0.5).unwrapped
+    a = env.trapezoid_action()
+    assert a[4] == 0.0 and env.action_to_waveform(a) == Waveform.paper()
+    assert moved.to_waveform(a) == default.to_waveform(gym.make("MDRDrive-v0").unwrapped.trapezoid_action())
+
+
 def test_truncation_at_max_periods_and_never_terminated():
     env = gym.make("MDRDrive-v0", max_periods=3, cargo_mass=0.5, k=0.5)  # dragged back hard
     env.reset(seed=0)
@@ -152,6 +171,7 @@ def test_ranges_are_sampled_inside_their_bounds():
     ({"reward_scale": -1.0}, "reward_scale"), ({"actuation_penalty": float("nan")}, "actuation_penalty"),
     ({"numerics": "exact"}, "numerics"), ({"min_rise_fraction": 0.6}, "min_rise_fraction"),
     ({"poisson_ratio": 0.7}, "poisson_ratio"), ({"render_mode": "ascii"}, "render_mode"),
+    ({"z_phase_origin": 1.0}, "z_phase_origin"), ({"z_phase_origin": -0.1}, "z_phase_origin"),
 ])
 @pytest.mark.filterwarnings("ignore:.*render_mode='ascii'.*:UserWarning")  # gym.make's own warning
 def test_bad_arguments_raise_naming_the_argument(kwargs, name):

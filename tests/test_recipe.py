@@ -92,6 +92,59 @@ def test_a_saved_teacher_is_distilled_without_searching_again(recipe_run, tmp_pa
     assert "--teacher" in err and "bad.npz" in err and len(err.strip().splitlines()) == 1
 
 
+def test_a_student_taught_with_the_phase_seam_moved_acts_in_that_env_and_reports_default_actions(recipe_run, tmp_path):
+    import yaml
+
+    from mdr_drive_agents.distill import labelled_episodes, rollout
+    from mdr_drive_agents.drive_field import DriveField
+    from mdr_drive_agents.evaluate import Policy, policy_rollout, steady_velocity_of
+    from mdr_drive_env.gym_envs.spaces import shift_phase_origin
+
+    out, _ = recipe_run
+    field = DriveField.load(out / "teacher_field.npz")
+    config = yaml.safe_load(TINY.read_text())
+    # the teacher's episodes, translated: the same observations bar the phase entry, the same motion
+    points = [(0.05, 0.01), (0.2, 0.03), (0.25, 0.0)]
+    cfg = recipe.load_recipe(TINY)["distill"]
+    obs0, drives0 = labelled_episodes(field, points, None, cfg, 0)
+    obs5, drives5 = labelled_episodes(field, points, None, cfg, 0, z_phase_origin=0.5)
+    np.testing.assert_allclose(drives5, shift_phase_origin(drives0, 0.0, 0.5))
+    phase = 9  # prev_z_phase, the only entry that differs
+    assert np.array_equal(np.delete(obs0, phase, axis=1), np.delete(obs5, phase, axis=1))
+    _, _, d0 = rollout(points, drives0[:3], None, 6)
+    _, _, d5 = rollout(points, drives5[:3], None, 6, z_phase_origin=0.5)
+    assert np.array_equal(steady_velocity_of(d0, 3), steady_velocity_of(d5, 3))
+
+    config["env_kwargs"]["z_phase_origin"] = 0.5
+    (tmp_path / "moved.yaml").write_text(yaml.safe_dump(config))
+    recipe.run(tmp_path / "moved.yaml", tmp_path / "moved", progress=False, teacher=out / "teacher_field.npz")
+    policy = Policy(tmp_path / "moved" / "policy")
+    assert policy.play_kwargs == {"z_phase_origin": 0.5}
+    disp, acts, _ = policy_rollout(policy, points, periods=3)
+    env = gym.make("MDRDrive-v0", k=points[1][0], cargo_mass=points[1][1], max_periods=3, z_phase_origin=0.5)
+    obs, _ = env.reset(seed=0)
+    raw = []
+    for _ in range(3):
+        raw.append(policy(obs[None])[0])
+        obs, _, _, _, info = env.step(raw[-1])
+    assert info["displacement"] == pytest.approx(disp[-1, 1], rel=1e-5)  # played in the env it was taught in (the batched solver rounds otherwise)
+    np.testing.assert_allclose(acts[:, 1], shift_phase_origin(np.array(raw), 0.5, 0.0), atol=1e-6)  # reported in default units
+
+
+def test_the_shipped_teacher_field_counts_as_searched_with_the_shipped_config():
+    import dataclasses
+
+    from mdr_drive_agents.drive_field import DriveField
+
+    root = Path(__file__).resolve().parents[1]
+    field, config = DriveField.load(root / "results" / "recipe" / "teacher_field.npz"), recipe.load_recipe(
+        root / "agents" / "configs" / "recipe.yaml")["teacher"]
+    assert "friction" not in field.meta["config"]  # saved before the key existed: its default counts
+    assert not recipe.searched_with_another_config(field, config)
+    assert recipe.searched_with_another_config(field, dataclasses.replace(config, cycle_budget=701))
+    assert recipe.searched_with_another_config(field, dataclasses.replace(config, friction=(0.3, 0.13)))
+
+
 def test_configs_reject_bad_values_naming_them():
     with pytest.raises(ValueError, match="k_values"):
         FieldConfig(k_values=1)

@@ -81,7 +81,13 @@ class MDRDriveEnv(gym.Env):
     | 1 | x rise fraction t1/T (slow forward stroke; the fall is the rest) | [0.05, 0.95] |
     | 2 | z amplitude (maximum indentation depth) | [0, ``z_amplitude_max``] = [0, 6 µm] |
     | 3 | z rise fraction | [0.05, 0.95] |
-    | 4 | z phase delay, fraction of T | [0, 1) |
+    | 4 | z phase delay, fraction of T | [``z_phase_origin``, ``z_phase_origin`` + 1), modulo 1 |
+
+    The z phase is periodic, so action -1 and +1 select the same phase, ``z_phase_origin`` (default
+    0: the paper's phase at both ends of the box). Drives whose best phase lies just either side of
+    that seam have actions 2 apart for waveforms that are close; ``z_phase_origin=0.5`` puts phase 0
+    at action 0 and the seam half a period away. A policy's ``run.json`` keeps the value it was
+    trained with, and ``mdr-drive evaluate`` plays it in such an env.
 
     Rise fractions and the phase are quantised to 10 µs (1/200 of T), so corners fall on the time
     steps of every numerics preset. Actions outside the box are clipped; a non-finite action raises
@@ -192,7 +198,7 @@ class MDRDriveEnv(gym.Env):
     ``"as-published"``: h_N doubled, the hypothesis about the paper's code), ``numerics`` (preset name: ``"fast"``, the default node
     solver, see docs/performance.md; ``"default"`` or ``"paper"`` for the reference solver), ``period`` (s), ``max_periods``,
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
-    ``max_rise_fraction``, ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
+    ``max_rise_fraction``, ``z_phase_origin`` (fraction of T, in [0, 1)), ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
     (``"full"``, the default, ``"sensor"`` or ``"privileged"``), ``history`` (periods in the sensor observation),
     ``sensor_forces`` (bool), ``load_step_period`` (int or (low, high), or None), ``render_mode``
     (``"rgb_array"`` or ``"human"``). ``friction_coefficient`` and ``base_friction_coefficient`` take
@@ -201,8 +207,8 @@ class MDRDriveEnv(gym.Env):
     ## Version History
 
     * v0: initial version; later within v0: the sensor observation, friction ranges, load steps,
-      ``MDRDriveSensor-v0`` and the privileged observation (the full observation and its defaults are
-      unchanged).
+      ``MDRDriveSensor-v0``, the privileged observation and ``z_phase_origin`` (the full observation,
+      the action map and the defaults are unchanged).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -230,6 +236,7 @@ class MDRDriveEnv(gym.Env):
         z_amplitude_max: float = 6e-6,
         min_rise_fraction: float = 0.05,
         max_rise_fraction: float = 0.95,
+        z_phase_origin: float = 0.0,
         reward_scale: float = 30e-6,
         actuation_penalty: float = 0.0,
         reward_floor: float | None = None,
@@ -273,7 +280,8 @@ class MDRDriveEnv(gym.Env):
         self.render_mode = render_mode
         self.action_map = ActionMap(period=float(period), x_amplitude_max=x_amplitude_max,
                                     z_amplitude_max=z_amplitude_max, min_rise_fraction=min_rise_fraction,
-                                    max_rise_fraction=max_rise_fraction, time_step=self.numerics.time_step)
+                                    max_rise_fraction=max_rise_fraction, time_step=self.numerics.time_step,
+                                    z_phase_origin=z_phase_origin)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(ActionMap.SIZE,), dtype=np.float32)
         if observation not in OBSERVATIONS:
             raise ValueError(f"observation={observation!r} is not one of {list(OBSERVATIONS)}")

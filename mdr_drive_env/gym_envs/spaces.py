@@ -30,6 +30,12 @@ class ActionMap:
 
     Rise fractions and the z phase are quantised to ``time_quantum`` (s) so every corner falls on
     a time step; times are rounded to 1e-12 s so the paper's waveform is reproduced exactly.
+
+    The z phase is periodic: its action entry covers one period, from ``z_phase_origin`` (a fraction
+    of the period, at action -1) round to the same phase again at +1. Where the box's two ends meet
+    no waveform changes, but an action does jump from +1 to -1; ``z_phase_origin`` moves that seam
+    (0, the default: the paper's phase 0 at both ends; 0.5: phase 0 at action 0, the seam half a
+    period away).
     """
 
     period: float = 2e-3
@@ -39,6 +45,7 @@ class ActionMap:
     max_rise_fraction: float = 0.95
     time_step: float = 1e-6
     time_quantum: float = 1e-5
+    z_phase_origin: float = 0.0
 
     SIZE = 5
     NAMES = ("x_amplitude", "x_rise_fraction", "z_amplitude", "z_rise_fraction", "z_phase")
@@ -49,6 +56,7 @@ class ActionMap:
         check_range("min_rise_fraction", self.min_rise_fraction, 0.0, 0.5, low_open=True)
         check_range("max_rise_fraction", self.max_rise_fraction, self.min_rise_fraction, 1.0, high_open=True)
         check_range("period", self.period, 0.0, 1.0, low_open=True)
+        check_range("z_phase_origin", self.z_phase_origin, 0.0, 1.0, high_open=True)
         if not _divides(self.time_quantum, self.period):
             raise ValueError(f"period={self.period!r} must be a multiple of the time quantum {self.time_quantum!r} s")
         if not _divides(self.time_step, self.time_quantum):
@@ -63,7 +71,7 @@ class ActionMap:
         object.__setattr__(self, "_grid", (
             n, math.ceil(self.min_rise_fraction * n - 1e-9), math.floor(self.max_rise_fraction * n + 1e-9),
             self.max_rise_fraction - self.min_rise_fraction, rise, [round(self.period - r, 12) for r in rise],
-            np.array(rise)))
+            np.array(rise), int(round(self.z_phase_origin * n))))
 
     @property
     def quanta(self) -> int:
@@ -85,10 +93,10 @@ class ActionMap:
         if not all(math.isfinite(v) for v in values):
             raise ValueError(f"action {values} is not finite")
         u0, u1, u2, u3, u4 = ((min(max(v, -1.0), 1.0) + 1.0) / 2.0 for v in values)  # each in [0, 1]
-        n, lo, hi, span, rise, fall, _ = self._grid
+        n, lo, hi, span, rise, fall, _, origin = self._grid
         ix = min(max(round((self.min_rise_fraction + u1 * span) * n), lo), hi)  # rise time in quanta
         iz = min(max(round((self.min_rise_fraction + u3 * span) * n), lo), hi)
-        phase = (int(round(u4 * n)) % n) / n
+        phase = ((int(round(u4 * n)) + origin) % n) / n
         return WaveformParams(u0 * self.x_amplitude_max, rise[ix], fall[ix], u2 * self.z_amplitude_max, rise[iz],
                               fall[iz], phase, self.period)
 
@@ -107,7 +115,7 @@ class ActionMap:
         if not np.isfinite(a).all():
             raise ValueError(f"actions {a[~np.isfinite(a).all(axis=1)].tolist()} are not finite")
         u = (np.minimum(np.maximum(a, -1.0), 1.0) + 1.0) / 2.0  # np.clip, without its overhead
-        n, lo, hi, span, _, _, rise_table = self._grid
+        n, lo, hi, span, _, _, rise_table, origin = self._grid
         out = np.empty((a.shape[0], 5))
         out[:, 0] = u[:, 0] * self.x_amplitude_max
         out[:, 1] = rise_table[np.minimum(np.maximum(np.rint((self.min_rise_fraction + u[:, 1] * span) * n), lo),
@@ -115,7 +123,7 @@ class ActionMap:
         out[:, 2] = u[:, 2] * self.z_amplitude_max
         out[:, 3] = rise_table[np.minimum(np.maximum(np.rint((self.min_rise_fraction + u[:, 3] * span) * n), lo),
                                           hi).astype(np.int64)]
-        out[:, 4] = (np.rint(u[:, 4] * n).astype(np.int64) % n) / n
+        out[:, 4] = ((np.rint(u[:, 4] * n).astype(np.int64) + origin) % n) / n
         return out
 
     def to_waveform(self, action) -> Waveform:
@@ -132,7 +140,7 @@ class ActionMap:
             (waveform.x.rise_time / waveform.period - self.min_rise_fraction) / span,
             waveform.z.amplitude / self.z_amplitude_max,
             (waveform.z.rise_time / waveform.period - self.min_rise_fraction) / span,
-            waveform.z_phase,
+            (waveform.z_phase - self._grid[-1] / self._grid[0]) % 1.0,
         ])
         if np.any(u < -1e-9) or np.any(u > 1 + 1e-9):
             raise ValueError(f"waveform {waveform} lies outside the action box")
@@ -142,6 +150,17 @@ class ActionMap:
         """Electrical-energy proxy in [0, 1]: mean squared stroke relative to the actuator limits
         (amplitudes in m, floats or arrays)."""
         return 0.5 * ((x_amplitude / self.x_amplitude_max) ** 2 + (z_amplitude / self.z_amplitude_max) ** 2)
+
+
+def shift_phase_origin(actions, from_origin: float, to_origin: float) -> np.ndarray:
+    """``actions`` (..., 5) of an :class:`ActionMap` with ``z_phase_origin`` ``from_origin`` as the
+    actions that select the same waveforms under ``to_origin`` (only the z phase entry changes)."""
+    out = np.array(actions, dtype=np.float64)
+    if from_origin == to_origin:
+        return out
+    u = (np.clip(out[..., 4], -1.0, 1.0) + 1.0) / 2.0
+    out[..., 4] = 2.0 * ((u + from_origin - to_origin) % 1.0) - 1.0
+    return out
 
 
 class WaveformParams(NamedTuple):
