@@ -97,9 +97,7 @@ def play(drive: str, policies: dict, d: dict, periods: int, load_step=None):
     runaway)."""
     friction = {"friction_coefficient": d["friction_coefficient"],
                 "base_friction_coefficient": d["base_friction_coefficient"]}
-    policy = policies[drive]
-    kwargs = {**friction, **(policy.play_kwargs if isinstance(policy, Policy) else {})}
-    return env_rollout(policy, d["k"], d["cargo_mass"], periods, load_step, **kwargs)
+    return env_rollout(policies[drive], d["k"], d["cargo_mass"], periods, load_step, **friction)  # in its own env
 
 
 def recovery(v: np.ndarray) -> tuple[float, float | None, bool | None]:

@@ -129,16 +129,15 @@ def load_steps(sensor, full, out: Path) -> None:
 
     from mdr_drive_env.files import save_figure
 
-    drives = (("sensor policy", sensor, sensor.play_kwargs), ("full-observation policy", full,
-              full.play_kwargs), ("trapezoid", None, {}))
+    drives = (("sensor policy", sensor), ("full-observation policy", full), ("trapezoid", None))
     print(f"\n3. a drive that does not know its load: k = {STEP_K:g}, the cargo changes before period "
           f"{LOAD_STEPS[0][1]} (counted from 0); mean velocity (mm/s) of periods 1-{LOAD_STEPS[0][1]} -> "
           f"{LOAD_STEPS[0][1] + 6}-{STEP_PERIODS}")
     fig, axes = plt.subplots(1, len(LOAD_STEPS), figsize=(11, 3.8), sharey=True)
     for ax, (before, period, after) in zip(axes, LOAD_STEPS):
         line = []
-        for name, policy, kwargs in drives:
-            v, _, _ = env_rollout(policy, STEP_K, before, STEP_PERIODS, (period, after), **kwargs)
+        for name, policy in drives:  # each policy in the env its run.json names (env_rollout)
+            v, _, _ = env_rollout(policy, STEP_K, before, STEP_PERIODS, (period, after))
             line.append(f"{name} {v[:period].mean() * 1e3:.1f} -> {v[period + 5:].mean() * 1e3:.1f}")
             ax.plot(np.arange(1, STEP_PERIODS + 1), v * 1e3, lw=1.8 if policy is sensor else 1.0, label=name)
         print(f"   {before * 1e3:.0f} g -> {after * 1e3:.0f} g: " + ", ".join(line))

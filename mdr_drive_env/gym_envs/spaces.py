@@ -35,7 +35,7 @@ class ActionMap:
     of the period, at action -1) round to the same phase again at +1. Where the box's two ends meet
     no waveform changes, but an action does jump from +1 to -1; ``z_phase_origin`` moves that seam
     (0, the default: the paper's phase 0 at both ends; 0.5: phase 0 at action 0, the seam half a
-    period away).
+    period away). It is quantised to ``time_quantum`` as the phase is.
     """
 
     period: float = 2e-3
@@ -135,12 +135,13 @@ class ActionMap:
     def to_action(self, waveform: Waveform) -> np.ndarray:
         """The action that selects ``waveform`` (inverse of :meth:`to_waveform` on the grid)."""
         span = self.max_rise_fraction - self.min_rise_fraction
+        n, *_, origin = self._grid
         u = np.array([
             waveform.x.amplitude / self.x_amplitude_max,
             (waveform.x.rise_time / waveform.period - self.min_rise_fraction) / span,
             waveform.z.amplitude / self.z_amplitude_max,
             (waveform.z.rise_time / waveform.period - self.min_rise_fraction) / span,
-            (waveform.z_phase - self._grid[-1] / self._grid[0]) % 1.0,
+            (waveform.z_phase - origin / n) % 1.0,
         ])
         if np.any(u < -1e-9) or np.any(u > 1 + 1e-9):
             raise ValueError(f"waveform {waveform} lies outside the action box")
