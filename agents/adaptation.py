@@ -52,6 +52,8 @@ STEP_PERIOD = 20
 STEP_EPISODE_PERIODS = 40
 RECOVERY_PERIODS = 5
 RECOVERY_FRACTION = 0.9
+#: The issue's floor on a sensor drive's fraction of the per-point best drive ("under 0.75" in the tables).
+FRACTION_FLOOR = 0.75
 DRIVES = ("sensor policy", "full-observation policy", "trapezoid", "tuned once")
 
 
@@ -71,6 +73,12 @@ def draw_hidden(n: int, seed: int, load_step: bool = False) -> list[dict]:
             d["step_cargo_mass"] = float(u.load_step[1])
         draws.append(d)
     return draws
+
+
+def hidden_point(d: dict) -> tuple[float, float, float, float]:
+    """A draw of :func:`draw_hidden` (or a report's ``points`` entry) as a (k, cargo mass kg, mu, mu1)
+    point, as ``evaluate.open_loop_velocity`` and ``DriveField.best`` take it."""
+    return d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]
 
 
 def tuned_once_action(budget: int = CMA_BUDGET) -> np.ndarray:

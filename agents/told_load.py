@@ -100,7 +100,8 @@ def main(argv=None) -> int:
 
     from mdr_drive_env.cli_args import Parser, input_file
 
-    from .adaptation import draw_hidden
+    from .adaptation import FRACTION_FLOOR, draw_hidden, hidden_point
+    from .blind import MOVING_THRESHOLD
     from .evaluate import env_rollout
 
     ap = Parser(prog="python -m mdr_drive_agents.told_load", description=main.__doc__)
@@ -118,8 +119,7 @@ def main(argv=None) -> int:
     points = draw_hidden(a.n, a.seed)
     if len(best) != len(points):
         ap.error(f"--adaptation has {len(best)} points, not --n {a.n}")
-    draws = np.array([[d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]]
-                      for d in points])
+    draws = np.array([hidden_point(d) for d in points])
     v = told_velocities(teacher, draws)
     truth = np.array([np.mean(env_rollout(teacher, d["k"], d["cargo_mass"], EVAL_PERIODS, None,
                                           friction_coefficient=d["friction_coefficient"],
@@ -130,13 +130,13 @@ def main(argv=None) -> int:
     label = v[np.arange(len(v)), at]
     rows = np.arange(len(v))
     off_by_one = np.minimum(v[rows, np.maximum(at - 1, 0)], v[rows, np.minimum(at + 1, len(TOLD_RATIOS) - 1)])
-    scored = best >= 2e-3
+    scored = best >= MOVING_THRESHOLD
     print(f"{a.n} draws of seed {a.seed}, {int(scored.sum())} where the best drive moves >= 2 mm/s; "
-          "fraction of the best drive: mean / min / under 0.75")
+          f"fraction of the best drive: mean / min / under {FRACTION_FLOOR:g}")
     for name, x in (("told the truth", truth), ("told the label", label), ("told the best ratio", v.max(axis=1)),
                     ("told the label one ratio off (the slower side)", off_by_one)):
         f = x[scored] / best[scored]
-        print(f"  {name:47s} {f.mean():.3f} / {f.min():.3f} / {int((f < 0.75).sum())}")
+        print(f"  {name:47s} {f.mean():.3f} / {f.min():.3f} / {int((f < FRACTION_FLOOR).sum())}")
     return 0
 
 

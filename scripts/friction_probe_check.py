@@ -98,13 +98,14 @@ def main(argv=None) -> int:
     p.add_argument("--limit", type=int_range(1), default=None, help="only the report's first N draws (-)")
     args = p.parse_args(argv)
 
-    from mdr_drive_agents.blind import velocity_statistics
+    from mdr_drive_agents.adaptation import FRACTION_FLOOR, hidden_point
+    from mdr_drive_agents.blind import MOVING_THRESHOLD, velocity_statistics
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import open_loop_velocity
 
     res = json.loads(Path(args.adaptation).read_text())
     draws = res["points"][:args.limit]
-    points = [(d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]) for d in draws]
+    points = [hidden_point(d) for d in draws]
     n = len(points)
     fields = sorted((DriveField.load(f) for f in args.fields), key=lambda f: f.friction[1] / f.friction[0])
     drives = per_rho_drives(fields, points, args.radius)
@@ -122,11 +123,13 @@ def main(argv=None) -> int:
     trap = np.asarray(res["steady_velocity_m_s"]["trapezoid"][:n], dtype=np.float64)
     rhos = ", ".join(f"{f.friction[1] / f.friction[0]:.3f}" for f in fields)
     print(f"{n} draws of seed {res['seed']}; drives of the fields at mu1 / mu = {rhos}; k and the load told exactly")
-    print("| drive (open loop) | below the trapezoid (worst mm/s) | fraction of best: mean / min | under 0.75 (of scored) |")
+    print(f"| drive (open loop) | below the trapezoid (worst mm/s) | fraction of best: mean / min | "
+          f"under {FRACTION_FLOOR:g} (of scored) |")
     print("|---|---|---|---|")
+    scored = best >= MOVING_THRESHOLD
     for name, vel in rows.items():
         s = velocity_statistics(trap, best, vel)
-        under = int((np.nan_to_num(vel)[best >= 2e-3] / best[best >= 2e-3] < 0.75).sum())
+        under = int((np.nan_to_num(vel)[scored] / best[scored] < FRACTION_FLOOR).sum())
         print(f"| {name} | {s['points_below_trapezoid']} ({s['worst_difference_to_trapezoid_mm_s']:.3f}) | "
               f"{s['fraction_of_best_mean']:.3f} / {s['fraction_of_best_min']:.3f} | {under} ({s['points_scored']}) |")
     return 0

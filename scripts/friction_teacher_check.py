@@ -41,11 +41,12 @@ def main(argv=None) -> int:
                    help="first replay the best drives of the first N draws at scaled friction (-)")
     args = p.parse_args(argv)
 
+    from mdr_drive_agents.adaptation import FRACTION_FLOOR, hidden_point
     from mdr_drive_agents.blind import MOVING_THRESHOLD
     from mdr_drive_agents.friction_teacher import FrictionField
 
     res = json.loads(Path(args.adaptation).read_text())
-    points = [(d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]) for d in res["points"]]
+    points = [hidden_point(d) for d in res["points"]]
     if args.scaling:
         print_scaling(res["points"][:args.scaling], res["best_search"][:args.scaling])
     best = np.asarray(res["best_velocity_m_s"], dtype=np.float64)
@@ -60,14 +61,14 @@ def main(argv=None) -> int:
              ("0.28 ... 0.40", (rho >= 0.28) & (rho < 0.40)), (">= 0.40", rho >= 0.40)]
     print(f"{len(points)} draws of seed {res['seed']}, {int(scored.sum())} where the best drive moves >= 2 mm/s; "
           f"fields: {', '.join(map(str, args.fields))}")
-    print("| drive | " + " | ".join(f"{name}: mean / min / under 0.75 (n)" for name, _ in bands) + " |")
+    print("| drive | " + " | ".join(f"{name}: mean / min / under {FRACTION_FLOOR:g} (n)" for name, _ in bands) + " |")
     print("|---|" + "---|" * len(bands))
     for name, v in rows.items():
         cells = []
         for _, band in bands:
             keep = scored & band
             frac = v[keep] / best[keep]
-            cells.append(f"{frac.mean():.3f} / {frac.min():.3f} / {int((frac < 0.75).sum())} ({int(keep.sum())})"
+            cells.append(f"{frac.mean():.3f} / {frac.min():.3f} / {int((frac < FRACTION_FLOOR).sum())} ({int(keep.sum())})"
                          if keep.any() else "-")
         print(f"| {name} | " + " | ".join(cells) + " |")
     return 0
@@ -76,13 +77,14 @@ def main(argv=None) -> int:
 def print_scaling(draws: list[dict], searched: list[dict]) -> None:
     """Each searched best drive (the report's ``best_search`` entries) replayed at its draw (the
     report's ``points`` entries) and at scaled friction (``--scaling``), in mm/s."""
+    from mdr_drive_agents.adaptation import hidden_point
     from mdr_drive_agents.evaluate import open_loop_velocity
 
     print("| k | load / (mu F_ref) | mu | mu1 / mu | at the draw | mu = 0.3, same ratio and load / (mu F_ref) | "
           "mu1 x 1.3 | mu1 / 1.3 |")
     print("|---|---|---|---|---|---|---|---|")
     for d, found in zip(draws, searched):
-        k, m, mu, mu1 = d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]
+        k, m, mu, mu1 = hidden_point(d)
         drive = np.asarray(found["action"], dtype=np.float64).reshape(-1, 5)
         s = 0.3 / mu
         trials = [(k, m, mu, mu1), (k, m * s, 0.3, mu1 * s), (k, m, mu, mu1 * 1.3), (k, m, mu, mu1 / 1.3)]
