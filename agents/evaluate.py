@@ -225,9 +225,11 @@ def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = 
     return steady_velocity_of(disp, average, runaway if mark_runaway else None)
 
 
-#: Keys of a policy's env kwargs that shape its observation or what its actions mean (run.json):
-#: evaluation builds the same.
-PLAY_KEYS = ("observation", "history", "sensor_forces", "z_phase_origin")
+#: Keys of a policy's env kwargs (run.json) that shape its observation, and that set what its actions
+#: mean: evaluation builds the same env.
+OBSERVATION_KEYS = ("observation", "history", "sensor_forces")
+ACTION_KEYS = ("z_phase_origin",)
+PLAY_KEYS = OBSERVATION_KEYS + ACTION_KEYS
 
 
 def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS, load_step=None,
@@ -368,7 +370,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"mdr-drive evaluate: warning: {warning}", file=sys.stderr)
     if args.load_step is not None and args.load_step[0] >= args.periods:
         raise ValueError(f"--load-step period {args.load_step[0]} is not before the last of --periods {args.periods}")
-    shaped = {key: value for key, value in env_kwargs.items() if key != "z_phase_origin"}  # its observation
+    shaped = [key for key in env_kwargs if key in OBSERVATION_KEYS]  # a sensor or privileged observation
     single_env = bool(shaped or friction or args.load_step or args.periods != EVAL_PERIODS)
     if args.critical_load and single_env:
         raise ValueError("--critical-load uses the fixed protocol: without --friction-coefficient, "
