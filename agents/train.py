@@ -99,6 +99,23 @@ def warm_start_at(model, action: np.ndarray) -> None:
         net.bias.copy_(torch.as_tensor(a))
 
 
+def key_value(text: str) -> tuple[str, Any]:
+    """argparse type: ``KEY:VALUE`` as (key, value): a number as a number (``1e-5``, ``512``), anything
+    else read as YAML (``[64, 64]``, ``true``)."""
+    key, sep, value = text.partition(":")
+    if not sep or not key.isidentifier():
+        raise argparse.ArgumentTypeError(f"{text!r} is not KEY:VALUE (e.g. learning_rate:1e-5)")
+    for number in (int, float):
+        try:
+            return key, number(value)
+        except ValueError:
+            pass
+    try:
+        return key, yaml.safe_load(value)
+    except yaml.YAMLError:
+        raise argparse.ArgumentTypeError(f"{text!r}: {value!r} is not a YAML value") from None
+
+
 def versions() -> dict[str, str]:
     import gymnasium
     import numba
@@ -129,6 +146,35 @@ def _save_normalisation_callback(path: Path):
     return SaveNormalisation()
 
 
+def actor_parameters(model) -> list:
+    """The parameters that set a policy's actions (PPO: the policy net, the action net and the log
+    std; SAC: the actor): what ``frozen_actor`` holds still while the critic learns."""
+    policy = model.policy
+    if hasattr(policy, "action_net"):
+        return [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters(), policy.log_std]
+    return list(model.actor.parameters())
+
+
+class frozen_actor:
+    """Context in which ``model.learn`` trains only the critic: the actor's parameters get no
+    gradient (Adam skips them), so its actions stay as they are while the value function learns the
+    returns of the policy as it plays."""
+
+    def __init__(self, model):
+        self.params = actor_parameters(model)
+
+    def __enter__(self):
+        self.flags = [p.requires_grad for p in self.params]
+        for p in self.params:
+            p.requires_grad_(False)
+        return self
+
+    def __exit__(self, *exc):
+        for p, flag in zip(self.params, self.flags):
+            p.requires_grad_(flag)
+        return False
+
+
 class _Interrupted(Exception):
     """SIGTERM during training (handled like Ctrl-C)."""
 
@@ -145,8 +191,13 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
           n_envs: int | None = None, k=None, cargo_mass=None, load_ratio=None, config: str | Path | None = None,
           resume: str | Path | None = None, eval_freq: int = 20_000, checkpoint_freq: int = 100_000,
           warm_start: str | None = None, progress_bar: bool = True, verbose: int = 0, force: bool = False,
-          torch_threads: int = 1) -> dict[str, Any]:
+          torch_threads: int = 1, critic_warmup: int = 0, hyperparams: dict[str, Any] | None = None) -> dict[str, Any]:
     """Train (or resume) a policy; returns the run record also written to ``run.json``.
+
+    ``critic_warmup`` steps (rounded as ``steps`` are) come first and train only the critic, the
+    actor frozen (``frozen_actor``): a distilled or adapted policy has no trained value function,
+    and PPO's first updates would otherwise follow a random critic's advantages. ``hyperparams``
+    replace the config's (or, resuming, the run's) SB3 hyperparameters, as the RL Zoo's ``-params``.
 
     Refuses to train into a folder that holds a run unless ``resume`` names it or ``force`` is set.
     Ctrl-C or SIGTERM saves the model, its normalisation and run.json (``"interrupted": true``).
@@ -162,6 +213,8 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     for name, value in (("steps", steps), ("n_envs", n_envs), ("torch_threads", torch_threads)):
         if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
             raise ValueError(f"{name}={value!r} is outside the allowed range [1, inf)")
+    if isinstance(critic_warmup, bool) or not isinstance(critic_warmup, (int, np.integer)) or critic_warmup < 0:
+        raise ValueError(f"critic_warmup={critic_warmup!r} is outside the allowed range [0, inf)")
     out = Path(resume or out)
     run_file = out / "run.json"
     if not resume and not force and ((out / "run.json").exists() or (out / "model.zip").exists()):
@@ -183,6 +236,10 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         if n_envs:
             hyper["n_envs"] = n_envs
     hyper = dict(hyper)
+    overrides = dict(hyperparams or {})
+    if resume and "policy_kwargs" in overrides:
+        raise ValueError("hyperparams: policy_kwargs cannot change when resuming (the network is the run's)")
+    hyper.update(overrides)
     n = int(hyper.pop("n_envs", 8))
     total = int(steps if steps is not None else hyper.pop("n_timesteps", 1e6))
     hyper.pop("n_timesteps", None)
@@ -190,11 +247,12 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     normalize = hyper.pop("normalize", True)
     threads = int(torch_threads)
     torch.set_num_threads(threads)
-    actual = rounded_steps(algo, total, n, hyper)
-    if actual != total:
-        rollout = int(hyper.get("n_steps", 2048))
-        print(f"train: PPO collects whole rollouts of n_steps x n_envs = {rollout} x {n} = {rollout * n} steps: "
-              f"--steps {total} runs {actual} steps", file=sys.stderr)
+    for option, asked in (("--steps", total), ("--critic-warmup", int(critic_warmup))):
+        actual = rounded_steps(algo, asked, n, hyper)
+        if asked and actual != asked:
+            rollout = int(hyper.get("n_steps", 2048))
+            print(f"train: PPO collects whole rollouts of n_steps x n_envs = {rollout} x {n} = {rollout * n} steps: "
+                  f"{option} {asked} runs {actual} steps", file=sys.stderr)
     out.mkdir(parents=True, exist_ok=True)
 
     if not resume:
@@ -212,7 +270,8 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
             # policy below the trapezoid at 293 of 1,024 points, docs/ablations.md). Frozen, with the
             # reward statistics.
             venv.training = False
-        model = algos[algo].load(out / "model.zip", env=venv, device="cpu")
+        model = algos[algo].load(out / "model.zip", env=venv, device="cpu", tensorboard_log=str(out / "tb"),
+                                 **{key: v for key, v in overrides.items() if key != "n_envs"})
     else:
         if normalize:
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=hyper.get("gamma", 0.99))
@@ -230,6 +289,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
                      callback_on_new_best=_save_normalisation_callback(out / "best" / "vecnormalize.pkl")),
     ]
     start_steps = model.num_timesteps
+    warmup_steps = 0
     t0 = time.perf_counter()
 
     def on_sigterm(signum, frame):
@@ -238,8 +298,13 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     interrupted = False
     old_handler = signal.signal(signal.SIGTERM, on_sigterm)
     try:
-        model.learn(total, callback=callbacks, progress_bar=progress_bar, reset_num_timesteps=not resume,
-                    tb_log_name=algo)
+        if critic_warmup:
+            with frozen_actor(model):
+                model.learn(int(critic_warmup), progress_bar=progress_bar, reset_num_timesteps=not resume,
+                            tb_log_name=f"{algo}_critic_warmup")
+            warmup_steps = model.num_timesteps - start_steps
+        model.learn(total, callback=callbacks, progress_bar=progress_bar,
+                    reset_num_timesteps=not (resume or critic_warmup), tb_log_name=algo)
     except (KeyboardInterrupt, _Interrupted):
         interrupted = True
         print(f"train: interrupted at step {model.num_timesteps}; saved, continue with --resume {out}", file=sys.stderr)
@@ -255,6 +320,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         "hyperparameters": {**hyper, "n_envs": n, "normalize": normalize},
         "command": " ".join(sys.argv), "versions": versions(), "torch_threads": threads,
         "total_timesteps": int(model.num_timesteps), "steps_this_run": int(model.num_timesteps - start_steps),
+        "critic_warmup_steps_this_run": int(warmup_steps),
         "wall_time_s": round(wall + (previous["wall_time_s"] if previous else 0.0), 1),
         "steps_per_s_this_run": round((model.num_timesteps - start_steps) / wall, 1),
         "resumes": (previous["resumes"] + 1) if previous else 0,
@@ -266,7 +332,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from mdr_drive_env.cli_args import folder_with, input_file, output_dir, positive_int
+    from mdr_drive_env.cli_args import folder_with, input_file, int_range, output_dir, positive_int
     from mdr_drive_env.sweep import add_executor_arguments
 
     p.add_argument("--algo", choices=["ppo", "sac"], default="ppo", help="SB3 algorithm")
@@ -290,6 +356,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default=None, type=output_dir, help="output folder (default: runs/<algo>_s<seed>)")
     p.add_argument("--resume", default=None, metavar="DIR", type=folder_with("model.zip", "run.json"), help="continue the run in DIR (same step counter); a distilled or adapted policy keeps the "
                         "observation statistics it was fitted on")
+    p.add_argument("--critic-warmup", type=int_range(0), default=0, metavar="STEPS",
+                   help="first train only the value function for STEPS environment steps, the actor frozen, >= 0 "
+                        "(-); for fine-tuning a distilled or adapted policy, which has no trained critic")
+    p.add_argument("--hyperparams", nargs="+", default=None, type=key_value, metavar="KEY:VALUE",
+                   help="SB3 hyperparameters that replace the config's, or the run's when resuming, as the RL "
+                        "Zoo's -params (e.g. learning_rate:1e-5 n_steps:512; values read as YAML)")
     p.add_argument("--eval-freq", type=positive_int, default=20_000, help="evaluate on held-out points every N steps (-)")
     p.add_argument("--checkpoint-freq", type=positive_int, default=100_000, help="checkpoint every N steps (-)")
     p.add_argument("--warm-start", default=None, choices=("none", "trapezoid"),
@@ -317,7 +389,8 @@ def main(args: argparse.Namespace) -> int:
                               steps=args.steps, n_envs=args.n_envs, k=args.k, cargo_mass=args.cargo_mass,
                               load_ratio=args.load_ratio, config=args.config, eval_freq=args.eval_freq,
                               checkpoint_freq=args.checkpoint_freq, warm_start=args.warm_start,
-                              torch_threads=args.torch_threads)
+                              torch_threads=args.torch_threads, critic_warmup=args.critic_warmup,
+                              hyperparams=dict(args.hyperparams or ()))
         for seed, folder in folders.items():
             run = json.loads((folder / "run.json").read_text())
             print(f"seed {seed}: {folder} ({run['total_timesteps']} steps, {run['wall_time_s']} s)")
@@ -326,7 +399,8 @@ def main(args: argparse.Namespace) -> int:
     record = train(args.algo, args.steps, args.seed, out, args.n_envs, args.k, args.cargo_mass, args.load_ratio,
                    args.config,
                    args.resume, args.eval_freq, args.checkpoint_freq, warm_start=args.warm_start,
-                   progress_bar=not args.no_progress, force=args.force, torch_threads=args.torch_threads)
+                   progress_bar=not args.no_progress, force=args.force, torch_threads=args.torch_threads,
+                   critic_warmup=args.critic_warmup, hyperparams=dict(args.hyperparams or ()))
     print(json.dumps({key: record[key] for key in ("algo", "seed", "total_timesteps", "wall_time_s",
                                                     "steps_per_s_this_run", "interrupted")}, indent=2))
     return 130 if record["interrupted"] else 0

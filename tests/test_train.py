@@ -117,3 +117,56 @@ def test_several_seeds_train_as_one_sweep_and_a_rerun_keeps_them(tmp_path, capsy
     assert main(args) == 0
     assert "seed 0 is already trained" in capsys.readouterr().out
     assert (tmp_path / "s0" / "model.zip").read_bytes() == first
+
+
+def test_a_critic_warmup_trains_the_value_function_and_leaves_the_actions_alone(tmp_path):
+    import torch
+    from stable_baselines3 import PPO
+
+    from mdr_drive_agents.train import actor_parameters, frozen_actor
+
+    out = tmp_path / "run"
+    train("ppo", steps=64, seed=0, out=out, **KW)
+    model = PPO.load(out / "model.zip", env=_venv(), device="cpu", n_steps=32, batch_size=32)
+    actor = [p.detach().clone() for p in actor_parameters(model)]
+    critic = [p.detach().clone() for p in model.policy.mlp_extractor.value_net.parameters()]
+    with frozen_actor(model):
+        model.learn(64)
+    assert all(torch.equal(a, p) for a, p in zip(actor, actor_parameters(model)))
+    assert not all(torch.equal(c, p) for c, p in zip(critic, model.policy.mlp_extractor.value_net.parameters()))
+    assert all(p.requires_grad for p in actor_parameters(model))  # the context gives them back
+    model.learn(64)
+    assert not all(torch.equal(a, p) for a, p in zip(actor, actor_parameters(model)))
+
+    resumed = train(resume=out, steps=64, critic_warmup=100, **KW)
+    assert resumed["critic_warmup_steps_this_run"] == rounded_steps("ppo", 100, 4, resumed["hyperparameters"])
+    assert resumed["steps_this_run"] == resumed["critic_warmup_steps_this_run"] + rounded_steps(
+        "ppo", 64, 4, resumed["hyperparameters"])
+    with pytest.raises(ValueError, match="critic_warmup=-1"):
+        train(resume=out, steps=64, critic_warmup=-1, **KW)
+    with pytest.raises(SystemExit) as e:
+        main(["train", "--critic-warmup", "-5"])
+    assert e.value.code == 2
+
+
+def test_hyperparams_replace_the_runs_own_when_resuming(tmp_path, capsys):
+    from stable_baselines3 import PPO
+
+    from mdr_drive_agents.train import key_value
+
+    assert key_value("learning_rate:1e-5") == ("learning_rate", 1e-5) and key_value("n_steps:64") == ("n_steps", 64)
+    assert key_value("net_arch:[64, 64]") == ("net_arch", [64, 64])
+    out = tmp_path / "run"
+    train("ppo", steps=64, seed=0, out=out, **KW)
+    record = train(resume=out, steps=64, hyperparams={"learning_rate": 1e-5, "n_steps": 32}, **KW)
+    assert record["hyperparameters"]["learning_rate"] == 1e-5 and record["hyperparameters"]["n_steps"] == 32
+    model = PPO.load(out / "model.zip", device="cpu")
+    assert model.learning_rate == 1e-5 and model.n_steps == 32
+    assert any((out / "tb").iterdir())  # a resumed run logs to TensorBoard too
+    with pytest.raises(ValueError, match="policy_kwargs cannot change"):
+        train(resume=out, steps=64, hyperparams={"policy_kwargs": {}}, **KW)
+    for bad in ("learning_rate", "1x:2"):
+        with pytest.raises(SystemExit) as e:
+            main(["train", "--hyperparams", bad])
+        assert e.value.code == 2
+    assert "is not KEY:VALUE" in capsys.readouterr().err
