@@ -16,11 +16,6 @@ network acts (``PPO.load`` + ``VecNormalize.load`` + ``model.predict``). Trainin
    drive jumps between optima is wrong in patches near the jumps, and where the patches fall
    changes from run to run with the fit's round-off: these rounds look for them and fill them.
 
-Before the fit, an optional *edge round* (``edge_probes``) looks for those jumps in the teacher
-alone, before any student has failed there: where the teacher's drive changes by more than
-``edge_jump`` between a point and one 2 % heavier or 0.01 further in k (``find_edges``), its
-episodes at and around the point join round 0's, so the fit sees the jump from both sides.
-
 The teacher's drive at an episode's point is the best of the field's interpolation and its
 surrounding grid drives played at that very point (``DriveField.best``). The fit is a squared
 error on the policy's mean action, except that where the teacher's action lies on the box's edge
@@ -85,13 +80,6 @@ class DistillConfig:
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
             the interpolation (``DriveField.best``): 1 the cell's four corners, R the 2R x 2R nodes
             around it (-).
-        edge_probes: random points where the teacher's drive is compared with its drive nearby
-            before the fit (``find_edges``; 0: no edge round) (-).
-        edge_jump: a probe is an edge where an entry of the teacher's drive differs by more than
-            this from its drive at the load times ``1 + edge_load_step`` or at k + 0.01 (action units).
-        edge_load_step: the relative load step of that comparison (-).
-        edge_neighbours: teacher episodes added at jittered points around each edge, besides the
-            edge itself (as ``hole_neighbours``) (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -116,18 +104,13 @@ class DistillConfig:
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
     huber_delta: float = 0.0
-    edge_probes: int = 0
-    edge_jump: float = 0.3
-    edge_load_step: float = 0.02
-    edge_neighbours: int = 8
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
-                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "edge_probes", "edge_neighbours"):
-            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours",
-                                                              "edge_probes", "edge_neighbours") else 1)
+                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps"):
+            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -137,8 +120,6 @@ class DistillConfig:
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
-        check_range("edge_jump", self.edge_jump, 0.0, 2.0, low_open=True)
-        check_range("edge_load_step", self.edge_load_step, 0.0, 1.0, low_open=True)
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig,
@@ -340,7 +321,6 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     if validation_points:
         val = (validation_points, field_.best(validation_points, radius=config.teacher_radius)[1])
     obs_all, drive_all = [], []
-    edge_record: dict = {}
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config, friction)
@@ -352,19 +332,10 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
             student.venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
             student.venv.obs_rms.var = obs.astype(np.float64).var(axis=0)
             student.venv.obs_rms.count = float(len(obs))
-            if config.edge_probes:
-                edges, found = find_edges(field_, config, rng, friction)
-                if edges:
-                    k_range = (float(field_.ks[0]), float(field_.ks[-1]))
-                    obs, sample_drives = labelled_episodes(field_, around(edges, config.edge_neighbours, rng, k_range),
-                                                           None, config, seed + 50, student.z_phase_origin)
-                    obs_all.append(obs)
-                    drive_all.append(sample_drives)
-                edge_record = found
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
                    config.steps if r == 0 else config.round_steps, config, seed + r, progress)
-        record = {"round": r, **(edge_record if r == 0 else {}), "samples": int(sum(len(o) for o in obs_all)),
-                  "loss": loss, "wall_time_s": round(time.perf_counter() - t0, 1)}
+        record = {"round": r, "samples": int(sum(len(o) for o in obs_all)), "loss": loss,
+                  "wall_time_s": round(time.perf_counter() - t0, 1)}
         if val is not None:
             record.update(validation_fraction(student, *val))
         student.history.append(record)
@@ -429,26 +400,6 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
         "probe_mean_fraction": float(np.mean(v_student[moving] / v_teacher[moving])) if moving.any() else None}
 
 
-def find_edges(field_: DriveField, config: DistillConfig, rng: np.random.Generator, friction=None):
-    """The teacher's drive at ``config.edge_probes`` fresh random points (``draw_points`` with
-    ``friction``) against its drive at the load times ``1 + edge_load_step`` and at k + 0.01 (k - 0.01
-    at the field's upper end), each cycle in the phase closest to the point's: the points where an
-    entry differs by more than ``edge_jump`` and the teacher moves there, and counts."""
-    from .drive_field import align_phase
-
-    points = draw_points(field_, config.edge_probes, rng, config, friction)
-    k_high = float(field_.ks[-1])
-    heavier = [(k, m * (1.0 + config.edge_load_step), *rest) for k, m, *rest in points]
-    beside = [(k + 0.01 if k + 0.01 <= k_high else k - 0.01, m, *rest) for k, m, *rest in points]
-    drives, v = field_.best(points, radius=config.teacher_radius)
-    jump = np.zeros(len(points))
-    for other in (heavier, beside):
-        near, _ = field_.best(other, radius=config.teacher_radius)
-        jump = np.maximum(jump, [np.abs(align_phase(b, a) - a).max() for a, b in zip(drives, near)])
-    edge = (jump > config.edge_jump) & (v > 0.0)
-    return [p for p, e in zip(points, edge) if e], {"edge_probes": len(points), "edges": int(edge.sum())}
-
-
 def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float]) -> list:
     """Each point and ``n`` jittered copies: k +- 0.01 (kept in ``k_range``), load +- 5 % (friction,
     of (k, load, mu, mu1) points, kept)."""
@@ -485,7 +436,6 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "edge_loss", "find_edges",
-           "find_holes", "fit",
+__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "edge_loss", "find_holes", "fit",
            "labelled_episodes", "perturb_previous_actions",
            "policy_mean", "rollout", "save_student", "student_velocity"]

@@ -44,7 +44,6 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     history = run["distilled_from"]["history"]
     assert len(history) == 3  # the teacher's round, one DAgger round, one hole round
     assert history[2]["hole_round"] == 1 and history[2]["probes"] == 16 and 0 <= history[2]["holes"] <= 16
-    assert history[0]["edge_probes"] == 16 and 0 <= history[0]["edges"] <= 16  # the edge round ran before the fit
     assert not (out / ".tasks").exists()
     from mdr_drive_agents.drive_field import DriveField
 
@@ -231,27 +230,6 @@ def test_a_polished_node_plays_at_the_velocity_it_records():
     field.polish(32, 0.2, executor=Executor(workers=1, progress=False))
     assert np.all(field.velocities >= before)
     assert np.allclose(open_loop_velocity(points, field.drives.reshape(4, 2, 5)), field.velocities.ravel())
-
-
-def test_the_edge_round_finds_where_the_teachers_drive_jumps_and_it_moves(monkeypatch):
-    from mdr_drive_agents.distill import find_edges
-
-    field = _synthetic_field()  # the trapezoid's critical load 0.05 kg at every k
-    light, heavy = np.zeros((2, 5)), np.zeros((2, 5))
-    heavy[0, 0] = 0.5
-
-    def best(points, radius=1):  # a stand-in teacher: its drive jumps at 0.6 of the critical load
-        k, m = np.array([p[0] for p in points]), np.array([p[1] for p in points])
-        drives = np.where((m / 0.05 > 0.6)[:, None, None], heavy, light)
-        return drives, np.where(k > 0.5, -1e-3, 1e-3)  # and goes backwards at k > 0.5
-
-    monkeypatch.setattr(field, "best", best)
-    edges, found = find_edges(field, DistillConfig(edge_probes=2000), np.random.default_rng(0))
-    assert found == {"edge_probes": 2000, "edges": len(edges)} and len(edges) > 5
-    assert all(0.6 / 1.02 < m / 0.05 <= 0.6 and k <= 0.5 for k, m in edges)  # only just below the jump, moving
-    assert find_edges(field, DistillConfig(edge_probes=2000, edge_jump=0.5), np.random.default_rng(0))[1]["edges"] == 0
-    with pytest.raises(ValueError, match="edge_jump"):
-        DistillConfig(edge_jump=0.0)
 
 
 def test_a_wider_teacher_never_plays_a_slower_drive():
