@@ -8,7 +8,7 @@ At the blind draws of an adaptation report (``python -m mdr_drive_agents.adaptat
 and mu1 hidden and drawn), the teacher ``FrictionField.best`` (the fields given, ``--radius``)
 plays its drive, open loop, at the draw's own friction; printed: its steady velocity as a fraction
 of the report's best drive where that moves >= 2 mm/s (mean, minimum, draws under 0.75), beside the
-report's full-observation and sensor policies, overall and by the draw's ratio mu1 / mu. Only the
+report's full-observation and sensor policies (a runaway counts as no motion), overall and by the draw's ratio mu1 / mu. Only the
 fields given are used, so ``results/recipe/teacher_field.npz`` alone is the paper-friction teacher
 read at each draw's load over mu F_ref. A decision tool: use a decision seed's report.
 
@@ -55,7 +55,8 @@ def main(argv=None) -> int:
     best = np.where(scored, np.fmax(best, teacher), best)  # the teacher may beat the report's best
     rho = np.array([p[3] / p[2] for p in points])
     rows = {"friction-aware teacher (fields)": teacher,
-            **{name: np.asarray(res["steady_velocity_m_s"][name], dtype=np.float64)
+            # a runaway (NaN) counts as no motion, as in the blind statistics (agents.blind.velocity_statistics)
+            **{name: np.nan_to_num(np.asarray(res["steady_velocity_m_s"][name], dtype=np.float64), nan=0.0)
                for name in ("full-observation policy", "sensor policy")}}
     bands = [("all", np.ones_like(rho, dtype=bool)), ("mu1/mu < 0.28", rho < 0.28),
              ("0.28 ... 0.40", (rho >= 0.28) & (rho < 0.40)), (">= 0.40", rho >= 0.40)]
