@@ -202,6 +202,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     Refuses to train into a folder that holds a run unless ``resume`` names it or ``force`` is set.
     Ctrl-C or SIGTERM saves the model, its normalisation and run.json (``"interrupted": true``).
     """
+    import inspect
     import signal
 
     import torch
@@ -237,6 +238,10 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
             hyper["n_envs"] = n_envs
     hyper = dict(hyper)
     overrides = dict(hyperparams or {})
+    known = sorted(set(inspect.signature(algos[algo].__init__).parameters) - {"self", "policy", "env"} | {"n_envs"})
+    for key in overrides:
+        if key not in known:
+            raise ValueError(f"hyperparams: {key!r} is not a {algo.upper()} hyperparameter; one of {known}")
     if resume and "policy_kwargs" in overrides:
         raise ValueError("hyperparams: policy_kwargs cannot change when resuming (the network is the run's)")
     hyper.update(overrides)
@@ -289,7 +294,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
                      callback_on_new_best=_save_normalisation_callback(out / "best" / "vecnormalize.pkl")),
     ]
     start_steps = model.num_timesteps
-    warmup_steps = 0
+    main_start = None if critic_warmup else start_steps  # the step the actor starts learning at
     t0 = time.perf_counter()
 
     def on_sigterm(signum, frame):
@@ -302,7 +307,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
             with frozen_actor(model):
                 model.learn(int(critic_warmup), progress_bar=progress_bar, reset_num_timesteps=not resume,
                             tb_log_name=f"{algo}_critic_warmup")
-            warmup_steps = model.num_timesteps - start_steps
+            main_start = model.num_timesteps
         model.learn(total, callback=callbacks, progress_bar=progress_bar,
                     reset_num_timesteps=not (resume or critic_warmup), tb_log_name=algo)
     except (KeyboardInterrupt, _Interrupted):
@@ -320,7 +325,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         "hyperparameters": {**hyper, "n_envs": n, "normalize": normalize},
         "command": " ".join(sys.argv), "versions": versions(), "torch_threads": threads,
         "total_timesteps": int(model.num_timesteps), "steps_this_run": int(model.num_timesteps - start_steps),
-        "critic_warmup_steps_this_run": int(warmup_steps),
+        "critic_warmup_steps_this_run": int((model.num_timesteps if main_start is None else main_start) - start_steps),
         "wall_time_s": round(wall + (previous["wall_time_s"] if previous else 0.0), 1),
         "steps_per_s_this_run": round((model.num_timesteps - start_steps) / wall, 1),
         "resumes": (previous["resumes"] + 1) if previous else 0,

@@ -138,6 +138,16 @@ def test_a_critic_warmup_trains_the_value_function_and_leaves_the_actions_alone(
     model.learn(64)
     assert not all(torch.equal(a, p) for a, p in zip(actor, actor_parameters(model)))
 
+    from stable_baselines3 import SAC
+
+    sac = SAC("MlpPolicy", _venv(), learning_starts=0, batch_size=16, device="cpu", seed=0)
+    actor = [p.detach().clone() for p in actor_parameters(sac)]
+    critic = [p.detach().clone() for p in sac.critic.parameters()]
+    with frozen_actor(sac):
+        sac.learn(16)
+    assert all(torch.equal(a, p) for a, p in zip(actor, actor_parameters(sac)))
+    assert not all(torch.equal(c, p) for c, p in zip(critic, sac.critic.parameters()))
+
     resumed = train(resume=out, steps=64, critic_warmup=100, **KW)
     assert resumed["critic_warmup_steps_this_run"] == rounded_steps("ppo", 100, 4, resumed["hyperparameters"])
     assert resumed["steps_this_run"] == resumed["critic_warmup_steps_this_run"] + rounded_steps(
@@ -165,6 +175,8 @@ def test_hyperparams_replace_the_runs_own_when_resuming(tmp_path, capsys):
     assert any((out / "tb").iterdir())  # a resumed run logs to TensorBoard too
     with pytest.raises(ValueError, match="policy_kwargs cannot change"):
         train(resume=out, steps=64, hyperparams={"policy_kwargs": {}}, **KW)
+    with pytest.raises(ValueError, match="'learning_rat' is not a PPO hyperparameter"):
+        train(resume=out, steps=64, hyperparams={"learning_rat": 1e-5}, **KW)
     for bad in ("learning_rate", "1x:2"):
         with pytest.raises(SystemExit) as e:
             main(["train", "--hyperparams", bad])
