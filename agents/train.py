@@ -238,10 +238,12 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
             hyper["n_envs"] = n_envs
     hyper = dict(hyper)
     overrides = dict(hyperparams or {})
-    known = sorted(set(inspect.signature(algos[algo].__init__).parameters) - {"self", "policy", "env"} | {"n_envs"})
+    set_here = {"self", "policy", "env", "_init_setup_model", "device", "seed", "tensorboard_log", "verbose"}
+    known = sorted(set(inspect.signature(algos[algo].__init__).parameters) - set_here | {"n_envs"})
     for key in overrides:
         if key not in known:
-            raise ValueError(f"hyperparams: {key!r} is not a {algo.upper()} hyperparameter; one of {known}")
+            raise ValueError(f"hyperparams: {key!r} is not a {algo.upper()} hyperparameter this option sets (seed, "
+                             f"device and logging have their own); one of {known}")
     if resume and "policy_kwargs" in overrides:
         raise ValueError("hyperparams: policy_kwargs cannot change when resuming (the network is the run's)")
     hyper.update(overrides)

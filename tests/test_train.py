@@ -175,7 +175,7 @@ def test_hyperparams_replace_the_runs_own_when_resuming(tmp_path, capsys):
     assert any((out / "tb").iterdir())  # a resumed run logs to TensorBoard too
     with pytest.raises(ValueError, match="policy_kwargs cannot change"):
         train(resume=out, steps=64, hyperparams={"policy_kwargs": {}}, **KW)
-    with pytest.raises(ValueError, match="'learning_rat' is not a PPO hyperparameter"):
+    with pytest.raises(ValueError, match="'learning_rat' is not a PPO hyperparameter this option sets"):
         train(resume=out, steps=64, hyperparams={"learning_rat": 1e-5}, **KW)
     for bad in ("learning_rate", "1x:2"):
         with pytest.raises(SystemExit) as e:
