@@ -80,6 +80,8 @@ class AdaptConfig:
         action_rounds: 0: that fit once after the rounds; N: instead, the last N rounds fit the
             estimator on the actions only (warm), so the rounds after the first of them drive with an
             estimator fitted on actions (DAgger for that fit) (-).
+        sensor_forces: the sensor observation adds each period's peak contact forces (a drive with a
+            force sensor, ``MDRDriveSensor-v0(sensor_forces=True)``).
     """
 
     teacher: str = "agents/pretrained/ppo_generalist"
@@ -99,6 +101,7 @@ class AdaptConfig:
     action_steps: int = 0
     action_learning_rate: float = 3e-4
     action_rounds: int = 0
+    sensor_forces: bool = False
 
     def __post_init__(self) -> None:
         for name in ("history", "episodes", "periods", "estimator_steps", "batch", "torch_threads"):
@@ -124,7 +127,7 @@ def sensor_envs(config: AdaptConfig, n: int, seed: int) -> tuple[list, np.ndarra
     """``n`` sensor envs (hidden parameters drawn per episode), the first ``load_step_share`` of
     them with a load step, reset with seeds ``seed, seed + 1, ...``; and their first observations."""
     n_step = int(round(config.load_step_share * n))
-    envs = [gym.make(SENSOR_ID, history=config.history, max_periods=config.periods,
+    envs = [gym.make(SENSOR_ID, history=config.history, max_periods=config.periods, sensor_forces=config.sensor_forces,
                      load_step_period=config.load_step_periods if i < n_step else None) for i in range(n)]
     return envs, np.array([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)])
 
@@ -193,7 +196,7 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
     rng = np.random.default_rng(seed)
     layout = teacher_layout(teacher)
     hidden = hidden_entries(layout)
-    sensor_structure = SensorLayout(config.history).structure
+    sensor_structure = SensorLayout(config.history, config.sensor_forces).structure
     sensed, privileged, history = [], [], []
     estimator = sensor_teacher = None
 
@@ -241,7 +244,8 @@ def fit_on_actions(sensor_teacher: SensorTeacher, sensed: np.ndarray, privileged
 def sensor_env_kwargs(config: AdaptConfig) -> dict:
     """The trained range as ``MDRDriveSensor-v0`` keywords (run.json: what ``evaluate`` warns outside)."""
     return {**{key: list(v) if isinstance(v, tuple) else v for key, v in SENSOR_DEFAULTS.items()},
-            "history": config.history, "max_periods": config.periods}
+            "history": config.history, "max_periods": config.periods,
+            **({"sensor_forces": True} if config.sensor_forces else {})}
 
 
 def merge_check(student: Student, sensor_teacher: SensorTeacher, config: AdaptConfig, seed: int) -> dict:
@@ -274,7 +278,7 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
     t0 = time.perf_counter()
     validate = None if validation_seed is None else Validation(Policy(config.teacher), config, validation_seed)
     sensor_teacher, history = train(config, seed, validate, progress)
-    student = merged_policy(sensor_teacher, config.history, config.periods, config.log_std, seed)
+    student = merged_policy(sensor_teacher, config.history, config.periods, config.log_std, seed, config.sensor_forces)
     check = merge_check(student, sensor_teacher, config, seed)
     if validate is not None:
         check.update(validate(lambda s, p: student.act(s)))

@@ -14,7 +14,9 @@ measures what each can read, on the same data, before anything is built on it:
   a quarter as many on other seeds for validation;
 * targets: the five hidden entries of the privileged observation (k, the two load scales, mu and
   mu1), each standardised;
-* the frame stack: an MLP (512, 512) on each period's sensor observation (``--history`` periods);
+* the frame stack: an MLP (512, 512) on each period's sensor observation (``--history`` periods;
+  with ``--sensor-forces`` each period also holds its peak contact forces, as a drive with a force
+  sensor would measure);
 * the LSTM: one layer of ``--lstm`` units over the episode's sensor observations (the same frame
   stacks, so it sees all the MLP sees and remembers the rest of the episode), then a linear head,
   fitted on whole episodes;
@@ -35,13 +37,14 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
-def episodes(n: int, periods: int, history: int, noise: float, seed: int, teacher):
+def episodes(n: int, periods: int, history: int, noise: float, seed: int, teacher, forces: bool = False):
     """Sensor observations (periods, n, d) and hidden entries (periods, n, 5) of ``n`` episodes."""
     from mdr_drive_agents.adapt import AdaptConfig, collect, sensor_envs
     from mdr_drive_agents.estimator import hidden_entries
     from mdr_drive_env.gym_envs.spaces import ObservationLayout, PrivilegedLayout
 
-    config = AdaptConfig(history=history, periods=periods, load_step_share=0.0, load_step_periods=(1, 1))
+    config = AdaptConfig(history=history, periods=periods, load_step_share=0.0, load_step_periods=(1, 1),
+                         sensor_forces=forces)
     envs, first = sensor_envs(config, n, seed)
     rng = np.random.default_rng(seed)
     full_dim = len(ObservationLayout.NAMES)  # the teacher's full observation: the privileged one without friction
@@ -60,6 +63,8 @@ def main(argv=None) -> int:
     p.add_argument("--lstm", type=int_range(1), default=256, help="LSTM units (-)")
     p.add_argument("--steps", type=int_range(1), default=6000, help="Adam steps of each fit (-)")
     p.add_argument("--action-noise", type=float, default=0.15, help="std of the action noise (action units)")
+    p.add_argument("--sensor-forces", action="store_true",
+                   help="the sensor observation adds each period's peak contact forces (a force sensor)")
     p.add_argument("--seed", type=int, required=True, help="seed of the episodes and the fits (-)")
     p.add_argument("--teacher", type=folder_with("model.zip"), default="agents/pretrained/ppo_sensor/teacher",
                    help="full-observation policy that drives the episodes")
@@ -78,8 +83,10 @@ def main(argv=None) -> int:
     torch.manual_seed(args.seed)
     teacher = Policy(args.teacher)
     n_val = max(args.episodes // 4, 2)
-    (xs, ys), (xv, yv) = (episodes(args.episodes, args.periods, args.history, args.action_noise, args.seed, teacher),
-                          episodes(n_val, args.periods, args.history, args.action_noise, args.seed + 7_000_001, teacher))
+    (xs, ys), (xv, yv) = (episodes(args.episodes, args.periods, args.history, args.action_noise, args.seed, teacher,
+                                   args.sensor_forces),
+                          episodes(n_val, args.periods, args.history, args.action_noise, args.seed + 7_000_001, teacher,
+                                   args.sensor_forces))
     y_mean, y_std = ys.reshape(-1, 5).mean(0), ys.reshape(-1, 5).std(0) + 1e-12
 
     def standardiser(ref):
@@ -121,7 +128,8 @@ def main(argv=None) -> int:
     errors["LSTM over the episode"] = (guess[start:] - (yv[start:] - y_mean) / y_std) ** 2
 
     names = ("k", "load / mu F_ref", "load / 10 N", "mu", "mu1")
-    print(f"{args.episodes} training and {n_val} validation episodes of {args.periods} periods, seed {args.seed}; "
+    print(f"{args.episodes} training and {n_val} validation episodes of {args.periods} periods, seed {args.seed}"
+          f"{', with a force sensor' if args.sensor_forces else ''}; "
           f"validation error (mean squared, standardised; 1 = no better than the mean) from period {args.history} on, "
           f"and over the last 10 periods")
     print("| estimator | " + " | ".join(names) + " | all | last 10 periods: " + " | ".join(names) + " |")

@@ -43,19 +43,24 @@ def sensor_run(tmp_path_factory):
     return out, summary
 
 
-def test_the_merged_network_is_the_estimator_informed_teacher():
-    from mdr_drive_agents.adapt import sensor_envs
+@pytest.mark.parametrize("forces", [False, True])
+def test_the_merged_network_is_the_estimator_informed_teacher(forces):
+    from mdr_drive_agents.adapt import sensor_env_kwargs, sensor_envs
     from mdr_drive_agents.estimator import Estimator, SensorTeacher, merged_policy
     from mdr_drive_agents.evaluate import Policy
     from mdr_drive_env.gym_envs.spaces import SensorLayout
 
-    config = AdaptConfig(history=2, episodes=4, periods=6, load_step_periods=(1, 4), estimator_arch=(8, 8, 8))
+    config = AdaptConfig(history=2, episodes=4, periods=6, load_step_periods=(1, 4), estimator_arch=(8, 8, 8),
+                         sensor_forces=forces)
     envs, first = sensor_envs(config, 4, seed=2)
+    assert first.shape[1] == len(SensorLayout(2, forces).names) == (21 if forces else 17)
+    assert sensor_env_kwargs(config).get("sensor_forces", False) == forces  # what evaluation plays it in
     sensed = np.vstack([first, np.random.default_rng(0).normal(size=(50, first.shape[1])).astype(np.float32)])
     estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0)
     estimator.fit(sensed, np.random.default_rng(1).uniform(size=(len(sensed), 3)), 5, 16, 1e-3, 0, False)
-    composed = SensorTeacher(Policy(config.teacher), estimator, SensorLayout(2).structure)
-    merged = merged_policy(composed, config.history, config.periods, config.log_std)
+    composed = SensorTeacher(Policy(config.teacher), estimator, SensorLayout(2, forces).structure)
+    merged = merged_policy(composed, config.history, config.periods, config.log_std, sensor_forces=forces)
+    assert merged.model.observation_space.shape == first.shape[1:]
     assert np.abs(merged.act(sensed) - np.clip(composed(sensed), -1, 1)).max() < 1e-4
 
 
@@ -199,8 +204,10 @@ def test_the_memory_script_scores_a_frame_stack_and_an_lstm_on_the_same_episodes
 
     main = runpy.run_path(str(Path(__file__).parents[1] / "scripts" / "estimation_memory.py"))["main"]
     assert main(["--episodes", "8", "--periods", "6", "--history", "2", "--steps", "5", "--lstm", "8",
-                 "--seed", "3"]) == 0
-    rows = [line.split("|")[1:-1] for line in capsys.readouterr().out.splitlines() if line.startswith("| ")][1:]
+                 "--seed", "3", "--sensor-forces"]) == 0
+    out = capsys.readouterr().out
+    assert "with a force sensor" in out
+    rows = [line.split("|")[1:-1] for line in out.splitlines() if line.startswith("| ")][1:]
     assert [row[0].strip() for row in rows] == ["frame-stacked MLP", "LSTM over the episode"]
     for row in rows:
         values = [float(cell) for cell in row[1:]]
