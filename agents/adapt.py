@@ -127,8 +127,9 @@ def sensor_envs(config: AdaptConfig, n: int, seed: int) -> tuple[list, np.ndarra
     """``n`` sensor envs (hidden parameters drawn per episode), the first ``load_step_share`` of
     them with a load step, reset with seeds ``seed, seed + 1, ...``; and their first observations."""
     n_step = int(round(config.load_step_share * n))
-    envs = [gym.make(SENSOR_ID, history=config.history, max_periods=config.periods, sensor_forces=config.sensor_forces,
-                     load_step_period=config.load_step_periods if i < n_step else None) for i in range(n)]
+    kwargs = sensor_env_kwargs(config)
+    envs = [gym.make(SENSOR_ID, **kwargs, load_step_period=config.load_step_periods if i < n_step else None)
+            for i in range(n)]
     return envs, np.array([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)])
 
 
@@ -242,7 +243,8 @@ def fit_on_actions(sensor_teacher: SensorTeacher, sensed: np.ndarray, privileged
 
 
 def sensor_env_kwargs(config: AdaptConfig) -> dict:
-    """The trained range as ``MDRDriveSensor-v0`` keywords (run.json: what ``evaluate`` warns outside)."""
+    """The env the sensor policy is trained and acts in, as ``MDRDriveSensor-v0`` keywords: its trained
+    range (run.json: what ``evaluate`` warns outside) and its observation."""
     return {**{key: list(v) if isinstance(v, tuple) else v for key, v in SENSOR_DEFAULTS.items()},
             "history": config.history, "max_periods": config.periods,
             **({"sensor_forces": True} if config.sensor_forces else {})}
@@ -278,7 +280,7 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
     t0 = time.perf_counter()
     validate = None if validation_seed is None else Validation(Policy(config.teacher), config, validation_seed)
     sensor_teacher, history = train(config, seed, validate, progress)
-    student = merged_policy(sensor_teacher, config.history, config.periods, config.log_std, seed, config.sensor_forces)
+    student = merged_policy(sensor_teacher, sensor_env_kwargs(config), config.log_std, seed)
     check = merge_check(student, sensor_teacher, config, seed)
     if validate is not None:
         check.update(validate(lambda s, p: student.act(s)))

@@ -163,11 +163,10 @@ class SensorTeacher:
                 param.requires_grad_(True)
 
 
-def merged_policy(sensor_teacher: SensorTeacher, history: int, periods: int, log_std: float, seed: int = 0,
-                  sensor_forces: bool = False) -> Student:
+def merged_policy(sensor_teacher: SensorTeacher, env_kwargs: dict, log_std: float, seed: int = 0) -> Student:
     """One SB3 PPO ``MlpPolicy`` (ReLU) on the sensor observation that computes ``sensor_teacher``
     exactly (as long as the teacher's normalised inputs stay inside its VecNormalize clip), over
-    ``MDRDriveSensor-v0`` with ``history``, ``sensor_forces`` and ``periods`` per episode; ``log_std`` for PPO:
+    ``MDRDriveSensor-v0(**env_kwargs)`` (``agents.adapt.sensor_env_kwargs``); ``log_std`` for PPO:
 
     * its ``VecNormalize`` standardises the observation as the estimator does (no clipping);
     * its first layers are the estimator's hidden layers, widened by units that carry the entries
@@ -191,8 +190,7 @@ def merged_policy(sensor_teacher: SensorTeacher, history: int, periods: int, log
     carried = sensor_teacher.sources
     n_c = len(carried)
     widths = [m.out_features + 2 * n_c for m in est_linear[:-1]]
-    venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: gym.make(SENSOR_ID, history=history, sensor_forces=sensor_forces,
-                                                                 max_periods=periods)])),
+    venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: gym.make(SENSOR_ID, **env_kwargs)])),
                         norm_obs=True, norm_reward=True, gamma=0.98, clip_obs=1e6)
     venv.obs_rms.mean = xm.astype(np.float64)
     venv.obs_rms.var = xs.astype(np.float64) ** 2 - venv.epsilon

@@ -59,7 +59,7 @@ def test_the_merged_network_is_the_estimator_informed_teacher(forces):
     estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0)
     estimator.fit(sensed, np.random.default_rng(1).uniform(size=(len(sensed), 3)), 5, 16, 1e-3, 0, False)
     composed = SensorTeacher(Policy(config.teacher), estimator, SensorLayout(2, forces).structure)
-    merged = merged_policy(composed, config.history, config.periods, config.log_std, sensor_forces=forces)
+    merged = merged_policy(composed, sensor_env_kwargs(config), config.log_std)
     assert merged.model.observation_space.shape == first.shape[1:]
     assert np.abs(merged.act(sensed) - np.clip(composed(sensed), -1, 1)).max() < 1e-4
 

@@ -126,7 +126,7 @@ def test_the_friction_teacher_searches_its_ratios_and_distils_a_privileged_sb3_p
 
 
 def test_a_sensor_policy_learns_friction_too_from_a_privileged_teacher(teacher_run):
-    from mdr_drive_agents.adapt import AdaptConfig, collect, sensor_envs
+    from mdr_drive_agents.adapt import AdaptConfig, collect, sensor_env_kwargs, sensor_envs
     from mdr_drive_agents.estimator import Estimator, SensorTeacher, hidden_entries, merged_policy, teacher_layout
     from mdr_drive_agents.evaluate import Policy
     from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
@@ -141,7 +141,7 @@ def test_a_sensor_policy_learns_friction_too_from_a_privileged_teacher(teacher_r
     estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0, n_out=5)
     estimator.fit(sensed, privileged[:, hidden_entries(PrivilegedLayout)], 5, 16, 1e-3, 0, False)
     composed = SensorTeacher(teacher, estimator, SensorLayout(2).structure)
-    merged = merged_policy(composed, config.history, config.periods, config.log_std)
+    merged = merged_policy(composed, sensor_env_kwargs(config), config.log_std)
     assert np.abs(merged.act(sensed) - np.clip(composed(sensed), -1, 1)).max() < 1e-4
 
 
