@@ -385,3 +385,51 @@ def test_the_load_line_script_marks_where_a_policy_stalls_and_the_teacher_moves(
         main(["--k", "0.9", policy])  # outside the field's k range
     with pytest.raises(SystemExit):
         main(["--k", "0.3", "--from", "1.0", "--to", "0.5"])
+
+
+def _tagged_line(monkeypatch, played: dict, own: list):
+    """A one-k field of len(own) nodes whose drives are tagged by their first entry (node j: tag j);
+    ``open_loop_velocity`` stands in from ``played[(tag, j)]`` (mm/s), a node's own drive ``own[j]``."""
+    from mdr_drive_agents import drive_field
+
+    ns = len(own)
+    drives = np.zeros((1, ns, 2, 5))
+    drives[0, :, :, 0] = np.arange(ns)[:, None]
+    field = drive_field.DriveField([0.3], np.linspace(0.0, 1.6, ns), [0.05], drives, np.array([own]) * 1e-3)
+    table = {**{(j, j): v for j, v in enumerate(own)}, **played}
+
+    def fake(points, drives_):
+        return np.array([table[(int(d[0, 0]), int(np.argmin(np.abs(field.fractions * 0.05 - p[1]))))]
+                         for p, d in zip(points, drives_)]) * 1e-3
+
+    monkeypatch.setattr(drive_field, "open_loop_velocity", fake)
+    return field
+
+
+def test_continue_heavy_spreads_the_drive_just_past_the_critical_load_while_nodes_lose_under_the_slack(monkeypatch):
+    # nodes 0-4 move at 5, 3, 0.5, -0.1, -0.5 mm/s with their own drives; node 3 is the first that stalls
+    played = {(3, 2): 0.45, (3, 1): 2.5, (3, 4): -0.55, (1, 0): 4.0, (2, 1): 2.0}  # node 3: 0.05 slower at 2, 0.5 at 1
+    field = _tagged_line(monkeypatch, played, [5.0, 3.0, 0.5, -0.1, -0.5])
+    assert field.continue_heavy(1e-4) == 2
+    assert field.drives[0, :, 0, 0].tolist() == [0, 1, 3, 3, 3]  # node 1 would lose 0.5 mm/s: the chain stops
+    np.testing.assert_allclose(field.velocities[0] * 1e3, [5.0, 3.0, 0.45, -0.1, -0.55])
+    assert field.meta["continued"] == {"slack": 1e-4, "changed": 2}
+    field = _tagged_line(monkeypatch, played, [5.0, 3.0, 0.5, -0.1, -0.5])
+    assert field.continue_heavy(0.0) == 0  # without slack only a drive at least as fast is taken
+    moving = _tagged_line(monkeypatch, {(4, 3): 0.95, (4, 2): 1.5, (2, 1): 2.0, (1, 0): 4.0}, [5.0, 3.0, 2.0, 1.0, 0.5])
+    assert moving.continue_heavy(1e-4) == 1 and moving.drives[0, 3, 0, 0] == 4  # every node moves: from the heaviest
+    with pytest.raises(ValueError, match="slack"):
+        moving.continue_heavy(-1e-4)
+    with pytest.raises(ValueError, match="tie_slack"):
+        FieldConfig(tie_slack=0.5)
+
+
+def test_the_teachers_pick_keeps_the_interpolation_within_the_tie_slack(monkeypatch):
+    from mdr_drive_agents import drive_field
+
+    cands = [np.array([np.zeros((2, 5)), np.ones((2, 5))])]
+    monkeypatch.setattr(drive_field, "open_loop_velocity", lambda pts, d: np.array([1.0e-3, 1.08e-3]))
+    point = [(0.3, 0.01, 0.3, 0.1)]
+    assert drive_field.pick_best(point, cands, 0.02)[0][0, 0, 0] == 1.0  # 8 % faster: the other drive
+    drives, velocities = drive_field.pick_best(point, cands, 0.02, tie_slack=1e-4)
+    assert drives[0, 0, 0] == 0.0 and velocities[0] == 1.0e-3  # but only 0.08 mm/s: a tie, the interpolation
