@@ -62,13 +62,6 @@ class FieldConfig:
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
-        tie_slack: velocities within this of each other count as a tie (m/s; 0: off). Last in the
-            search, every k line continues the drive of its heaviest moving node to the nodes around
-            it as long as each node loses at most this (``DriveField.continue_heavy``), and the
-            teacher's pick (``DriveField.best``) keeps the interpolation unless another drive is
-            faster by more than this too. Near the critical load the drives move at fractions of a
-            mm/s, the best of them changes from node to node by less than that, and a student
-            fitted across such a change plays a blend that stalls: its critical load is set there.
     """
 
     k_values: int = 13
@@ -81,7 +74,6 @@ class FieldConfig:
     consolidate_tolerance: float = 0.0
     polish: tuple[tuple[int, float], ...] = ()
     friction: tuple[float, float] = PAPER_FRICTION
-    tie_slack: float = 0.0
 
     def __post_init__(self) -> None:
         for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1)):
@@ -101,7 +93,6 @@ class FieldConfig:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
         check_range("friction mu1", self.friction[1], 0.0, 2.0)
-        check_range("tie_slack", self.tie_slack, 0.0, 0.01)
 
     @property
     def ks(self) -> np.ndarray:
@@ -194,8 +185,6 @@ class DriveField:
         for n, (budget, sigma) in enumerate(config.polish):
             field.polish(int(budget), float(sigma), executor=executor, seed=seed + 100_000 * (n + 1))
             field.exchange()
-        if config.tie_slack > 0.0:
-            field.continue_heavy(config.tie_slack)
         field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
@@ -300,45 +289,6 @@ class DriveField:
                                      "distinct_drives": int(len(np.unique(self.drives.reshape(nk * ns, -1), axis=0)))}
         return changed
 
-    @property
-    def tie_slack(self) -> float:
-        """Velocities within this count as a tie (m/s; ``FieldConfig.tie_slack``, 0 for older fields)."""
-        return float(self.meta.get("config", {}).get("tie_slack", 0.0))
-
-    def continue_heavy(self, slack: float) -> int:
-        """Along each k, continue the drive of the lightest node where nothing moves (the heaviest
-        node if every node moves) to the nodes around it: outwards from that node, lighter and
-        heavier, each node plays the drive of its neighbour one step closer to it and takes it if it
-        loses at most ``slack`` (m/s) of its own velocity. Returns the nodes changed.
-
-        The drive that goes least backward just past the critical load is the one closest to
-        carrying it, so the drive with the highest critical load the search found; near the
-        critical load the lighter nodes' best drives are often other optima, faster by hundredths of
-        a mm/s, and a student fitted across such a change stalls where it blends the two. Past the
-        critical load every drive stalls and the best one is merely the least backward, so the same
-        continuation there keeps the labels from jumping as the load crosses it."""
-        check_range("slack", slack, 0.0, 0.01)
-        nk, ns = self.velocities.shape
-        start = [min(max([j + 1 for j in range(ns) if self.velocities[i, j] > 0.0], default=0), ns - 1)
-                 for i in range(nk)]
-        changed = 0
-        for step in range(1, ns):
-            nodes, drives = [], []
-            for i, j0 in enumerate(start):
-                for j, towards in ((j0 - step, 1), (j0 + step, -1)):
-                    if 0 <= j < ns and not np.array_equal(self.drives[i, j + towards], self.drives[i, j]):
-                        nodes.append((i, j))
-                        drives.append(self.drives[i, j + towards].copy())
-            if not nodes:
-                continue
-            v = open_loop_velocity([self.point(i, j) for i, j in nodes], np.array(drives))
-            for (i, j), drive, vel in zip(nodes, drives, v):
-                if vel >= self.velocities[i, j] - slack:
-                    self.drives[i, j], self.velocities[i, j] = drive, vel
-                    changed += 1
-        self.meta["continued"] = {"slack": slack, "changed": changed}
-        return changed
-
     def align(self) -> None:
         """Write every cycle in the phase closest to its lighter neighbour's (along each k), and each
         k's unloaded cycle in the phase closest to the previous k's."""
@@ -393,11 +343,11 @@ class DriveField:
         kg, mu, mu1) point at other friction (the grid is read at the same load over mu F_ref,
         ``field_load``): the best of :meth:`candidates` (with ``radius``) played at the point, the
         interpolation unless another candidate is better by more than ``prefer_interpolation``
-        (relative) and the field's ``tie_slack`` (m/s), so neighbouring labels stay smooth."""
+        (relative), so neighbouring labels stay smooth."""
         check_int("radius", radius, 1)
         points = self.with_friction(points)
         cands = [self.candidates(p[0], self.field_load(p), radius) for p in points]  # c may differ at the edge
-        return pick_best(points, cands, prefer_interpolation, self.tie_slack)
+        return pick_best(points, cands, prefer_interpolation)
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:
@@ -425,17 +375,16 @@ def with_friction(points, friction) -> list[tuple[float, float, float, float]]:
     return [tuple(map(float, p)) if len(p) == 4 else (float(p[0]), float(p[1]), *map(float, friction)) for p in points]
 
 
-def pick_best(points, cands: list, prefer_interpolation: float, tie_slack: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def pick_best(points, cands: list, prefer_interpolation: float) -> tuple[np.ndarray, np.ndarray]:
     """Per point, the best of its candidate drives ``cands[i]`` (c_i, 2, 5) played there (one batched
-    call), the first (an interpolation) unless another is better by more than both
-    ``prefer_interpolation`` (relative) and ``tie_slack`` (m/s): drives (n, 2, 5) and velocities
-    (n,) m/s."""
+    call), the first (an interpolation) unless another is better by more than
+    ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s."""
     v = open_loop_velocity([p for p, c in zip(points, cands) for _ in c], np.concatenate(cands))
     drives, velocities, start = [], [], 0
     for c in cands:
         vc = v[start:start + len(c)]
         pick = int(np.argmax(vc))
-        if vc[pick] <= vc[0] + max(prefer_interpolation * abs(vc[0]), tie_slack):
+        if vc[pick] <= vc[0] + prefer_interpolation * abs(vc[0]):
             pick = 0
         drives.append(c[pick])
         velocities.append(vc[pick])
