@@ -1,6 +1,7 @@
 """The blind benchmark (agents/blind.py) in its quick mode, and its statistics on known numbers."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -101,3 +102,40 @@ def test_a_second_run_reuses_the_searches_of_the_first(tmp_path, monkeypatch, ca
     assert main(["benchmark", "--blind", "3", "--seed", "6", "--quick", "--reuse-search", str(first / "blind.json"),
                  "--out", str(tmp_path / "third")]) == 2
     assert "its seed 5 is not this run's 6" in capsys.readouterr().err
+
+
+def _dense_check():
+    import runpy
+
+    return runpy.run_path(str(Path(__file__).parents[1] / "scripts" / "dense_check.py"))
+
+
+def test_the_dense_check_counts_the_blind_benchmarks_below_the_trapezoid_statistic():
+    below_mask = _dense_check()["below_mask"]
+    trap = np.array([1e-3, 1e-3, -1e-3, -1e-3, 1e-3, np.nan])
+    learned = np.array([0.96e-3, 0.9e-3, -2e-3, 0.5e-3, np.nan, -1e-3])
+    below, gap = below_mask(trap, learned)
+    # within 0.05 mm/s; 0.1 below; neither moves; faster; a runaway where the trapezoid moves; the trapezoid runs away
+    assert below.tolist() == [False, True, False, False, True, False]
+    assert gap[4] == -np.inf
+
+
+def test_the_dense_check_writes_its_files_once_and_its_counts_agree(tmp_path, capsys):
+    import csv
+    import json
+
+    main = _dense_check()["main"]
+    policy = str(Path(__file__).parents[1] / "agents" / "pretrained" / "ppo_generalist")
+    out = tmp_path / "dense"
+    assert main([policy, "--ks", "3", "--loads", "4", "--out", str(out), "--no-progress"]) == 0
+    res = json.loads((out / "dense.json").read_text())
+    assert len(res["k"]) == 3 and len(res["policy_m_s"]) == 12 and res["load_fraction"][-1] == pytest.approx(1.25)
+    rows = list(csv.DictReader(open(out / "below.csv")))
+    assert f"**{len(rows)}**" in (out / "dense.md").read_text() and (out / "below_trapezoid.png").stat().st_size > 0
+    from mdr_drive_agents.evaluate import load_policy, policy_velocity
+
+    point = (res["k"][1], res["load_fraction"][2] * res["trapezoid_critical_kg"][1])
+    assert res["policy_m_s"][6] == pytest.approx(policy_velocity(load_policy(policy), [point])[0], abs=1e-8)
+    with pytest.raises(SystemExit):
+        main([policy, "--ks", "3", "--loads", "4", "--out", str(out)])  # an earlier check is not replaced silently
+    assert "--force" in capsys.readouterr().err

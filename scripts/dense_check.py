@@ -1,0 +1,172 @@
+#!/usr/bin/env python
+"""Where a policy is below the trapezoid, on a dense grid of the blind benchmark's whole domain.
+
+    python scripts/dense_check.py agents/pretrained/ppo_generalist --ks 121 --loads 200 \
+        --out results/blind/dense_shipped        # 24,200 points, about a minute on 2 cores
+
+The blind benchmark draws a few dozen random points; a policy that fails in narrow bands of load
+(a fitted copy of a teacher whose drive jumps between optima does) passes such a draw most of the
+time and fails a larger one. This check needs no search, so it can cover the domain densely: ``--ks``
+values of k evenly spaced over [0, 0.6] times ``--loads`` loads evenly spaced from 0 to 1.25 times
+the trapezoid's critical load at each k (the blind benchmark's domain, ``agents.blind``), each
+played closed loop by the evaluation protocol (30 periods, mean of 21-30) beside the trapezoid.
+Counts the blind benchmark's statistic: points where the policy is slower than the trapezoid by
+more than 0.05 mm/s (where either moves; a runaway counts as slowest). The grid is fixed, not drawn:
+it is a measurement, not a seed to tune on.
+
+Writes to ``--out`` (refused if it holds a ``dense.json`` unless ``--force``): ``dense.json`` (the
+grid, every velocity to 1e-5 mm/s), ``dense.md`` (counts, the share of the domain, the worst
+points and how many k values have one), ``below.csv`` (every point below) and ``below_trapezoid.png``
+(where they lie, over load / the trapezoid's critical load).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+#: Points per batched rollout (bounds memory; each chunk is one vector env).
+CHUNK = 4096
+
+
+def dense_grid(n_k: int, n_loads: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """k values (n_k,), the trapezoid's critical load (kg) at each, and load fractions (n_loads,) of
+    it spanning the blind benchmark's domain."""
+    from mdr_drive_agents.blind import K_RANGE, LOAD_FACTOR, trapezoid_critical
+
+    ks = np.linspace(*K_RANGE, n_k)
+    return ks, np.asarray(trapezoid_critical(list(map(float, ks)))), np.linspace(0.0, LOAD_FACTOR, n_loads)
+
+
+def velocities(policy_path: str, points: list, progress: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """The policy's and the trapezoid's steady velocities (m/s; NaN: runaway) at ``points``, in
+    chunks of ``CHUNK`` (a progress bar over them)."""
+    from tqdm import tqdm
+
+    from mdr_drive_agents.evaluate import load_policy, open_loop_velocity, policy_velocity, trapezoid_action
+
+    policy = load_policy(policy_path)
+    learned, trap = [], []
+    for start in tqdm(range(0, len(points), CHUNK), desc="dense check", unit="chunk", disable=not progress):
+        chunk = points[start:start + CHUNK]
+        learned.append(policy_velocity(policy, chunk, mark_runaway=True))
+        trap.append(open_loop_velocity(chunk, trapezoid_action(), mark_runaway=True))
+    return np.concatenate(learned), np.concatenate(trap)
+
+
+def below_mask(trap: np.ndarray, learned: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points below the trapezoid by more than the blind benchmark's tolerance (where either moves)
+    and the policy's velocity minus the trapezoid's (m/s, a runaway as -inf)."""
+    from mdr_drive_agents.blind import BELOW_TOLERANCE
+
+    with np.errstate(invalid="ignore"):
+        gap = np.where(np.isnan(learned), -np.inf, learned) - np.where(np.isnan(trap), -np.inf, trap)
+    moving = (trap > 0) | (learned > 0)
+    return moving & (gap < -BELOW_TOLERANCE), gap
+
+
+def velocity_arrays(res: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The policy's and the trapezoid's velocities (m/s) of ``dense.json``'s content, NaN for a runaway."""
+    return tuple(np.array([np.nan if v is None else v for v in res[key]], dtype=float)
+                 for key in ("policy_m_s", "trapezoid_m_s"))
+
+
+def report(res: dict, worst: int = 15) -> str:
+    """``dense.md`` from ``dense.json``'s content."""
+    ks, fr, crit = np.array(res["k"]), np.array(res["load_fraction"]), np.array(res["trapezoid_critical_kg"])
+    learned, trap = velocity_arrays(res)
+    below, gap = below_mask(trap, learned)
+    n_k, n_l = len(ks), len(fr)
+    kk, ff = np.repeat(ks, n_l), np.tile(fr, n_k)
+    lines = [f"Dense check of `{res['policy']}`: {n_k} k values in [0, 0.6] x {n_l} loads from 0 to "
+             f"{fr[-1]:g} x the trapezoid's critical load ({n_k * n_l} points); closed loop, mean of periods 21-30.",
+             f"Command: `{res['command']}`", "",
+             f"* points below the trapezoid by more than 0.05 mm/s (where either moves): **{int(below.sum())}** "
+             f"({100.0 * below.mean():.2f} % of the grid)",
+             f"* of them more than 1 mm/s below: {int((below & (gap < -1e-3)).sum())}; runaway: "
+             f"{int((below & np.isnan(learned)).sum())}",
+             f"* k values with at least one: {len(set(kk[below].round(6)))} of {n_k}",
+             "* worst: " + ("none below" if not below.any() else f"{gap[below].min() * 1e3:.2f} mm/s"
+                            if np.isfinite(gap[below].min()) else
+                            f"a runaway (the load runs away with the slider); worst without: "
+                            f"{gap[below & np.isfinite(gap)].min() * 1e3:.2f} mm/s"), ""]
+    if below.any():
+        lines += [f"The {min(worst, int(below.sum()))} deepest (mm/s):", "",
+                  "| k | load (kg) | load / trapezoid's critical | trapezoid | policy |", "|---|---|---|---|---|"]
+        for i in np.argsort(np.where(below, gap, np.inf))[:min(worst, int(below.sum()))]:
+            m = ff[i] * crit[i // n_l]
+            lines.append(f"| {kk[i]:.4g} | {m:.5g} | {ff[i]:.4f} | {trap[i] * 1e3:.2f} | "
+                         + ("runaway" if np.isnan(learned[i]) else f"{learned[i] * 1e3:.2f}") + " |")
+    return "\n".join(lines) + "\n"
+
+
+def plot(res: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mdr_drive_env.files import save_figure
+
+    ks, fr = np.array(res["k"]), np.array(res["load_fraction"])
+    learned, trap = velocity_arrays(res)
+    below, gap = below_mask(trap, learned)
+    kk, ff = np.repeat(ks, len(fr)), np.tile(fr, len(ks))
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    depth = np.clip(-np.where(np.isfinite(gap), gap, -0.1) * 1e3, 0.05, 100.0)[below]
+    sc = ax.scatter(kk[below], ff[below], c=np.log10(depth), s=10, cmap="viridis_r")
+    fig.colorbar(sc, ax=ax, label="log10(trapezoid - policy, mm/s)")
+    ax.set(xlim=(-0.01, 0.61), ylim=(0, fr[-1]), xlabel="k", ylabel="load / trapezoid's critical load",
+           title=f"where the policy is below the trapezoid: {int(below.sum())} of {below.size} grid points")
+    ax.title.set_fontsize(9)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    from mdr_drive_env.cli_args import Parser, folder_with, int_range, output_dir, run_command
+    from mdr_drive_env.files import json_safe, write_csv, write_text
+
+    p = Parser(description=__doc__)
+    p.add_argument("policy", type=folder_with("model.zip"), help="policy folder (with model.zip)")
+    p.add_argument("--ks", type=int_range(2, 1000), default=121, help="k values, evenly spaced in [0, 0.6] (-)")
+    p.add_argument("--loads", type=int_range(2, 2000), default=200,
+                   help="loads per k, evenly spaced from 0 to 1.25 x the trapezoid's critical load (-)")
+    p.add_argument("--out", type=output_dir, required=True, help="output folder")
+    p.add_argument("--force", action="store_true", help="replace an earlier dense check in --out")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    args = p.parse_args(argv)
+    out = Path(args.out)
+    if (out / "dense.json").exists() and not args.force:
+        p.error(f"--out {out} already holds a dense check (dense.json); pass --force to replace it")
+
+    def work():
+        ks, crit, fractions = dense_grid(args.ks, args.loads)
+        points = [(float(k), float(f * c)) for k, c in zip(ks, crit) for f in fractions]
+        learned, trap = velocities(args.policy, points, progress=not args.no_progress)
+        command = "python scripts/dense_check.py " + " ".join(sys.argv[1:] if argv is None else argv)
+        res = json_safe({"policy": args.policy, "command": command, "k": ks, "load_fraction": fractions,
+                         "trapezoid_critical_kg": crit, "policy_m_s": np.round(learned, 8),  # 1e-5 mm/s
+                         "trapezoid_m_s": np.round(trap, 8)})
+        below, gap = below_mask(trap, learned)
+        write_csv(out / "below.csv", ["k", "cargo_mass_kg", "load_over_trapezoid_critical", "trapezoid_m_s", "policy_m_s"],
+                  [(points[i][0], points[i][1], fractions[i % len(fractions)], trap[i], learned[i])
+                   for i in np.flatnonzero(below)])
+        text = report(res)
+        write_text(out / "dense.md", text)
+        plot(res, out / "below_trapezoid.png")
+        write_text(out / "dense.json", json.dumps(res))  # last: its presence marks a finished check
+        print(text, end="")
+
+    return run_command("dense_check.py", work, "nothing written (the check is one pass; run it again)")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
