@@ -174,8 +174,10 @@ folder first: a resumed run writes into it; the observation statistics stay as d
 * Where the teacher's best drive jumps from one optimum to another, the network must switch between
   them within a narrow band of k and load; there it can fall between them and stall or go backwards at
   isolated (k, load) points (docs/results.md, Limits): check a working point with `mdr-drive
-  evaluate` before relying on it. Where those points fall depends on the build: the same recipe with
-  another `seed` misses about as often, elsewhere (docs/ablations.md).
+  evaluate` before relying on it. `python scripts/dense_check.py {dst.as_posix()} --out DIR` maps
+  where it is below the trapezoid on a dense grid of the whole domain (no search needed; about a
+  minute): narrow rows of load, some going backwards fast. Where those points fall depends on the
+  build: the same recipe with another `seed` misses about as often, elsewhere (docs/ablations.md).
 
 ## Evaluation
 
