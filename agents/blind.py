@@ -134,13 +134,21 @@ def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: di
     }
 
 
-def velocity_statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray) -> dict:
-    """Points below the trapezoid (where either moves) and the fraction of the best drive (where it
-    moves at least ``MOVING_THRESHOLD``) of one drive's steady velocities (m/s; NaN is a runaway)."""
+def below_trapezoid(trap: np.ndarray, learned: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where a drive is below the trapezoid: slower by more than ``BELOW_TOLERANCE`` where either
+    moves; with its velocity minus the trapezoid's (m/s; a runaway, NaN, as -inf) and where either
+    moves. Returns (below, gap, moving)."""
     moving = (trap > 0) | (learned > 0)
     with np.errstate(invalid="ignore"):  # both runaway: -inf - -inf, and neither moves there
         gap = np.where(np.isnan(learned), -np.inf, learned) - np.where(np.isnan(trap), -np.inf, trap)
-    below = moving & (gap < -BELOW_TOLERANCE)
+    return moving & (gap < -BELOW_TOLERANCE), gap, moving
+
+
+def velocity_statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray) -> dict:
+    """Points below the trapezoid (where either moves, ``below_trapezoid``) and the fraction of the
+    best drive (where it moves at least ``MOVING_THRESHOLD``) of one drive's steady velocities (m/s;
+    NaN is a runaway)."""
+    below, gap, moving = below_trapezoid(trap, learned)
     comparable = moving & np.isfinite(gap)
     scored = best >= MOVING_THRESHOLD
     fraction = np.where(np.isnan(learned), 0.0, learned)[scored] / best[scored]

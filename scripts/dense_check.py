@@ -59,28 +59,29 @@ def velocities(policy_path: str, points: list, progress: bool = True) -> tuple[n
     return np.concatenate(learned), np.concatenate(trap)
 
 
-def below_mask(trap: np.ndarray, learned: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Points below the trapezoid by more than the blind benchmark's tolerance (where either moves)
-    and the policy's velocity minus the trapezoid's (m/s, a runaway as -inf)."""
-    from mdr_drive_agents.blind import BELOW_TOLERANCE
-
-    with np.errstate(invalid="ignore"):
-        gap = np.where(np.isnan(learned), -np.inf, learned) - np.where(np.isnan(trap), -np.inf, trap)
-    moving = (trap > 0) | (learned > 0)
-    return moving & (gap < -BELOW_TOLERANCE), gap
-
-
 def velocity_arrays(res: dict) -> tuple[np.ndarray, np.ndarray]:
     """The policy's and the trapezoid's velocities (m/s) of ``dense.json``'s content, NaN for a runaway."""
     return tuple(np.array([np.nan if v is None else v for v in res[key]], dtype=float)
                  for key in ("policy_m_s", "trapezoid_m_s"))
 
 
+def worst_text(below: np.ndarray, gap: np.ndarray) -> str:
+    """The deepest point below the trapezoid, in words (a runaway, then the deepest finite one)."""
+    if not below.any():
+        return "none below"
+    finite = gap[below & np.isfinite(gap)]
+    deepest = f"{finite.min() * 1e3:.2f} mm/s" if finite.size else "none"
+    return deepest if finite.size == below.sum() else \
+        f"a runaway (the load runs away with the slider); worst without: {deepest}"
+
+
 def report(res: dict, worst: int = 15) -> str:
     """``dense.md`` from ``dense.json``'s content."""
+    from mdr_drive_agents.blind import below_trapezoid
+
     ks, fr, crit = np.array(res["k"]), np.array(res["load_fraction"]), np.array(res["trapezoid_critical_kg"])
     learned, trap = velocity_arrays(res)
-    below, gap = below_mask(trap, learned)
+    below, gap, _ = below_trapezoid(trap, learned)
     n_k, n_l = len(ks), len(fr)
     kk, ff = np.repeat(ks, n_l), np.tile(fr, n_k)
     lines = [f"Dense check of `{res['policy']}`: {n_k} k values in [0, 0.6] x {n_l} loads from 0 to "
@@ -91,10 +92,7 @@ def report(res: dict, worst: int = 15) -> str:
              f"* of them more than 1 mm/s below: {int((below & (gap < -1e-3)).sum())}; runaway: "
              f"{int((below & np.isnan(learned)).sum())}",
              f"* k values with at least one: {len(set(kk[below].round(6)))} of {n_k}",
-             "* worst: " + ("none below" if not below.any() else f"{gap[below].min() * 1e3:.2f} mm/s"
-                            if np.isfinite(gap[below].min()) else
-                            f"a runaway (the load runs away with the slider); worst without: "
-                            f"{gap[below & np.isfinite(gap)].min() * 1e3:.2f} mm/s"), ""]
+             f"* worst: {worst_text(below, gap)}", ""]
     if below.any():
         lines += [f"The {min(worst, int(below.sum()))} deepest (mm/s):", "",
                   "| k | load (kg) | load / trapezoid's critical | trapezoid | policy |", "|---|---|---|---|---|"]
@@ -108,6 +106,8 @@ def report(res: dict, worst: int = 15) -> str:
 def plot(res: dict, path: Path) -> None:
     import matplotlib
 
+    from mdr_drive_agents.blind import below_trapezoid
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -115,7 +115,7 @@ def plot(res: dict, path: Path) -> None:
 
     ks, fr = np.array(res["k"]), np.array(res["load_fraction"])
     learned, trap = velocity_arrays(res)
-    below, gap = below_mask(trap, learned)
+    below, gap, _ = below_trapezoid(trap, learned)
     kk, ff = np.repeat(ks, len(fr)), np.tile(fr, len(ks))
     fig, ax = plt.subplots(figsize=(7, 4.2))
     depth = np.clip(-np.where(np.isfinite(gap), gap, -0.1) * 1e3, 0.05, 100.0)[below]
@@ -131,6 +131,7 @@ def plot(res: dict, path: Path) -> None:
 
 
 def main(argv=None) -> int:
+    from mdr_drive_agents.blind import below_trapezoid
     from mdr_drive_env.cli_args import Parser, folder_with, int_range, output_dir, run_command
     from mdr_drive_env.files import json_safe, write_csv, write_text
 
@@ -155,7 +156,8 @@ def main(argv=None) -> int:
         res = json_safe({"policy": args.policy, "command": command, "k": ks, "load_fraction": fractions,
                          "trapezoid_critical_kg": crit, "policy_m_s": np.round(learned, 8),  # 1e-5 mm/s
                          "trapezoid_m_s": np.round(trap, 8)})
-        below, gap = below_mask(trap, learned)
+        learned, trap = velocity_arrays(res)  # as saved, so that every output counts the same points
+        below, _, _ = below_trapezoid(trap, learned)
         write_csv(out / "below.csv", ["k", "cargo_mass_kg", "load_over_trapezoid_critical", "trapezoid_m_s", "policy_m_s"],
                   [(points[i][0], points[i][1], fractions[i % len(fractions)], trap[i], learned[i])
                    for i in np.flatnonzero(below)])

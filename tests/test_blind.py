@@ -110,14 +110,18 @@ def _dense_check():
     return runpy.run_path(str(Path(__file__).parents[1] / "scripts" / "dense_check.py"))
 
 
-def test_the_dense_check_counts_the_blind_benchmarks_below_the_trapezoid_statistic():
-    below_mask = _dense_check()["below_mask"]
+def test_below_the_trapezoid_is_counted_where_either_moves_and_a_runaway_is_slowest():
     trap = np.array([1e-3, 1e-3, -1e-3, -1e-3, 1e-3, np.nan])
     learned = np.array([0.96e-3, 0.9e-3, -2e-3, 0.5e-3, np.nan, -1e-3])
-    below, gap = below_mask(trap, learned)
+    below, gap, _ = blind.below_trapezoid(trap, learned)
     # within 0.05 mm/s; 0.1 below; neither moves; faster; a runaway where the trapezoid moves; the trapezoid runs away
     assert below.tolist() == [False, True, False, False, True, False]
     assert gap[4] == -np.inf
+    worst_text = _dense_check()["worst_text"]
+    assert worst_text(below, gap).startswith("a runaway") and worst_text(below, gap).endswith("-0.10 mm/s")
+    assert worst_text(below & np.isfinite(gap), gap) == "-0.10 mm/s"
+    assert worst_text(np.isinf(gap), gap).endswith("worst without: none")
+    assert worst_text(np.zeros(6, bool), gap) == "none below"
 
 
 def test_the_dense_check_writes_its_files_once_and_its_counts_agree(tmp_path, capsys):
