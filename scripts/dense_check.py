@@ -59,10 +59,18 @@ def velocities(policy_path: str, points: list, progress: bool = True) -> tuple[n
     return np.concatenate(learned), np.concatenate(trap)
 
 
-def velocity_arrays(res: dict) -> tuple[np.ndarray, np.ndarray]:
-    """The policy's and the trapezoid's velocities (m/s) of ``dense.json``'s content, NaN for a runaway."""
-    return tuple(np.array([np.nan if v is None else v for v in res[key]], dtype=float)
-                 for key in ("policy_m_s", "trapezoid_m_s"))
+def checked(res: dict) -> dict:
+    """``dense.json``'s content as arrays over its grid, flattened k-major: ``k`` and ``fraction``
+    (load / the trapezoid's critical load) of each point, the policy's and the trapezoid's velocities
+    (m/s, NaN for a runaway), and ``below``, ``gap`` (``agents.blind.below_trapezoid``)."""
+    from mdr_drive_agents.blind import below_trapezoid
+
+    ks, fr = np.array(res["k"]), np.array(res["load_fraction"])
+    learned, trap = (np.array([np.nan if v is None else v for v in res[key]], dtype=float)
+                     for key in ("policy_m_s", "trapezoid_m_s"))
+    below, gap, _ = below_trapezoid(trap, learned)
+    return {"k": np.repeat(ks, len(fr)), "fraction": np.tile(fr, len(ks)), "policy": learned, "trapezoid": trap,
+            "below": below, "gap": gap}
 
 
 def worst_text(below: np.ndarray, gap: np.ndarray) -> str:
@@ -77,14 +85,11 @@ def worst_text(below: np.ndarray, gap: np.ndarray) -> str:
 
 def report(res: dict, worst: int = 15) -> str:
     """``dense.md`` from ``dense.json``'s content."""
-    from mdr_drive_agents.blind import below_trapezoid
-
     ks, fr, crit = np.array(res["k"]), np.array(res["load_fraction"]), np.array(res["trapezoid_critical_kg"])
-    learned, trap = velocity_arrays(res)
-    below, gap, _ = below_trapezoid(trap, learned)
+    c = checked(res)
+    kk, ff, learned, trap, below, gap = (c[key] for key in ("k", "fraction", "policy", "trapezoid", "below", "gap"))
     n_k, n_l = len(ks), len(fr)
-    kk, ff = np.repeat(ks, n_l), np.tile(fr, n_k)
-    lines = [f"Dense check of `{res['policy']}`: {n_k} k values in [0, 0.6] x {n_l} loads from 0 to "
+    lines = [f"Dense check of `{res['policy']}`: {n_k} k values in [{ks[0]:g}, {ks[-1]:g}] x {n_l} loads from 0 to "
              f"{fr[-1]:g} x the trapezoid's critical load ({n_k * n_l} points); closed loop, mean of periods 21-30.",
              f"Command: `{res['command']}`", "",
              f"* points below the trapezoid by more than 0.05 mm/s (where either moves): **{int(below.sum())}** "
@@ -104,24 +109,22 @@ def report(res: dict, worst: int = 15) -> str:
 
 
 def plot(res: dict, path: Path) -> None:
+    """``below_trapezoid.png`` from ``dense.json``'s content: the points below the trapezoid over k and
+    load / the trapezoid's critical load, coloured by how far below."""
     import matplotlib
-
-    from mdr_drive_agents.blind import below_trapezoid
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from mdr_drive_env.files import save_figure
 
-    ks, fr = np.array(res["k"]), np.array(res["load_fraction"])
-    learned, trap = velocity_arrays(res)
-    below, gap, _ = below_trapezoid(trap, learned)
-    kk, ff = np.repeat(ks, len(fr)), np.tile(fr, len(ks))
+    c = checked(res)
+    kk, ff, below, gap = c["k"], c["fraction"], c["below"], c["gap"]
     fig, ax = plt.subplots(figsize=(7, 4.2))
     depth = np.clip(-np.where(np.isfinite(gap), gap, -0.1) * 1e3, 0.05, 100.0)[below]
     sc = ax.scatter(kk[below], ff[below], c=np.log10(depth), s=10, cmap="viridis_r")
     fig.colorbar(sc, ax=ax, label="log10(trapezoid - policy, mm/s)")
-    ax.set(xlim=(-0.01, 0.61), ylim=(0, fr[-1]), xlabel="k", ylabel="load / trapezoid's critical load",
+    ax.set(xlim=(kk[0] - 0.01, kk[-1] + 0.01), ylim=(0, ff[-1]), xlabel="k", ylabel="load / trapezoid's critical load",
            title=f"where the policy is below the trapezoid: {int(below.sum())} of {below.size} grid points")
     ax.title.set_fontsize(9)
     ax.grid(alpha=0.3)
@@ -131,7 +134,6 @@ def plot(res: dict, path: Path) -> None:
 
 
 def main(argv=None) -> int:
-    from mdr_drive_agents.blind import below_trapezoid
     from mdr_drive_env.cli_args import Parser, folder_with, int_range, output_dir, run_command
     from mdr_drive_env.files import json_safe, write_csv, write_text
 
@@ -156,11 +158,10 @@ def main(argv=None) -> int:
         res = json_safe({"policy": args.policy, "command": command, "k": ks, "load_fraction": fractions,
                          "trapezoid_critical_kg": crit, "policy_m_s": np.round(learned, 8),  # 1e-5 mm/s
                          "trapezoid_m_s": np.round(trap, 8)})
-        learned, trap = velocity_arrays(res)  # as saved, so that every output counts the same points
-        below, _, _ = below_trapezoid(trap, learned)
+        c = checked(res)  # the velocities as saved, as dense.md and the plot count them
         write_csv(out / "below.csv", ["k", "cargo_mass_kg", "load_over_trapezoid_critical", "trapezoid_m_s", "policy_m_s"],
-                  [(points[i][0], points[i][1], fractions[i % len(fractions)], trap[i], learned[i])
-                   for i in np.flatnonzero(below)])
+                  [(points[i][0], points[i][1], c["fraction"][i], c["trapezoid"][i], c["policy"][i])
+                   for i in np.flatnonzero(c["below"])])
         text = report(res)
         write_text(out / "dense.md", text)
         plot(res, out / "below_trapezoid.png")
