@@ -51,10 +51,10 @@ adaptation: $(STAMP)
 benchmark: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark_shipped
 
-## make blind: the shipped policy on 24 random points of the report seed (results/blind/seed20261131; about 11 minutes on 2 cores)
+## make blind: the shipped policy on 120 random points of the report seed its model card quotes (results/blind/seed20261134; about 8 minutes on 2 cores)
 blind: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --blind 24 --seed 20261131 --policies agents/pretrained/ppo_generalist \
-	    --out results/blind/seed20261131
+	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261134 --policies agents/pretrained/ppo_generalist \
+	    --out results/blind/seed20261134
 
 ## make claims: each claim of the paper's text against the model variants (results/paper_claims)
 claims: $(STAMP)
