@@ -80,6 +80,12 @@ class DistillConfig:
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
             the interpolation (``DriveField.best``): 1 the cell's four corners, R the 2R x 2R nodes
             around it (-).
+        jump_levels: bisection levels of ``jump_points`` after round 0's teacher episodes: where
+            neighbouring points' teacher drives differ, the midpoint's episodes are added, and the
+            half holding the jump is bisected again (0: off) (-).
+        jump_neighbours: neighbours of each round 0 point that ``jump_points`` compares it with (-).
+        jump_threshold: two teacher drives differ where a component differs by more than this, in
+            their closest cycle phase (action units).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -104,13 +110,17 @@ class DistillConfig:
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
     huber_delta: float = 0.0
+    jump_levels: int = 0
+    jump_neighbours: int = 6
+    jump_threshold: float = 0.3
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
-                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps"):
-            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours") else 1)
+                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "jump_levels", "jump_neighbours"):
+            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels")
+                      else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -120,6 +130,7 @@ class DistillConfig:
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
+        check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig,
@@ -324,8 +335,12 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config, friction)
+        drives, _ = field_.best(points, radius=config.teacher_radius)
+        if r == 0 and config.jump_levels:
+            extra, extra_drives = jump_points(field_, points, drives, config)
+            points, drives = points + extra, np.concatenate([drives, extra_drives]) if extra else drives
         obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r,
-                                               student.z_phase_origin)
+                                               student.z_phase_origin, drives=drives)
         obs_all.append(obs)
         drive_all.append(sample_drives)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
@@ -366,15 +381,65 @@ def _print_record(record: dict) -> None:
                    for key, value in record.items()), flush=True)
 
 
-def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, seed: int, z_phase_origin: float = 0.0):
+def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, seed: int, z_phase_origin: float = 0.0,
+                      drives: np.ndarray | None = None):
     """Episodes of ``config.periods`` periods at ``points``, played by the teacher (``act`` None) or by
     ``act``: their observations and each one's teacher drive (``rollout``; the teacher's drive at each
-    point from ``DriveField.best`` with ``config.teacher_radius``), all in the action units of an env
-    with ``z_phase_origin`` (the field's drives are in the default units, origin 0)."""
-    drives, _ = field_.best(points, radius=config.teacher_radius)
+    point from ``DriveField.best`` with ``config.teacher_radius`` unless ``drives`` (n, 2, 5) gives
+    them), all in the action units of an env with ``z_phase_origin`` (the field's drives are in the
+    default units, origin 0)."""
+    if drives is None:
+        drives, _ = field_.best(points, radius=config.teacher_radius)
     drives = shift_phase_origin(drives, 0.0, z_phase_origin)
     obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed, z_phase_origin=z_phase_origin)
     return obs, sample_drives
+
+
+def drive_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The largest component difference (action units) between drives ``a`` and ``b`` (n, 2, 5), each
+    pair compared in the cycle phase that brings them closest (``align_phase``)."""
+    direct, swapped = np.abs(b - a), np.abs(b[:, ::-1] - a)
+    use_swapped = swapped.sum(axis=(1, 2)) < direct.sum(axis=(1, 2))
+    return np.where(use_swapped, swapped.max(axis=(1, 2)), direct.max(axis=(1, 2)))
+
+
+def jump_points(field_: DriveField, points, drives: np.ndarray, config: DistillConfig) -> tuple[list, np.ndarray]:
+    """Points (and their teacher drives) that locate where the teacher's drive jumps, found by
+    bisection between ``points`` and their ``config.jump_neighbours`` nearest neighbours (in k over
+    the field's k range and load over ``load_factor`` times the trapezoid's critical load) whose
+    drives differ (``drive_difference`` > ``config.jump_threshold``): every level adds the pairs'
+    midpoints and keeps the halves whose ends still differ, ``config.jump_levels`` levels.
+
+    The student is a smooth function of (k, load): across a jump it blends the two drives, and a
+    blend of two optima is not one. Round 0's random points lie about 1.5 % of the domain apart, so
+    the fit can put its blend anywhere in that gap; points on both sides of the jump, a few levels
+    of bisection closer, narrow it."""
+    from scipy.spatial import cKDTree
+
+    pts = np.array([tuple(p) for p in points], dtype=np.float64)
+    crit = np.interp(pts[:, 0], field_.ks, field_.trapezoid_critical)
+    span = field_.ks[-1] - field_.ks[0]
+    coords = np.c_[pts[:, 0] / span, pts[:, 1] / np.maximum(crit * config.load_factor, 1e-12)]
+    _, idx = cKDTree(coords).query(coords, k=min(config.jump_neighbours + 1, len(pts)))
+    pairs = np.unique(np.sort(np.c_[np.repeat(np.arange(len(pts)), idx.shape[1] - 1), idx[:, 1:].ravel()], axis=1), axis=0)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    jumped = drive_difference(drives[pairs[:, 0]], drives[pairs[:, 1]]) > config.jump_threshold
+    a, b = pts[pairs[jumped, 0]], pts[pairs[jumped, 1]]
+    da, db = drives[pairs[jumped, 0]], drives[pairs[jumped, 1]]
+    new_points, new_drives = [], []
+    for _ in range(config.jump_levels):
+        if not len(a):
+            break
+        mid = 0.5 * (a + b)
+        dm, _ = field_.best([tuple(map(float, m)) for m in mid], radius=config.teacher_radius)
+        new_points += [tuple(map(float, m)) for m in mid]
+        new_drives.append(dm)
+        left = drive_difference(da, dm) > config.jump_threshold
+        right = drive_difference(dm, db) > config.jump_threshold
+        a = np.concatenate([a[left], mid[right]])
+        b = np.concatenate([mid[left], b[right]])
+        da, db = np.concatenate([da[left], dm[right]]), np.concatenate([dm[left], db[right]])
+    return new_points, np.concatenate(new_drives) if new_drives else np.zeros((0, 2, 5))
 
 
 def student_velocity(student: Student, points) -> np.ndarray:
@@ -436,6 +501,6 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "edge_loss", "find_holes", "fit",
-           "labelled_episodes", "perturb_previous_actions",
+__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "drive_difference", "edge_loss",
+           "find_holes", "fit", "jump_points", "labelled_episodes", "perturb_previous_actions",
            "policy_mean", "rollout", "save_student", "student_velocity"]
