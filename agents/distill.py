@@ -42,6 +42,8 @@ from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
 
 ENV_ID = "MDRDrive-v0"
+#: The observation entries that say where (k, load) the drive is (``DistillConfig.point_scale``).
+POINT_ENTRIES = ("k", "load_over_friction")
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
 EDGE = 0.999
 
@@ -86,6 +88,11 @@ class DistillConfig:
         jump_neighbours: neighbours of each round 0 point that ``jump_points`` compares it with (-).
         jump_threshold: two teacher drives differ where a component differs by more than this, in
             their closest cycle phase (action units).
+        point_scale: the observation entries that say where the drive is, ``k`` and
+            ``load_over_friction``, are normalised to this many units per standard deviation of the
+            teacher's episodes (the others to one): the network's first layer then resolves the
+            point ``point_scale`` times finer from the start, so it can switch drives across a
+            narrower band (the statistics ship in vecnormalize.pkl) (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -113,6 +120,7 @@ class DistillConfig:
     jump_levels: int = 0
     jump_neighbours: int = 6
     jump_threshold: float = 0.3
+    point_scale: float = 1.0
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -131,6 +139,7 @@ class DistillConfig:
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
+        check_range("point_scale", self.point_scale, 1.0, 5.0)
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig,
@@ -347,6 +356,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
             student.venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
             student.venv.obs_rms.var = obs.astype(np.float64).var(axis=0)
             student.venv.obs_rms.count = float(len(obs))
+            for name in POINT_ENTRIES:
+                student.venv.obs_rms.var[ObservationLayout.structure[name]] /= config.point_scale ** 2
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
                    config.steps if r == 0 else config.round_steps, config, seed + r, progress)
         record = {"round": r, "samples": int(sum(len(o) for o in obs_all)), "loss": loss,

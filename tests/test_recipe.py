@@ -154,6 +154,10 @@ def test_configs_reject_bad_values_naming_them():
         DistillConfig(activation="gelu")
     with pytest.raises(ValueError, match="huber_delta"):
         DistillConfig(huber_delta=-1.0)
+    with pytest.raises(ValueError, match="jump_levels"):
+        DistillConfig(jump_levels=-1)
+    with pytest.raises(ValueError, match="jump_threshold"):
+        DistillConfig(jump_threshold=0.0)
     with pytest.raises(ValueError, match="polish"):
         FieldConfig(polish=((0, 0.1),))
     with pytest.raises(ValueError, match="polish"):
@@ -342,6 +346,61 @@ def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_err
     assert fitted[0.0] == pytest.approx(0.48, abs=0.01)  # the mean: a blend of the two
     # the median, up to the pull of the outvoted labels (2 x delta each) on the quadratic part (3 x 2 (x - 0.2)):
     assert fitted[0.05] == pytest.approx(0.2 + 2 * 0.05 / 3, abs=0.005)  # within delta of the majority's drive
+
+
+class _StepTeacher:
+    """A stand-in teacher whose drive jumps from A to B at k = 0.3 (one cycle phase of B swapped:
+    the comparison must not count the phase as a jump), and a constant one."""
+
+    ks, trapezoid_critical = np.array([0.0, 0.6]), np.array([0.1, 0.1])
+    A = np.array([[0.9, 0.1, 1.0, -0.2, 0.5], [0.8, 0.3, 1.0, -0.1, 0.4]])
+    B = np.array([[-0.6, -0.9, 1.0, -1.0, 0.9], [1.0, 0.9, 1.0, 0.0, 1.0]])
+
+    def __init__(self, jump=True):
+        self.jump, self.calls = jump, 0
+
+    def best(self, points, radius=1):
+        self.calls += 1
+        k = np.array([p[0] for p in points])
+        b = np.where(np.arange(len(k)) % 2 == 0, 1, 0)  # every other B written in the swapped phase
+        drives = np.where(((k >= 0.3) & self.jump)[:, None, None], np.where(b[:, None, None], self.B, self.B[::-1]), self.A)
+        return drives, np.zeros(len(k))
+
+
+def test_drive_difference_compares_cycles_in_their_closest_phase():
+    from mdr_drive_agents.distill import drive_difference
+
+    A, B = _StepTeacher.A[None], _StepTeacher.B[None]
+    assert drive_difference(B, B[:, ::-1])[0] == 0.0
+    assert drive_difference(A, A + 0.05)[0] == pytest.approx(0.05)
+    assert drive_difference(A, B)[0] == pytest.approx(np.abs(_StepTeacher.A - _StepTeacher.B).max())
+
+
+def test_jump_points_bisect_towards_where_the_teachers_drive_jumps():
+    from mdr_drive_agents.distill import drive_difference, jump_points
+
+    rng = np.random.default_rng(3)
+    points = [(float(k), float(m)) for k, m in zip(rng.uniform(0.0, 0.6, 400), rng.uniform(0.0, 0.17, 400))]
+    teacher = _StepTeacher()
+    drives, _ = teacher.best(points)
+    config = DistillConfig(jump_levels=3, jump_neighbours=6, load_factor=1.7)
+    new_points, new_drives = jump_points(teacher, points, drives, config)
+    assert teacher.calls == 1 + 3 and len(new_points) == len(new_drives) > 0
+    # the pairs that straddle k = 0.3, in the nearest-neighbour graph, as the bisection's brackets
+    ks = np.array([p[0] for p in points])
+    widest = max(abs(a - b) for a in ks for b in ks if (a < 0.3) != (b < 0.3) and abs(a - b) < 0.1)
+    new_k = np.array([p[0] for p in new_points])
+    assert np.all(np.abs(new_k - 0.3) <= widest / 2 + 1e-12)  # every midpoint is inside a straddling pair
+    assert (new_k < 0.3).any() and (new_k >= 0.3).any()  # on both sides
+    # the last level's points are 4 times closer to the jump than the first's
+    assert np.median(np.abs(new_k[-len(new_k) // 4:] - 0.3)) < np.median(np.abs(new_k[:len(new_k) // 4] - 0.3)) / 2
+    expected, _ = _StepTeacher().best(new_points)
+    assert np.array_equal(new_drives, expected)  # each added point carries the teacher's drive there
+    assert drive_difference(drives[:1], drives[:1])[0] == 0.0
+    # no jump: nothing is added and the teacher is not asked again
+    flat = _StepTeacher(jump=False)
+    none, none_drives = jump_points(flat, points, flat.best(points)[0], config)
+    assert none == [] and none_drives.shape == (0, 2, 5) and flat.calls == 1
 
 
 def test_the_teacher_check_script_scores_the_teacher_against_an_earlier_blind_search(capsys, tmp_path):
