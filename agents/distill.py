@@ -37,7 +37,7 @@ from tqdm import tqdm
 import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
 
 from .drive_field import PAPER_FRICTION, DriveField, cycle_action
-from .evaluate import steady_velocity_of
+from .evaluate import ACTION_MAP, steady_velocity_of
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
 
@@ -88,6 +88,12 @@ class DistillConfig:
         jump_neighbours: neighbours of each round 0 point that ``jump_points`` compares it with (-).
         jump_threshold: two teacher drives differ where a component differs by more than this, in
             their closest cycle phase (action units).
+        quantum_centres: label the student with the teacher's actions moved to the centre of the time
+            quantum their rise fractions and z phase select (``ActionMap.quantum_centre``): the
+            same drives, and an error of up to half a quantum (0.0056 action units for a rise,
+            0.005 for the phase) leaves the waveform unchanged; a rise in the box's first or last
+            quantum becomes the edge itself, past which the fit lets the output go. Near stall one
+            quantum changes the steady velocity by more than a mm/s.
         point_scale: the observation entries that say where the drive is, ``k`` and
             ``load_over_friction``, are normalised to this many units per standard deviation of the
             teacher's episodes (the others to one): the network's first layer then resolves the
@@ -120,6 +126,7 @@ class DistillConfig:
     jump_levels: int = 0
     jump_neighbours: int = 6
     jump_threshold: float = 0.3
+    quantum_centres: bool = False
     point_scale: float = 1.0
 
     def __post_init__(self) -> None:
@@ -140,6 +147,8 @@ class DistillConfig:
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
         check_range("point_scale", self.point_scale, 1.0, 5.0)
+        if not isinstance(self.quantum_centres, bool):
+            raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig,
@@ -257,6 +266,17 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
     return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)))
 
 
+def set_normalisation(student: Student, obs: np.ndarray, point_scale: float = 1.0) -> None:
+    """Fix the student's observation statistics to those of ``obs`` (n, entries), the point's entries
+    (``POINT_ENTRIES``) scaled to ``point_scale`` units per standard deviation."""
+    rms = student.venv.obs_rms
+    rms.mean = obs.astype(np.float64).mean(axis=0)
+    rms.var = obs.astype(np.float64).var(axis=0)
+    rms.count = float(len(obs))
+    for name in POINT_ENTRIES:
+        rms.var[ObservationLayout.structure[name]] /= point_scale ** 2
+
+
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
         progress: bool = True, learning_rate: float | None = None) -> float:
     """Fit the student's mean action to the teacher's (``cycle_action`` of each sample's drive after
@@ -345,6 +365,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config, friction)
         drives, _ = field_.best(points, radius=config.teacher_radius)
+        extra = []
         if r == 0 and config.jump_levels:
             extra, extra_drives = jump_points(field_, points, drives, config)
             points, drives = points + extra, np.concatenate([drives, extra_drives]) if extra else drives
@@ -353,14 +374,11 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         obs_all.append(obs)
         drive_all.append(sample_drives)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
-            student.venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
-            student.venv.obs_rms.var = obs.astype(np.float64).var(axis=0)
-            student.venv.obs_rms.count = float(len(obs))
-            for name in POINT_ENTRIES:
-                student.venv.obs_rms.var[ObservationLayout.structure[name]] /= config.point_scale ** 2
+            set_normalisation(student, obs, config.point_scale)
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
                    config.steps if r == 0 else config.round_steps, config, seed + r, progress)
-        record = {"round": r, "samples": int(sum(len(o) for o in obs_all)), "loss": loss,
+        record = {"round": r, **({"jump_points": len(extra)} if r == 0 and config.jump_levels else {}),
+                  "samples": int(sum(len(o) for o in obs_all)), "loss": loss,
                   "wall_time_s": round(time.perf_counter() - t0, 1)}
         if val is not None:
             record.update(validation_fraction(student, *val))
@@ -401,6 +419,8 @@ def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, se
     default units, origin 0)."""
     if drives is None:
         drives, _ = field_.best(points, radius=config.teacher_radius)
+    if config.quantum_centres:
+        drives = ACTION_MAP.quantum_centre(drives)
     drives = shift_phase_origin(drives, 0.0, z_phase_origin)
     obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed, z_phase_origin=z_phase_origin)
     return obs, sample_drives
@@ -513,5 +533,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
 
 
 __all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "drive_difference", "edge_loss",
-           "find_holes", "fit", "jump_points", "labelled_episodes", "perturb_previous_actions",
+           "find_holes", "fit", "jump_points", "labelled_episodes", "perturb_previous_actions", "set_normalisation",
            "policy_mean", "rollout", "save_student", "student_velocity"]

@@ -43,6 +43,7 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     assert run["algo"] == "ppo" and "residual_scale" not in run["hyperparameters"]
     history = run["distilled_from"]["history"]
     assert len(history) == 3  # the teacher's round, one DAgger round, one hole round
+    assert history[0]["samples"] == (16 + history[0]["jump_points"]) * 4  # round 0: random points and bisection
     assert history[2]["hole_round"] == 1 and history[2]["probes"] == 16 and 0 <= history[2]["holes"] <= 16
     assert not (out / ".tasks").exists()
     from mdr_drive_agents.drive_field import DriveField
@@ -401,6 +402,19 @@ def test_jump_points_bisect_towards_where_the_teachers_drive_jumps():
     flat = _StepTeacher(jump=False)
     none, none_drives = jump_points(flat, points, flat.best(points)[0], config)
     assert none == [] and none_drives.shape == (0, 2, 5) and flat.calls == 1
+
+
+def test_the_point_entries_are_normalised_finer_by_point_scale():
+    from mdr_drive_agents.distill import POINT_ENTRIES, make_student, set_normalisation
+    from mdr_drive_env.gym_envs.spaces import ObservationLayout
+
+    student = make_student(DistillConfig(net_arch=(8,)), 0, {}, {"n_envs": 2, "n_steps": 8, "batch_size": 16})
+    obs = np.random.default_rng(0).uniform(0.0, 0.5, (500, 14)).astype(np.float32)
+    set_normalisation(student, obs, point_scale=3.0)
+    spread = student.venv.normalize_obs(obs.astype(np.float64)).std(axis=0)
+    point = [ObservationLayout.structure[name].start for name in POINT_ENTRIES]
+    assert np.allclose(spread[point], 3.0, rtol=1e-3)
+    assert np.allclose(np.delete(spread, point), 1.0, rtol=1e-3)
 
 
 def test_the_teacher_check_script_scores_the_teacher_against_an_earlier_blind_search(capsys, tmp_path):

@@ -126,6 +126,23 @@ class ActionMap:
         out[:, 4] = ((np.rint(u[:, 4] * n).astype(np.int64) + origin) % n) / n
         return out
 
+    def quantum_centre(self, actions) -> np.ndarray:
+        """Each action (..., 5) moved to the centre of the time quantum its rise fractions and z
+        phase select, clipped to the box: the same waveform (``to_params`` is unchanged), with the
+        most room for an error on either side. A rise entry in the first or last quantum becomes -1 or
+        +1 (that quantum reaches the box's edge, and past the edge the action is clipped back to it),
+        and so does a z phase in the quantum at the seam. Amplitudes are only clipped."""
+        a = np.minimum(np.maximum(np.asarray(actions, dtype=np.float64), -1.0), 1.0)
+        out = a.copy()
+        u = (a + 1.0) / 2.0
+        n, lo, hi, span, *_ = self._grid
+        for entry in (1, 3):  # rise fractions
+            index = np.minimum(np.maximum(np.rint((self.min_rise_fraction + u[..., entry] * span) * n), lo), hi)
+            centre = 2.0 * (index / n - self.min_rise_fraction) / span - 1.0
+            out[..., entry] = np.where(index <= lo, -1.0, np.where(index >= hi, 1.0, centre))
+        out[..., 4] = 2.0 * np.rint(u[..., 4] * n) / n - 1.0  # z phase: quantum 0 at -1, quantum n at +1
+        return out
+
     def to_waveform(self, action) -> Waveform:
         """The waveform an action selects, as a validated :class:`Waveform`."""
         p = self.to_params(action)
