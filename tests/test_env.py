@@ -145,6 +145,28 @@ def test_the_z_phase_origin_moves_the_seam_of_the_phase_not_the_waveforms():
     assert moved.to_waveform(a) == default.to_waveform(gym.make("MDRDrive-v0").unwrapped.trapezoid_action())
 
 
+@pytest.mark.parametrize("origin", [0.0, 0.5])
+def test_quantum_centres_select_the_same_waveform_with_half_a_quantum_of_room(origin):
+    from mdr_drive_env.gym_envs.spaces import ActionMap
+
+    amap = ActionMap(z_phase_origin=origin)
+    actions = np.random.default_rng(5).uniform(-1.05, 1.05, (5000, 5))
+    centres = amap.quantum_centre(actions)
+    same = amap.to_params_batch(np.clip(actions, -1.0, 1.0))
+    assert np.array_equal(amap.to_params_batch(centres), same)  # the same waveforms, bit for bit
+    assert np.array_equal(amap.quantum_centre(centres), centres)
+    assert np.array_equal(centres[:, [0, 2]], np.clip(actions[:, [0, 2]], -1.0, 1.0))  # amplitudes only clipped
+    rise, phase = 1.0 / (amap.quanta * (amap.max_rise_fraction - amap.min_rise_fraction) / 2), 2.0 / amap.quanta
+    for sign in (-1.0, 1.0):  # just under half a quantum either way: still the same waveform
+        moved = centres + sign * 0.499 * np.array([0.0, rise, 0.0, rise, phase])
+        assert np.array_equal(amap.to_params_batch(np.clip(moved, -1.0, 1.0))[:, :4], same[:, :4])
+        np.testing.assert_allclose(amap.to_params_batch(np.clip(moved, -1.0, 1.0))[:, 4], same[:, 4], atol=1e-12)
+    # a rise in the box's first quantum is the edge itself: past it the action clips to the same quantum
+    first = np.array([[0.5, -1.0 + 0.4 * rise, 0.5, 1.0 - 0.4 * rise, -1.0 + 0.4 * phase]])
+    assert np.array_equal(amap.quantum_centre(first)[0, 1:], [-1.0, 0.5, 1.0, -1.0])
+    assert amap.quantum_centre(np.array([[0.0, 0.0, 0.0, -1.0 + 0.6 * rise, 0.0]]))[0, 3] == pytest.approx(-1.0 + rise)
+
+
 def test_truncation_at_max_periods_and_never_terminated():
     env = gym.make("MDRDrive-v0", max_periods=3, cargo_mass=0.5, k=0.5)  # dragged back hard
     env.reset(seed=0)

@@ -404,6 +404,21 @@ def test_jump_points_bisect_towards_where_the_teachers_drive_jumps():
     assert none == [] and none_drives.shape == (0, 2, 5) and flat.calls == 1
 
 
+def test_quantum_centres_label_the_student_with_the_teachers_waveforms_at_their_quanta_centres():
+    from mdr_drive_agents.distill import labelled_episodes
+    from mdr_drive_agents.evaluate import ACTION_MAP
+
+    points = [(0.1, 0.02), (0.4, 0.005)]
+    teacher = _StepTeacher()
+    drives = teacher.best(points)[0]
+    _, plain = labelled_episodes(teacher, points, None, DistillConfig(periods=2), 0)
+    _, centred = labelled_episodes(teacher, points, None, DistillConfig(periods=2, quantum_centres=True), 0)
+    assert np.array_equal(plain, np.tile(drives, (2, 1, 1)))
+    assert np.array_equal(centred, ACTION_MAP.quantum_centre(plain)) and not np.array_equal(centred, plain)
+    same = ACTION_MAP.to_params_batch(plain.reshape(-1, 5)) == ACTION_MAP.to_params_batch(centred.reshape(-1, 5))
+    assert same.all()
+
+
 def test_the_point_entries_are_normalised_finer_by_point_scale():
     from mdr_drive_agents.distill import POINT_ENTRIES, make_student, set_normalisation
     from mdr_drive_env.gym_envs.spaces import ObservationLayout
