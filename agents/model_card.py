@@ -43,6 +43,19 @@ def evaluation_table(policy_dir: str | Path) -> str:
     return "\n".join(lines)
 
 
+def jump_note(distilled: dict) -> str:
+    """The first round's bisection of the teacher's jumps and the labels' quantum centres, where used."""
+    d = distilled["distill"]
+    notes = []
+    if d.get("jump_levels"):
+        added = next((r.get("jump_points") for r in distilled.get("history") or [] if r.get("round") == 0), None)
+        notes.append(f"{added:,} more" if added is not None else "more")
+        notes[-1] += f" bisecting where its drive jumps ({d['jump_levels']} levels)"
+    if d.get("quantum_centres"):
+        notes.append("labels at the centres of their time quanta")
+    return f" and {', '.join(notes)}" if notes else ""
+
+
 def training_note(run: dict) -> str:
     """How the policy was made: distilled from a teacher (``agents.recipe``) or trained by PPO/SAC."""
     distilled = run.get("distilled_from")
@@ -55,7 +68,8 @@ def training_note(run: dict) -> str:
                 f"{d['activation']} network fitted for {d['steps']:,} steps ("
                 f"{'Huber loss, delta ' + format(d['huber_delta'], 'g') if d.get('huber_delta') else 'squared error'}) "
                 f"to the teacher's actions on "
-                f"{d['points']:,} random episodes (the teacher's neighbourhood radius {d.get('teacher_radius', 1)}; "
+                f"{d['points']:,} random episodes{jump_note(distilled)} (the teacher's neighbourhood radius "
+                f"{d.get('teacher_radius', 1)}; "
                 f"DAgger rounds after it: {d['rounds']}; hole rounds: {d.get('hole_rounds', 0)}); final fit loss "
                 f"{loss:.2e}. No PPO update yet ({run['total_timesteps']:,} environment "
                 f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below (measured on the "
