@@ -42,8 +42,6 @@ from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
 
 ENV_ID = "MDRDrive-v0"
-#: The observation entries that say where (k, load) the drive is (``DistillConfig.point_scale``).
-POINT_ENTRIES = ("k", "load_over_friction")
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
 EDGE = 0.999
 
@@ -94,11 +92,6 @@ class DistillConfig:
             0.005 for the phase) leaves the waveform unchanged; a rise in the box's first or last
             quantum becomes the edge itself, past which the fit lets the output go. Near stall one
             quantum changes the steady velocity by more than a mm/s.
-        point_scale: the observation entries that say where the drive is, ``k`` and
-            ``load_over_friction``, are normalised to this many units per standard deviation of the
-            teacher's episodes (the others to one): the network's first layer then resolves the
-            point ``point_scale`` times finer from the start, so it can switch drives across a
-            narrower band (the statistics ship in vecnormalize.pkl) (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -127,7 +120,6 @@ class DistillConfig:
     jump_neighbours: int = 6
     jump_threshold: float = 0.3
     quantum_centres: bool = False
-    point_scale: float = 1.0
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -146,7 +138,6 @@ class DistillConfig:
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
-        check_range("point_scale", self.point_scale, 1.0, 5.0)
         if not isinstance(self.quantum_centres, bool):
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
 
@@ -266,15 +257,12 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
     return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)))
 
 
-def set_normalisation(student: Student, obs: np.ndarray, point_scale: float = 1.0) -> None:
-    """Fix the student's observation statistics to those of ``obs`` (n, entries), the point's entries
-    (``POINT_ENTRIES``) scaled to ``point_scale`` units per standard deviation."""
+def set_normalisation(student: Student, obs: np.ndarray) -> None:
+    """Fix the student's observation statistics to those of ``obs`` (n, entries)."""
     rms = student.venv.obs_rms
     rms.mean = obs.astype(np.float64).mean(axis=0)
     rms.var = obs.astype(np.float64).var(axis=0)
     rms.count = float(len(obs))
-    for name in POINT_ENTRIES:
-        rms.var[ObservationLayout.structure[name]] /= point_scale ** 2
 
 
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
@@ -374,7 +362,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         obs_all.append(obs)
         drive_all.append(sample_drives)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
-            set_normalisation(student, obs, config.point_scale)
+            set_normalisation(student, obs)
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
                    config.steps if r == 0 else config.round_steps, config, seed + r, progress)
         record = {"round": r, **({"jump_points": len(extra)} if r == 0 and config.jump_levels else {}),

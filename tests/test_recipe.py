@@ -419,19 +419,6 @@ def test_quantum_centres_label_the_student_with_the_teachers_waveforms_at_their_
     assert same.all()
 
 
-def test_the_point_entries_are_normalised_finer_by_point_scale():
-    from mdr_drive_agents.distill import POINT_ENTRIES, make_student, set_normalisation
-    from mdr_drive_env.gym_envs.spaces import ObservationLayout
-
-    student = make_student(DistillConfig(net_arch=(8,)), 0, {}, {"n_envs": 2, "n_steps": 8, "batch_size": 16})
-    obs = np.random.default_rng(0).uniform(0.0, 0.5, (500, 14)).astype(np.float32)
-    set_normalisation(student, obs, point_scale=3.0)
-    spread = student.venv.normalize_obs(obs.astype(np.float64)).std(axis=0)
-    point = [ObservationLayout.structure[name].start for name in POINT_ENTRIES]
-    assert np.allclose(spread[point], 3.0, rtol=1e-3)
-    assert np.allclose(np.delete(spread, point), 1.0, rtol=1e-3)
-
-
 def test_the_teacher_check_script_scores_the_teacher_against_an_earlier_blind_search(capsys, tmp_path):
     import runpy
 
