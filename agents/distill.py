@@ -36,7 +36,7 @@ from tqdm import tqdm
 
 import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
 
-from .drive_field import PAPER_FRICTION, DriveField, cycle_action
+from .drive_field import PAPER_FRICTION, DriveField, cycle_action, swap_is_closer
 from .evaluate import ACTION_MAP, steady_velocity_of
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
@@ -257,14 +257,6 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
     return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)))
 
 
-def set_normalisation(student: Student, obs: np.ndarray) -> None:
-    """Fix the student's observation statistics to those of ``obs`` (n, entries)."""
-    rms = student.venv.obs_rms
-    rms.mean = obs.astype(np.float64).mean(axis=0)
-    rms.var = obs.astype(np.float64).var(axis=0)
-    rms.count = float(len(obs))
-
-
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
         progress: bool = True, learning_rate: float | None = None) -> float:
     """Fit the student's mean action to the teacher's (``cycle_action`` of each sample's drive after
@@ -362,7 +354,9 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         obs_all.append(obs)
         drive_all.append(sample_drives)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
-            set_normalisation(student, obs)
+            student.venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
+            student.venv.obs_rms.var = obs.astype(np.float64).var(axis=0)
+            student.venv.obs_rms.count = float(len(obs))
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
                    config.steps if r == 0 else config.round_steps, config, seed + r, progress)
         record = {"round": r, **({"jump_points": len(extra)} if r == 0 and config.jump_levels else {}),
@@ -417,9 +411,8 @@ def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, se
 def drive_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The largest component difference (action units) between drives ``a`` and ``b`` (n, 2, 5), each
     pair compared in the cycle phase that brings them closest (``align_phase``)."""
-    direct, swapped = np.abs(b - a), np.abs(b[:, ::-1] - a)
-    use_swapped = swapped.sum(axis=(1, 2)) < direct.sum(axis=(1, 2))
-    return np.where(use_swapped, swapped.max(axis=(1, 2)), direct.max(axis=(1, 2)))
+    aligned = np.where(swap_is_closer(b, a)[:, None, None], b[:, ::-1], b)
+    return np.abs(aligned - a).max(axis=(1, 2))
 
 
 def jump_points(field_: DriveField, points, drives: np.ndarray, config: DistillConfig) -> tuple[list, np.ndarray]:
@@ -450,8 +443,9 @@ def jump_points(field_: DriveField, points, drives: np.ndarray, config: DistillC
         if not len(a):
             break
         mid = 0.5 * (a + b)
-        dm, _ = field_.best([tuple(map(float, m)) for m in mid], radius=config.teacher_radius)
-        new_points += [tuple(map(float, m)) for m in mid]
+        mid_points = [tuple(map(float, m)) for m in mid]
+        dm, _ = field_.best(mid_points, radius=config.teacher_radius)
+        new_points += mid_points
         new_drives.append(dm)
         left = drive_difference(da, dm) > config.jump_threshold
         right = drive_difference(dm, db) > config.jump_threshold
@@ -521,5 +515,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
 
 
 __all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "drive_difference", "edge_loss",
-           "find_holes", "fit", "jump_points", "labelled_episodes", "perturb_previous_actions", "set_normalisation",
+           "find_holes", "fit", "jump_points", "labelled_episodes", "perturb_previous_actions",
            "policy_mean", "rollout", "save_student", "student_velocity"]

@@ -143,10 +143,15 @@ def polish_slice(args) -> list[tuple[np.ndarray, float]]:
     return out
 
 
+def swap_is_closer(drives: np.ndarray, references: np.ndarray) -> np.ndarray:
+    """Per pair, whether the swapped cycle of ``drives`` (n, 2, 5) is closer to ``references`` (n, 2, 5)
+    than the cycle as written (summed absolute differences): (n,) bool."""
+    return (np.abs(drives[:, ::-1] - references).sum(axis=(1, 2)) < np.abs(drives - references).sum(axis=(1, 2)))
+
+
 def align_phase(drive: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """``drive`` (2, 5) or its swapped cycle, whichever is closer to ``reference`` (2, 5)."""
-    swapped = drive[::-1]
-    return swapped if np.abs(swapped - reference).sum() < np.abs(drive - reference).sum() else drive
+    return drive[::-1] if swap_is_closer(drive[None], reference[None])[0] else drive
 
 
 class DriveField:
@@ -403,4 +408,4 @@ def cycle_action(drives: np.ndarray, previous_actions: np.ndarray) -> np.ndarray
 
 
 __all__ = ["PAPER_FRICTION", "DriveField", "FieldConfig", "align_phase", "cycle_action", "pick_best", "search_point",
-           "with_friction"]
+           "swap_is_closer", "with_friction"]

@@ -115,16 +115,20 @@ class ActionMap:
         if not np.isfinite(a).all():
             raise ValueError(f"actions {a[~np.isfinite(a).all(axis=1)].tolist()} are not finite")
         u = (np.minimum(np.maximum(a, -1.0), 1.0) + 1.0) / 2.0  # np.clip, without its overhead
-        n, lo, hi, span, _, _, rise_table, origin = self._grid
+        n, *_, rise_table, origin = self._grid
         out = np.empty((a.shape[0], 5))
         out[:, 0] = u[:, 0] * self.x_amplitude_max
-        out[:, 1] = rise_table[np.minimum(np.maximum(np.rint((self.min_rise_fraction + u[:, 1] * span) * n), lo),
-                                          hi).astype(np.int64)]
+        out[:, 1] = rise_table[self._rise_quanta(u[:, 1])]
         out[:, 2] = u[:, 2] * self.z_amplitude_max
-        out[:, 3] = rise_table[np.minimum(np.maximum(np.rint((self.min_rise_fraction + u[:, 3] * span) * n), lo),
-                                          hi).astype(np.int64)]
+        out[:, 3] = rise_table[self._rise_quanta(u[:, 3])]
         out[:, 4] = ((np.rint(u[:, 4] * n).astype(np.int64) + origin) % n) / n
         return out
+
+    def _rise_quanta(self, u: np.ndarray) -> np.ndarray:
+        """The rise time in quanta (int64 array) that rise entries ``u`` in [0, 1] select, vectorised
+        (``to_params`` rounds the same way, one action at a time)."""
+        n, lo, hi, span, *_ = self._grid
+        return np.minimum(np.maximum(np.rint((self.min_rise_fraction + u * span) * n), lo), hi).astype(np.int64)
 
     def quantum_centre(self, actions) -> np.ndarray:
         """Each action (..., 5) moved to the centre of the time quantum its rise fractions and z
@@ -137,7 +141,7 @@ class ActionMap:
         u = (a + 1.0) / 2.0
         n, lo, hi, span, *_ = self._grid
         for entry in (1, 3):  # rise fractions
-            index = np.minimum(np.maximum(np.rint((self.min_rise_fraction + u[..., entry] * span) * n), lo), hi)
+            index = self._rise_quanta(u[..., entry])
             centre = 2.0 * (index / n - self.min_rise_fraction) / span - 1.0
             out[..., entry] = np.where(index <= lo, -1.0, np.where(index >= hi, 1.0, centre))
         out[..., 4] = 2.0 * np.rint(u[..., 4] * n) / n - 1.0  # z phase: quantum 0 at -1, quantum n at +1
