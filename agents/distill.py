@@ -92,9 +92,6 @@ class DistillConfig:
             0.005 for the phase) leaves the waveform unchanged; a rise in the box's first or last
             quantum becomes the edge itself, past which the fit lets the output go. Near stall one
             quantum changes the steady velocity by more than a mm/s.
-        hysteresis: 0 off; > 0 where the teacher has another drive within this fraction of its
-            pick's velocity (``DriveField.best_and_alternative``, ``jump_threshold`` apart), the
-            student learns both as attractors of its closed loop (``hysteresis_labels``) (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -123,7 +120,6 @@ class DistillConfig:
     jump_neighbours: int = 6
     jump_threshold: float = 0.3
     quantum_centres: bool = False
-    hysteresis: float = 0.0
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -142,7 +138,6 @@ class DistillConfig:
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
-        check_range("hysteresis", self.hysteresis, 0.0, 1.0)
         if not isinstance(self.quantum_centres, bool):
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
 
@@ -262,32 +257,8 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
     return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)))
 
 
-def alternative_basin(v_pick: np.ndarray, v_alt: np.ndarray, tolerance: float) -> np.ndarray:
-    """The share of the way from the alternative drive to the pick (0-0.5) over which a previous
-    action counts as the alternative's: 0.5 where the two are equally fast, shrinking linearly to 0
-    where the alternative is ``tolerance`` (relative) slower, and 0 where the pick does not move."""
-    if tolerance <= 0.0:
-        return np.zeros(len(v_pick))
-    loss = (v_pick - v_alt) / np.maximum(np.abs(v_pick), 1e-12)
-    return np.where(v_pick > 0.0, 0.5 * np.clip(1.0 - loss / tolerance, 0.0, 1.0), 0.0)
-
-
-def hysteresis_labels(drives: np.ndarray, alts: np.ndarray, basins: np.ndarray, previous: np.ndarray) -> np.ndarray:
-    """The drive (n, 2, 5) each sample's label follows after ``previous`` (n, 5): the alternative
-    where the previous action lies within ``basins`` of the way from the alternative's nearest
-    action to the pick's nearest one, else the pick. Near a jump of the teacher's drive, where both
-    are good, the student thus keeps playing whichever of the two it is playing: the switch between
-    them sits in the previous action (the drives lie action units apart there), not in (k, load),
-    where a smooth network blends two drives over a band, and blends of two optima stall."""
-    d_pick = np.linalg.norm(previous[:, None, :] - drives, axis=2).min(axis=1)
-    d_alt = np.linalg.norm(previous[:, None, :] - alts, axis=2).min(axis=1)
-    use_alt = (basins > 0.0) & (d_alt < basins * (d_pick + d_alt))
-    return np.where(use_alt[:, None, None], alts, drives)
-
-
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
-        progress: bool = True, learning_rate: float | None = None, alts: np.ndarray | None = None,
-        basins: np.ndarray | None = None) -> float:
+        progress: bool = True, learning_rate: float | None = None) -> float:
     """Fit the student's mean action to the teacher's (``cycle_action`` of each sample's drive after
     its previous action) on normalised ``obs``, ``steps`` Adam steps with the learning rate
     (``config.learning_rate`` unless given) decaying linearly to zero; returns the last epoch's mean loss.
@@ -307,15 +278,8 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
     rng = np.random.default_rng(seed)
 
     def epoch():
-        if basins is None:
-            x = perturb_previous_actions(obs, drives, rng, config.perturbed_share, prev_slice)
-            label_drives = drives
-        else:  # perturbed around either attractor; labelled by the one whose basin holds the action
-            around_alt = (basins > 0.0) & (rng.uniform(size=len(obs)) < 0.5)
-            x = perturb_previous_actions(obs, np.where(around_alt[:, None, None], alts, drives), rng,
-                                         config.perturbed_share, prev_slice)
-            label_drives = hysteresis_labels(drives, alts, basins, x[:, prev_slice])
-        y = torch.as_tensor(cycle_action(label_drives, x[:, prev_slice]), dtype=torch.float32)
+        x = perturb_previous_actions(obs, drives, rng, config.perturbed_share, prev_slice)
+        y = torch.as_tensor(cycle_action(drives, x[:, prev_slice]), dtype=torch.float32)
         for column in shuffled:
             x[:, column] = x[rng.permutation(len(x)), column]
         x = torch.as_tensor(student.venv.normalize_obs(x.astype(np.float64)), dtype=torch.float32)
@@ -376,13 +340,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     val = None
     if validation_points:
         val = (validation_points, field_.best(validation_points, radius=config.teacher_radius)[1])
-    obs_all, drive_all, alt_all, basin_all = [], [], [], []
-
-    def two_drives() -> dict:
-        if not config.hysteresis:
-            return {}
-        return {"alts": np.concatenate(alt_all), "basins": np.concatenate(basin_all)}
-
+    obs_all, drive_all = [], []
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config, friction)
@@ -391,23 +349,16 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         if r == 0 and config.jump_levels:
             extra, extra_drives = jump_points(field_, points, drives, config)
             points, drives = points + extra, np.concatenate([drives, extra_drives]) if extra else drives
-        if r == 0 and config.hysteresis:
-            obs, sample_drives, sample_alts, sample_basins = hysteresis_episodes(field_, points, config, seed,
-                                                                                 student.z_phase_origin)
-        else:
-            obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r,
-                                                   student.z_phase_origin, drives=drives)
-            sample_alts, sample_basins = sample_drives, np.zeros(len(obs))
+        obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r,
+                                               student.z_phase_origin, drives=drives)
         obs_all.append(obs)
         drive_all.append(sample_drives)
-        alt_all.append(sample_alts)
-        basin_all.append(sample_basins)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
             student.venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
             student.venv.obs_rms.var = obs.astype(np.float64).var(axis=0)
             student.venv.obs_rms.count = float(len(obs))
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
-                   config.steps if r == 0 else config.round_steps, config, seed + r, progress, **two_drives())
+                   config.steps if r == 0 else config.round_steps, config, seed + r, progress)
         record = {"round": r, **({"jump_points": len(extra)} if r == 0 and config.jump_levels else {}),
                   "samples": int(sum(len(o) for o in obs_all)), "loss": loss,
                   "wall_time_s": round(time.perf_counter() - t0, 1)}
@@ -421,20 +372,12 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         holes, probe = find_holes(student, field_, config, rng, friction)
         loss = None  # no hole found: no fit this round
         if holes:
-            at = around(holes, config.hole_neighbours, rng, k_range)
-            if config.hysteresis:
-                obs, sample_drives, sample_alts, sample_basins = hysteresis_episodes(
-                    field_, at, config, seed + 100 + h, student.z_phase_origin)
-            else:
-                obs, sample_drives = labelled_episodes(field_, at, None, config, seed + 100 + h,
-                                                       student.z_phase_origin)
-                sample_alts, sample_basins = sample_drives, np.zeros(len(obs))
+            obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
+                                                   config, seed + 100 + h, student.z_phase_origin)
             obs_all.append(obs)
             drive_all.append(sample_drives)
-            alt_all.append(sample_alts)
-            basin_all.append(sample_basins)
             loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
-                       seed + 100 + h, progress, learning_rate=config.hole_learning_rate, **two_drives())
+                       seed + 100 + h, progress, learning_rate=config.hole_learning_rate)
         record = {"hole_round": h, **probe, "samples": int(sum(len(o) for o in obs_all)),
                   "loss": loss, "wall_time_s": round(time.perf_counter() - t0, 1)}
         if val is not None:
@@ -463,29 +406,6 @@ def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, se
     drives = shift_phase_origin(drives, 0.0, z_phase_origin)
     obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed, z_phase_origin=z_phase_origin)
     return obs, sample_drives
-
-
-def hysteresis_episodes(field_: DriveField, points, config: DistillConfig, seed: int, z_phase_origin: float = 0.0):
-    """The teacher's episodes at ``points`` (as :func:`labelled_episodes`) and, where it has another
-    good drive (``DriveField.best_and_alternative`` with ``config.hysteresis``), episodes of that
-    drive too: observations, and per sample the pick, the alternative (the pick where none) and the
-    alternative's basin (``alternative_basin``), in the action units of an env with ``z_phase_origin``."""
-    drives, v_pick, alts, v_alt = field_.best_and_alternative(points, config.hysteresis, config.jump_threshold,
-                                                              radius=config.teacher_radius)
-    basins = np.where(np.any(alts != drives, axis=(1, 2)), alternative_basin(v_pick, v_alt, config.hysteresis), 0.0)
-    if config.quantum_centres:
-        drives, alts = ACTION_MAP.quantum_centre(drives), ACTION_MAP.quantum_centre(alts)
-    drives = shift_phase_origin(drives, 0.0, z_phase_origin)
-    alts = shift_phase_origin(alts, 0.0, z_phase_origin)
-    two = np.flatnonzero(basins > 0.0)
-    obs, sample_drives, _ = rollout(points, drives, None, config.periods, seed=seed, z_phase_origin=z_phase_origin)
-    parts = [(obs, sample_drives, np.tile(alts, (config.periods, 1, 1)), np.tile(basins, config.periods))]
-    if len(two):
-        obs2, sample_alts, _ = rollout([points[i] for i in two], alts[two], None, config.periods, seed=seed + 7919,
-                                       z_phase_origin=z_phase_origin)
-        parts.append((obs2, np.tile(drives[two], (config.periods, 1, 1)), sample_alts,
-                      np.tile(basins[two], config.periods)))
-    return tuple(np.concatenate([part[i] for part in parts]) for i in range(4))
 
 
 def drive_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:

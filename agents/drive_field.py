@@ -354,27 +354,6 @@ class DriveField:
         cands = [self.candidates(p[0], self.field_load(p), radius) for p in points]  # c may differ at the edge
         return pick_best(points, cands, prefer_interpolation)
 
-    def best_and_alternative(self, points, tolerance: float, threshold: float, prefer_interpolation: float = 0.02,
-                             radius: int = 1):
-        """:meth:`best`, and per point the fastest candidate that is another drive (``drive_difference``
-        > ``threshold`` action units from the pick) and within ``tolerance`` (relative) of the pick's
-        velocity, kept only where their even blend is slower than both by more than ``tolerance``
-        (two optima, not one drive written two ways): (drives, velocities, alternatives (n, 2, 5),
-        alternative velocities (n,) m/s), the alternative equal to the pick, at the pick's velocity,
-        where there is none."""
-        check_int("radius", radius, 1)
-        points = self.with_friction(points)
-        cands = [self.candidates(p[0], self.field_load(p), radius) for p in points]
-        drives, v, alts, v_alt = pick_best(points, cands, prefer_interpolation, alternative=(tolerance, threshold))
-        two = np.flatnonzero(np.any(alts != drives, axis=(1, 2)))
-        if len(two):
-            aligned = np.where(swap_is_closer(alts[two], drives[two])[:, None, None], alts[two, ::-1], alts[two])
-            v_blend = open_loop_velocity([points[i] for i in two], 0.5 * (drives[two] + aligned))
-            lower = np.minimum(v[two], v_alt[two])
-            one = two[v_blend >= lower - tolerance * np.abs(lower)]
-            alts[one], v_alt[one] = drives[one], v[one]
-        return drives, v, alts, v_alt
-
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:
         import json
@@ -401,17 +380,12 @@ def with_friction(points, friction) -> list[tuple[float, float, float, float]]:
     return [tuple(map(float, p)) if len(p) == 4 else (float(p[0]), float(p[1]), *map(float, friction)) for p in points]
 
 
-def pick_best(points, cands: list, prefer_interpolation: float, alternative: tuple[float, float] | None = None):
+def pick_best(points, cands: list, prefer_interpolation: float) -> tuple[np.ndarray, np.ndarray]:
     """Per point, the best of its candidate drives ``cands[i]`` (c_i, 2, 5) played there (one batched
     call), the first (an interpolation) unless another is better by more than
-    ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s.
-
-    With ``alternative`` (tolerance, threshold), also the fastest candidate whose largest component
-    differs from the pick's by more than ``threshold`` (action units, closest cycle phase) and whose
-    velocity is at least ``1 - tolerance`` times the pick's (the pick itself where none is), and its
-    velocity: (drives, velocities, alternatives, alternative velocities)."""
+    ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s."""
     v = open_loop_velocity([p for p, c in zip(points, cands) for _ in c], np.concatenate(cands))
-    drives, velocities, alts, alt_velocities, start = [], [], [], [], 0
+    drives, velocities, start = [], [], 0
     for c in cands:
         vc = v[start:start + len(c)]
         pick = int(np.argmax(vc))
@@ -419,18 +393,8 @@ def pick_best(points, cands: list, prefer_interpolation: float, alternative: tup
             pick = 0
         drives.append(c[pick])
         velocities.append(vc[pick])
-        if alternative is not None:
-            tolerance, threshold = alternative
-            other = np.where(swap_is_closer(c, np.broadcast_to(c[pick], c.shape))[:, None, None], c[:, ::-1], c)
-            far = np.abs(other - c[pick]).max(axis=(1, 2)) > threshold
-            good = far & (vc >= vc[pick] - tolerance * abs(vc[pick]))
-            alt = int(np.argmax(np.where(good, vc, -np.inf))) if good.any() else pick
-            alts.append(c[alt])
-            alt_velocities.append(vc[alt])
         start += len(c)
-    if alternative is None:
-        return np.array(drives), np.array(velocities)
-    return np.array(drives), np.array(velocities), np.array(alts), np.array(alt_velocities)
+    return np.array(drives), np.array(velocities)
 
 
 def cycle_action(drives: np.ndarray, previous_actions: np.ndarray) -> np.ndarray:
