@@ -416,6 +416,12 @@ def drive_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def jump_points(field_: DriveField, points, drives: np.ndarray, config: DistillConfig) -> tuple[list, np.ndarray]:
+    """The points and teacher drives :func:`jump_brackets` adds (its bisection midpoints)."""
+    new_points, new_drives, _ = jump_brackets(field_, points, drives, config)
+    return new_points, new_drives
+
+
+def jump_brackets(field_: DriveField, points, drives: np.ndarray, config: DistillConfig):
     """Points (and their teacher drives) that locate where the teacher's drive jumps, found by
     bisection between ``points`` and their ``config.jump_neighbours`` nearest neighbours (in k over
     the field's k range and load over ``load_factor`` times the trapezoid's critical load) whose
@@ -425,7 +431,10 @@ def jump_points(field_: DriveField, points, drives: np.ndarray, config: DistillC
     The student is a smooth function of (k, load): across a jump it blends the two drives, and a
     blend of two optima is not one. Round 0's random points lie about 1.5 % of the domain apart, so
     the fit can put its blend anywhere in that gap; points on both sides of the jump, a few levels
-    of bisection closer, narrow it."""
+    of bisection closer, narrow it.
+
+    Returns the added points (list of (k, load kg)), their drives (m, 2, 5) and the brackets the
+    last level leaves: their ends (b, 2) and (b, 2) and the ends' drives (b, 2, 5) and (b, 2, 5)."""
     from scipy.spatial import cKDTree
 
     pts = np.array([tuple(p) for p in points], dtype=np.float64)
@@ -452,7 +461,7 @@ def jump_points(field_: DriveField, points, drives: np.ndarray, config: DistillC
         a = np.concatenate([a[left], mid[right]])
         b = np.concatenate([mid[left], b[right]])
         da, db = np.concatenate([da[left], dm[right]]), np.concatenate([dm[left], db[right]])
-    return new_points, np.concatenate(new_drives) if new_drives else np.zeros((0, 2, 5))
+    return new_points, np.concatenate(new_drives) if new_drives else np.zeros((0, 2, 5)), (a, b, da, db)
 
 
 def student_velocity(student: Student, points) -> np.ndarray:
@@ -515,5 +524,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
 
 
 __all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "drive_difference", "edge_loss",
-           "find_holes", "fit", "jump_points", "labelled_episodes", "perturb_previous_actions",
+           "find_holes", "fit", "jump_brackets", "jump_points", "labelled_episodes", "perturb_previous_actions",
            "policy_mean", "rollout", "save_student", "student_velocity"]

@@ -404,6 +404,44 @@ def test_jump_points_bisect_towards_where_the_teachers_drive_jumps():
     assert none == [] and none_drives.shape == (0, 2, 5) and flat.calls == 1
 
 
+def test_jump_brackets_end_with_pairs_that_straddle_the_jump_closely_and_carry_its_two_drives():
+    from mdr_drive_agents.distill import drive_difference, jump_brackets, jump_points
+
+    rng = np.random.default_rng(4)
+    points = [(float(k), float(m)) for k, m in zip(rng.uniform(0.0, 0.6, 300), rng.uniform(0.0, 0.17, 300))]
+    config = DistillConfig(jump_levels=4, jump_neighbours=6, load_factor=1.7)
+    drives = _StepTeacher().best(points)[0]
+    added, added_drives, (a, b, da, db) = jump_brackets(_StepTeacher(), points, drives, config)
+    same, same_drives = jump_points(_StepTeacher(), points, drives, config)
+    assert added == same and np.array_equal(added_drives, same_drives)  # jump_points is its first two
+    assert len(a) == len(b) == len(da) == len(db) > 0
+    assert np.all((a[:, 0] < 0.3) != (b[:, 0] < 0.3))  # every last bracket straddles the jump
+    assert np.all(drive_difference(da, db) > config.jump_threshold)
+    for ends, end_drives in ((a, da), (b, db)):  # each end carries its own drive (in either cycle phase)
+        assert np.all(drive_difference(end_drives, _StepTeacher().best([tuple(x) for x in ends])[0]) == 0.0)
+    # four levels halve the brackets four times: every last bracket is within 1/16 of a neighbour pair
+    assert np.abs(a[:, 0] - b[:, 0]).max() <= 0.1 / 16 + 1e-12
+
+
+def test_the_jump_bridges_script_counts_harmful_jumps_and_searches_bridges(capsys, tmp_path, monkeypatch):
+    import runpy
+
+    root = Path(__file__).parents[1]
+    config = tmp_path / "recipe.yaml"
+    text = (root / "agents" / "configs" / "recipe.yaml").read_text()
+    config.write_text(text.replace("  points: 4096", "  points: 96").replace("  jump_levels: 5", "  jump_levels: 2"))
+    main = runpy.run_path(str(root / "scripts" / "jump_bridges.py"))["main"]
+    out = tmp_path / "bridges.md"
+    args = ["--field", str(root / "results" / "recipe" / "teacher_field.npz"), "--config", str(config),
+            "--samples", "2", "--iterations", "2", "--popsize", "4", "--out", str(out)]
+    assert main(args) == 0
+    report = capsys.readouterr().out
+    assert report == out.read_text() and "Jump brackets of round 0" in report and "Bridges found:" in report
+    with pytest.raises(SystemExit):  # an existing report is not overwritten silently
+        main(args)
+    assert "exists" in capsys.readouterr().err
+
+
 def test_quantum_centres_label_the_student_with_the_teachers_waveforms_at_their_quanta_centres():
     from mdr_drive_agents.distill import labelled_episodes
     from mdr_drive_agents.evaluate import ACTION_MAP
