@@ -46,8 +46,6 @@ class FieldConfig:
     Attributes:
         k_values: grid values of the grading exponent k, spread evenly over ``k_range`` (-).
         k_range: (low, high) of k (-).
-        extra_ks: more grid values of k, inside ``k_range``, where the best drive changes faster in k
-            than the even spacing resolves (-).
         load_fractions: grid values of the load, spread evenly from 0 to ``max_load_fraction`` times
             the trapezoid's critical load at each k (-).
         max_load_fraction: heaviest grid load / the trapezoid's critical load (-).
@@ -68,7 +66,6 @@ class FieldConfig:
 
     k_values: int = 13
     k_range: tuple[float, float] = (0.0, 0.6)
-    extra_ks: tuple[float, ...] = ()
     load_fractions: int = 12
     max_load_fraction: float = 1.3
     fixed_budget: int = 300
@@ -84,8 +81,6 @@ class FieldConfig:
         lo, hi = self.k_range
         if not 0.0 <= lo < hi <= 1.0:
             raise ValueError(f"k_range={self.k_range!r} must satisfy 0 <= low < high <= 1")
-        for k in self.extra_ks:
-            check_range("extra_ks", k, lo, hi)
         check_range("max_load_fraction", self.max_load_fraction, 0.0, 5.0, low_open=True)
         check_range("consolidate_tolerance", self.consolidate_tolerance, 0.0, 1.0, high_open=True)
         check_range("sigma0", self.sigma0, 0.0, 1.0, low_open=True)
@@ -101,7 +96,7 @@ class FieldConfig:
 
     @property
     def ks(self) -> np.ndarray:
-        return np.unique(np.concatenate([np.linspace(*self.k_range, self.k_values), np.asarray(self.extra_ks, float)]))
+        return np.linspace(*self.k_range, self.k_values)
 
     @property
     def fractions(self) -> np.ndarray:
