@@ -36,7 +36,7 @@ from tqdm import tqdm
 
 import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
 
-from .drive_field import PAPER_FRICTION, DriveField, cycle_action, swap_is_closer
+from .drive_field import PAPER_FRICTION, DriveField, align_phase, cycle_action
 from .evaluate import ACTION_MAP, steady_velocity_of
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
@@ -411,8 +411,7 @@ def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, se
 def drive_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The largest component difference (action units) between drives ``a`` and ``b`` (n, 2, 5), each
     pair compared in the cycle phase that brings them closest (``align_phase``)."""
-    aligned = np.where(swap_is_closer(b, a)[:, None, None], b[:, ::-1], b)
-    return np.abs(aligned - a).max(axis=(1, 2))
+    return np.abs(align_phase(b, a) - a).max(axis=(1, 2))
 
 
 def jump_points(field_: DriveField, points, drives: np.ndarray, config: DistillConfig) -> tuple[list, np.ndarray]:

@@ -150,8 +150,11 @@ def swap_is_closer(drives: np.ndarray, references: np.ndarray) -> np.ndarray:
 
 
 def align_phase(drive: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """``drive`` (2, 5) or its swapped cycle, whichever is closer to ``reference`` (2, 5)."""
-    return drive[::-1] if swap_is_closer(drive[None], reference[None])[0] else drive
+    """``drive`` (2, 5) or its swapped cycle, whichever is closer to ``reference`` (2, 5); or so pair
+    by pair for ``drive`` and ``reference`` (n, 2, 5)."""
+    if drive.ndim == 2:
+        return drive[::-1] if swap_is_closer(drive[None], reference[None])[0] else drive
+    return np.where(swap_is_closer(drive, reference)[:, None, None], drive[:, ::-1], drive)
 
 
 class DriveField:

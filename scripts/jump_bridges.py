@@ -51,7 +51,7 @@ def round0_brackets(field, config, seed: int):
     points = draw_points(field, config.points, rng, config)
     drives, _ = field.best(points, radius=config.teacher_radius)
     _, _, (a, b, da, db) = jump_brackets(field, points, drives, config)
-    return a, b, da, np.array([align_phase(y, x) for x, y in zip(da, db)]).reshape(-1, 2, 5)
+    return a, b, da, align_phase(db.reshape(-1, 2, 5), da.reshape(-1, 2, 5))
 
 
 def path_velocities(point, ends: tuple[np.ndarray, np.ndarray], inner: np.ndarray) -> np.ndarray:

@@ -373,6 +373,9 @@ def test_drive_difference_compares_cycles_in_their_closest_phase():
 
     A, B = _StepTeacher.A[None], _StepTeacher.B[None]
     assert drive_difference(B, B[:, ::-1])[0] == 0.0
+    # align_phase pair by pair: each drive in the cycle phase of its own reference
+    pairs = np.concatenate([B[:, ::-1], A, A[:, ::-1]])
+    assert np.array_equal(align_phase(pairs, np.concatenate([B, A, A])), np.concatenate([B, A, A]))
     assert drive_difference(A, A + 0.05)[0] == pytest.approx(0.05)
     assert drive_difference(A, B)[0] == pytest.approx(np.abs(_StepTeacher.A - _StepTeacher.B).max())
 
