@@ -59,6 +59,12 @@ class FieldConfig:
             grid neighbours' drives, ``budget`` evaluations per start with initial step ``sigma``
             (action units), keeps a faster drive, and the nodes exchange again
             (``DriveField.polish``; empty: none) (-, action units).
+        refine_k: after the polish passes, (budget, sigma): a k line between every two, each new
+            node started from the best of the interpolation of its two k neighbours' drives and the
+            drives of the six nodes around it, then polished from the three best of them
+            (``DriveField.refine_k``; empty: none) (-, action units). The teacher's drive between two
+            k lines is an interpolation, and where the best drive changes with k (push/clamp cycles
+            past the trapezoid's critical load) it falls short of a search there.
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
@@ -73,6 +79,7 @@ class FieldConfig:
     sigma0: float = 0.25
     consolidate_tolerance: float = 0.0
     polish: tuple[tuple[int, float], ...] = ()
+    refine_k: tuple = ()
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -89,6 +96,11 @@ class FieldConfig:
                 raise ValueError(f"polish={self.polish!r}: each pass is (budget, sigma)")
             check_int("polish budget", entry[0], 1)
             check_range("polish sigma", entry[1], 0.0, 1.0, low_open=True)
+        if self.refine_k:
+            if len(self.refine_k) != 2:
+                raise ValueError(f"refine_k={self.refine_k!r} must be (budget, sigma) or empty")
+            check_int("refine_k budget", self.refine_k[0], 1)
+            check_range("refine_k sigma", self.refine_k[1], 0.0, 1.0, low_open=True)
         if len(self.friction) != 2:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
@@ -194,6 +206,10 @@ class DriveField:
             field.polish(int(budget), float(sigma), executor=executor, seed=seed + 100_000 * (n + 1))
             field.exchange()
         field.align()
+        if config.refine_k:
+            field.refine_k(int(config.refine_k[0]), float(config.refine_k[1]), executor=executor, seed=seed + 900_000)
+            field.exchange()
+            field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
 
@@ -262,6 +278,55 @@ class DriveField:
                     changed += 1
         self.meta.setdefault("polished", []).append({"budget": budget, "sigma": sigma, "changed": changed})
         return changed
+
+    def refine_k(self, budget: int, sigma: float, executor=None, seed: int = 0, starts: int = 3) -> None:
+        """Insert a k line between every two of the grid's (at the same load fractions): each new node
+        plays the interpolation of its two k neighbours' drives and the drives of the six nodes
+        around it (those two and their lighter and heavier neighbours), then CMA-ES over two-action
+        cycles runs from the ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``)
+        and the node keeps the fastest drive found or played; one task per new k line on
+        ``executor``. The old nodes are unchanged."""
+        from mdr_drive_env.sweep import Executor
+
+        from .blind import trapezoid_critical
+
+        nk, ns = self.velocities.shape
+        mids = 0.5 * (self.ks[:-1] + self.ks[1:])
+        mid_crit = trapezoid_critical([float(k) for k in mids])
+        nodes, trials = [], []
+        for i in range(nk - 1):
+            for j in range(ns):
+                left = self.drives[i, j]
+                ring = [align_phase(self.drives[a, b], left) for a in (i, i + 1) for b in (j - 1, j, j + 1) if 0 <= b < ns]
+                trials.append(np.array([0.5 * (left + align_phase(self.drives[i + 1, j], left)), *ring]))
+                nodes.append((float(mids[i]), float(self.fractions[j] * mid_crit[i])))
+        played = open_loop_velocity([(*p, *self.friction) for p, t in zip(nodes, trials) for _ in t],
+                                    np.concatenate(trials))
+        tasks, best, start = [], [], 0
+        for i in range(nk - 1):
+            line = []
+            for j in range(ns):
+                n = i * ns + j
+                v = played[start:start + len(trials[n])]
+                start += len(trials[n])
+                order = np.argsort(-v)
+                best.append((trials[n][order[0]], float(v[order[0]])))
+                line.append((*nodes[n], trials[n][order[:starts]]))
+            tasks.append((line, budget, sigma, seed + 7919 * (i + 1), self.friction))
+        found = (executor or Executor()).map(polish_slice, tasks, "teacher: refine k")
+        drives = np.empty((2 * nk - 1, ns, 2, 5))
+        velocities = np.empty((2 * nk - 1, ns))
+        drives[::2], velocities[::2] = self.drives, self.velocities
+        for i, line in enumerate(found):
+            for j, (drive, vel) in enumerate(line):
+                d0, v0 = best[i * ns + j]
+                drives[2 * i + 1, j], velocities[2 * i + 1, j] = (drive, vel) if vel > v0 else (d0, v0)
+        ks = np.empty(2 * nk - 1)
+        ks[::2], ks[1::2] = self.ks, mids
+        crit = np.empty(2 * nk - 1)
+        crit[::2], crit[1::2] = self.trapezoid_critical, mid_crit
+        self.ks, self.trapezoid_critical, self.drives, self.velocities = ks, crit, drives, velocities
+        self.meta["refined_k"] = {"budget": budget, "sigma": sigma, "new_nodes": (nk - 1) * ns}
 
     def consolidate(self, tolerance: float, passes: int = 4) -> int:
         """Spread drives between grid neighbours so that the teacher's drive changes at fewer places:
