@@ -59,8 +59,8 @@ class FieldConfig:
             grid neighbours' drives, ``budget`` evaluations per start with initial step ``sigma``
             (action units), keeps a faster drive, and the nodes exchange again
             (``DriveField.polish``; empty: none) (-, action units).
-        refine_k: after the polish passes, (budget, sigma): a k line between every two, each new
-            node started from the best of the interpolation of its two k neighbours' drives and the
+        refine_k: after the polish passes, (budget, sigma) or (budget, sigma, k_max): a k line
+            between every two (below k_max), each new node started from the best of the interpolation of its two k neighbours' drives and the
             drives of the six nodes around it, then polished from the three best of them
             (``DriveField.refine_k``; empty: none) (-, action units). The teacher's drive between two
             k lines is an interpolation, and where the best drive changes with k (push/clamp cycles
@@ -97,10 +97,12 @@ class FieldConfig:
             check_int("polish budget", entry[0], 1)
             check_range("polish sigma", entry[1], 0.0, 1.0, low_open=True)
         if self.refine_k:
-            if len(self.refine_k) != 2:
-                raise ValueError(f"refine_k={self.refine_k!r} must be (budget, sigma) or empty")
+            if len(self.refine_k) not in (2, 3):
+                raise ValueError(f"refine_k={self.refine_k!r} must be (budget, sigma), (budget, sigma, k_max) or empty")
             check_int("refine_k budget", self.refine_k[0], 1)
             check_range("refine_k sigma", self.refine_k[1], 0.0, 1.0, low_open=True)
+            if len(self.refine_k) == 3:
+                check_range("refine_k k_max", self.refine_k[2], *self.k_range, low_open=True)
         if len(self.friction) != 2:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
@@ -207,7 +209,8 @@ class DriveField:
             field.exchange()
         field.align()
         if config.refine_k:
-            field.refine_k(int(config.refine_k[0]), float(config.refine_k[1]), executor=executor, seed=seed + 900_000)
+            field.refine_k(int(config.refine_k[0]), float(config.refine_k[1]), executor=executor, seed=seed + 900_000,
+                           k_max=float(config.refine_k[2]) if len(config.refine_k) == 3 else None)
             field.exchange()
             field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
@@ -279,54 +282,53 @@ class DriveField:
         self.meta.setdefault("polished", []).append({"budget": budget, "sigma": sigma, "changed": changed})
         return changed
 
-    def refine_k(self, budget: int, sigma: float, executor=None, seed: int = 0, starts: int = 3) -> None:
-        """Insert a k line between every two of the grid's (at the same load fractions): each new node
-        plays the interpolation of its two k neighbours' drives and the drives of the six nodes
-        around it (those two and their lighter and heavier neighbours), then CMA-ES over two-action
-        cycles runs from the ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``)
-        and the node keeps the fastest drive found or played; one task per new k line on
-        ``executor``. The old nodes are unchanged."""
+    def refine_k(self, budget: int, sigma: float, executor=None, seed: int = 0, starts: int = 3,
+                 k_max: float | None = None) -> int:
+        """Insert a k line between every two of the grid's (below ``k_max``, if given), at the same load
+        fractions: each new node plays the interpolation of its two k neighbours' drives and the drives
+        of the six nodes around it (those two and their lighter and heavier neighbours), then CMA-ES
+        over two-action cycles runs from the ``starts`` fastest of them (``budget`` evaluations each,
+        step ``sigma``) and the node keeps the fastest drive found or played; one task per new k line
+        on ``executor``. The old nodes are unchanged. Returns the new nodes."""
         from mdr_drive_env.sweep import Executor
 
         from .blind import trapezoid_critical
 
         nk, ns = self.velocities.shape
-        mids = 0.5 * (self.ks[:-1] + self.ks[1:])
+        cells = [i for i in range(nk - 1) if k_max is None or 0.5 * (self.ks[i] + self.ks[i + 1]) < k_max]
+        if not cells:
+            return 0
+        mids = np.array([0.5 * (self.ks[i] + self.ks[i + 1]) for i in cells])
         mid_crit = trapezoid_critical([float(k) for k in mids])
-        nodes, trials = [], []
-        for i in range(nk - 1):
+        tasks, best = [], []
+        for c, i in enumerate(cells):
+            trials, nodes = [], []
             for j in range(ns):
                 left = self.drives[i, j]
                 ring = [align_phase(self.drives[a, b], left) for a in (i, i + 1) for b in (j - 1, j, j + 1) if 0 <= b < ns]
                 trials.append(np.array([0.5 * (left + align_phase(self.drives[i + 1, j], left)), *ring]))
-                nodes.append((float(mids[i]), float(self.fractions[j] * mid_crit[i])))
-        played = open_loop_velocity([(*p, *self.friction) for p, t in zip(nodes, trials) for _ in t],
-                                    np.concatenate(trials))
-        tasks, best, start = [], [], 0
-        for i in range(nk - 1):
-            line = []
-            for j in range(ns):
-                n = i * ns + j
-                v = played[start:start + len(trials[n])]
-                start += len(trials[n])
-                order = np.argsort(-v)
-                best.append((trials[n][order[0]], float(v[order[0]])))
-                line.append((*nodes[n], trials[n][order[:starts]]))
+                nodes.append((float(mids[c]), float(self.fractions[j] * mid_crit[c])))
+            played = open_loop_velocity([(*p, *self.friction) for p, t in zip(nodes, trials) for _ in t],
+                                        np.concatenate(trials))
+            line, at = [], 0
+            for node, t in zip(nodes, trials):
+                order = np.argsort(-played[at:at + len(t)])
+                best.append((t[order[0]], float(played[at + order[0]])))
+                line.append((*node, t[order[:starts]]))
+                at += len(t)
             tasks.append((line, budget, sigma, seed + 7919 * (i + 1), self.friction))
         found = (executor or Executor()).map(polish_slice, tasks, "teacher: refine k")
-        drives = np.empty((2 * nk - 1, ns, 2, 5))
-        velocities = np.empty((2 * nk - 1, ns))
-        drives[::2], velocities[::2] = self.drives, self.velocities
-        for i, line in enumerate(found):
-            for j, (drive, vel) in enumerate(line):
-                d0, v0 = best[i * ns + j]
-                drives[2 * i + 1, j], velocities[2 * i + 1, j] = (drive, vel) if vel > v0 else (d0, v0)
-        ks = np.empty(2 * nk - 1)
-        ks[::2], ks[1::2] = self.ks, mids
-        crit = np.empty(2 * nk - 1)
-        crit[::2], crit[1::2] = self.trapezoid_critical, mid_crit
-        self.ks, self.trapezoid_critical, self.drives, self.velocities = ks, crit, drives, velocities
-        self.meta["refined_k"] = {"budget": budget, "sigma": sigma, "new_nodes": (nk - 1) * ns}
+        new_drives = np.array([[drive if vel > best[c * ns + j][1] else best[c * ns + j][0]
+                                for j, (drive, vel) in enumerate(line)] for c, line in enumerate(found)])
+        new_velocities = np.array([[max(vel, best[c * ns + j][1]) for j, (_, vel) in enumerate(line)]
+                                   for c, line in enumerate(found)])
+        at = [i + 1 for i in cells]  # each new line goes before the old line above it
+        self.ks = np.insert(self.ks, at, mids)
+        self.trapezoid_critical = np.insert(self.trapezoid_critical, at, mid_crit)
+        self.drives = np.insert(self.drives, at, new_drives, axis=0)
+        self.velocities = np.insert(self.velocities, at, new_velocities, axis=0)
+        self.meta["refined_k"] = {"budget": budget, "sigma": sigma, "k_max": k_max, "new_nodes": len(cells) * ns}
+        return len(cells) * ns
 
     def consolidate(self, tolerance: float, passes: int = 4) -> int:
         """Spread drives between grid neighbours so that the teacher's drive changes at fewer places:

@@ -143,3 +143,33 @@ def test_the_dense_check_writes_its_files_once_and_its_counts_agree(tmp_path, ca
     with pytest.raises(SystemExit):
         main([policy, "--ks", "3", "--loads", "4", "--out", str(out)])  # an earlier check is not replaced silently
     assert "--force" in capsys.readouterr().err
+
+
+def test_the_pooled_script_repeats_the_benchmarks_statistics_once_per_stored_search(tmp_path, capsys):
+    import json
+    import runpy
+    import shutil
+
+    root = Path(__file__).parents[1]
+    script = runpy.run_path(str(root / "scripts" / "pooled_blind.py"))
+    stored = root / "results" / "blind" / "seed20261124" / "blind.json"
+    policy = str(root / "agents" / "pretrained" / "ppo_generalist")
+    res = blind.run([policy], 24, 20261124, tmp_path / "bench", reuse=stored, workers=1)
+    copy = tmp_path / "copy" / "blind.json"  # the same seed and size again: counted once
+    copy.parent.mkdir()
+    shutil.copy(stored, copy)
+    other = json.loads(stored.read_text())
+    other["search"]["fixed_action_cma_evaluations"] = 12  # other budgets: not the benchmark's search, left out
+    (tmp_path / "other.json").write_text(json.dumps(other))
+    searches = script["stored_searches"]([stored, copy, tmp_path / "other.json"])
+    assert len(searches) == 1 and searches[0]["path"] in (stored, copy)
+    pooled = script["pooled"](policy, searches)
+    assert pooled["points"] == 24
+    for key, value in res["statistics"][policy].items():
+        if key in pooled:
+            assert pooled[key] == pytest.approx(value), key
+    out = tmp_path / "pooled.md"
+    assert script["main"]([policy, "--searches", str(stored), str(copy), "--out", str(out)]) == 0
+    assert "| 24 |" in out.read_text() and "1 stored searches (seeds 20261124)" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        script["main"]([policy, "--searches", str(stored), "--out", str(out)])  # an earlier table is kept

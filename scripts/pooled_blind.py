@@ -1,0 +1,112 @@
+#!/usr/bin/env python
+"""Policies on every stored blind search at once: the blind velocity statistics over hundreds of points.
+
+    python scripts/pooled_blind.py agents/pretrained/ppo_generalist runs/NAME/policy     # about 20 s per policy
+
+A 120-point blind draw holds a handful of the points where a build falls under 0.85 of the best
+drive (a few per cent of the domain), so one draw cannot tell two builds apart. The per-point
+searches are the blind benchmark's cost (about 4 s a point), and every ``blind.json`` keeps its
+points, the trapezoid's velocity and the search's best drive there. This plays each policy at the
+points of all of them (``--searches``, default every ``results/blind/*/blind.json`` searched with the
+benchmark's budgets, one file per seed and size) and counts the blind benchmark's velocity
+statistics (``agents.blind.velocity_statistics``: below the trapezoid, the fraction of the search's
+best drive where it moves >= 2 mm/s, points under 0.85) over the pool. No critical-load scan: use
+``mdr-drive benchmark --blind N --seed S --reuse-search FILE`` for that.
+
+The stored seeds were report seeds of earlier builds or decision seeds: pooled, they are decision
+data, never a report. Report on a fresh seed with ``mdr-drive benchmark --blind``.
+
+Prints a Markdown table (and writes it to ``--out``, refused if the file exists).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def stored_searches(paths: list[Path]) -> list[dict]:
+    """The blind.json files at ``paths`` searched with the blind benchmark's budgets, one per (seed,
+    size): the first of each in sorted path order."""
+    from mdr_drive_agents.blind import CMA_BUDGET, CYCLE_SEARCH
+
+    seen, out = set(), []
+    for path in sorted(paths):
+        res = json.loads(path.read_text())
+        search = res.get("search", {})
+        if (search.get("fixed_action_cma_evaluations"), search.get("two_action_cycle_cma_evaluations_per_start")) != (
+                CMA_BUDGET, CYCLE_SEARCH["budget"]) or (res["seed"], res["n"]) in seen:
+            continue
+        seen.add((res["seed"], res["n"]))
+        out.append({"path": path, **res})
+    return out
+
+
+def pooled(policy_path: str, searches: list[dict]) -> dict:
+    """The blind velocity statistics of one policy over the points of all ``searches``."""
+    from mdr_drive_agents.blind import velocity_statistics
+    from mdr_drive_agents.evaluate import load_policy, policy_rollout, steady_velocity_of
+
+    policy = load_policy(policy_path)
+    trap, best, learned = [], [], []
+    for res in searches:
+        points = [tuple(p) for p in res["points"]]
+        disp, _, runaway = policy_rollout(policy, points)
+        learned.append(steady_velocity_of(disp, runaway=runaway))
+        trap.append(np.array([np.nan if v is None else v for v in res["trapezoid"]], dtype=float))
+        best.append(np.array([np.nan if f["velocity"] is None else f["velocity"] for f in res["best"]], dtype=float))
+    stats = velocity_statistics(np.concatenate(trap), np.concatenate(best), np.concatenate(learned))
+    return {"points": int(sum(len(t) for t in trap)), **stats}
+
+
+def table(rows: dict, searches: list[dict]) -> str:
+    seeds = ", ".join(str(r["seed"]) for r in searches)
+    lines = [f"Pooled blind statistics over {len(searches)} stored searches (seeds {seeds}); velocities in mm/s.", "",
+             "| policy | points | below the trapezoid | worst vs the trapezoid | scored | under 0.85 | "
+             "fraction of the best: mean | min |", "|---|---|---|---|---|---|---|---|"]
+    for name, s in rows.items():
+        worst = s["worst_difference_to_trapezoid_mm_s"]
+        lines.append(f"| {name} | {s['points']} | {s['points_below_trapezoid']} | "
+                     f"{'-' if worst is None else f'{worst:+.2f}'} | {s['points_scored']} | "
+                     f"{s['points_under_fraction_target']} | {s['fraction_of_best_mean']:.4f} | "
+                     f"{s['fraction_of_best_min']:.3f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    from mdr_drive_env.cli_args import Parser, folder_with, input_file, run_command
+    from mdr_drive_env.files import write_text
+
+    p = Parser(description=__doc__)
+    p.add_argument("policies", nargs="+", type=folder_with("model.zip"), help="policy folders (with model.zip)")
+    p.add_argument("--searches", nargs="+", type=input_file, default=None, metavar="BLIND.json",
+                   help="stored blind.json files (default: every results/blind/*/blind.json with the benchmark's "
+                        "search budgets, one per seed and size)")
+    p.add_argument("--out", default=None, help="also write the table to this Markdown file (refused if it exists)")
+    a = p.parse_args(argv)
+    if a.out and Path(a.out).exists():
+        p.error(f"--out {a.out} exists: choose another file")
+
+    def go() -> int:
+        paths = [Path(f) for f in a.searches] if a.searches else list((ROOT / "results" / "blind").glob("*/blind.json"))
+        searches = stored_searches(paths)
+        if not searches:
+            raise ValueError("no stored blind search with the benchmark's budgets among --searches")
+        text = table({policy: pooled(policy, searches) for policy in a.policies}, searches)
+        print(text, end="")
+        if a.out:
+            write_text(a.out, text)
+        return 0
+
+    return run_command(p.prog, go, "nothing was written")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
