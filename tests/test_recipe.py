@@ -257,11 +257,17 @@ def test_refine_k_adds_a_k_line_between_every_two_and_plays_what_it_records(monk
     for j in range(2):  # never slower than a drive it started from: the k neighbours' drives
         started = open_loop_velocity([points[j]] * 2, old_drives[:, j])
         assert field.velocities[1, j] >= started.max() - 1e-12
-    assert field.meta["refined_k"] == {"budget": 8, "sigma": 0.1, "new_nodes": 2}
+    assert field.meta["refined_k"] == {"budget": 8, "sigma": 0.1, "k_max": None, "new_nodes": 2}
+    assert field.refine_k(8, 0.1, executor=Executor(workers=1, progress=False), k_max=0.2) == 2  # only below k_max
+    assert np.allclose(field.ks, [0.0, 0.15, 0.3, 0.6]) and field.drives.shape == (4, 2, 2, 5)
+    assert np.allclose(field.trapezoid_critical, [0.02, 0.03, 0.03, 0.02])
+    assert field.refine_k(8, 0.1, k_max=0.01) == 0 and len(field.ks) == 4
     with pytest.raises(ValueError, match="refine_k"):
         FieldConfig(refine_k=(0, 0.1))
     with pytest.raises(ValueError, match="refine_k"):
         FieldConfig(refine_k=(10,))
+    with pytest.raises(ValueError, match="refine_k k_max"):
+        FieldConfig(refine_k=(10, 0.1, 0.9))  # outside k_range
 
 
 def test_a_wider_teacher_never_plays_a_slower_drive():
