@@ -10,8 +10,11 @@ points, the trapezoid's velocity and the search's best drive there. This plays e
 points of all of them (``--searches``, default every ``results/blind/*/blind.json`` searched with the
 benchmark's budgets, one file per seed and size) and counts the blind benchmark's velocity
 statistics (``agents.blind.velocity_statistics``: below the trapezoid, the fraction of the search's
-best drive where it moves >= 2 mm/s, points under 0.85) over the pool. No critical-load scan: use
-``mdr-drive benchmark --blind N --seed S --reuse-search FILE`` for that.
+best drive where it moves >= 2 mm/s, points under 0.85) over the pool. ``--critical-load`` adds the
+critical-load target on each distinct scan the files hold (the 25-k scan is the same for every seed;
+one seed has 31 k): the policy's critical load (``agents.evaluate.critical_loads_grid``, as the
+benchmark scans it) over the stored best two-action cycle's, the k values at >= 0.97 and those
+under it (about 10 s a scan and policy).
 
 The stored seeds were report seeds of earlier builds or decision seeds: pooled, they are decision
 data, never a report. Report on a fresh seed with ``mdr-drive benchmark --blind``.
@@ -40,6 +43,8 @@ def stored_searches(paths: list[Path]) -> list[dict]:
     seen, out = set(), []
     for path in sorted(paths):
         res = json.loads(path.read_text())
+        if not isinstance(res, dict) or not {"seed", "n", "points", "trapezoid", "best"} <= set(res):
+            raise ValueError(f"{path} is not a blind benchmark's blind.json")
         search = res.get("search", {})
         if (search.get("fixed_action_cma_evaluations"), search.get("two_action_cycle_cma_evaluations_per_start")) != (
                 CMA_BUDGET, CYCLE_SEARCH["budget"]) or (res["seed"], res["n"]) in seen:
@@ -66,6 +71,41 @@ def pooled(policy_path: str, searches: list[dict]) -> dict:
     return {"points": int(sum(len(t) for t in trap)), **stats}
 
 
+def stored_scans(searches: list[dict]) -> list[dict]:
+    """The distinct critical-load scans of ``searches`` (by their k values; the first file's of each):
+    {"seed", "k", "best cycle"} (kg)."""
+    scans: dict = {}
+    for res in searches:
+        crit = res.get("critical_load_kg") or {}
+        if crit.get("k") and crit.get("best cycle"):
+            scans.setdefault(tuple(crit["k"]), {"seed": res["seed"], "k": crit["k"], "best cycle": crit["best cycle"]})
+    return list(scans.values())
+
+
+def critical_load_target(policy_path: str, scan: dict) -> dict:
+    """The policy's critical load over the best cycle's at each k of ``scan``: the k values at the
+    blind benchmark's target (``CRITICAL_LOAD_TARGET``), the minimum ratio and the k values under it."""
+    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET
+    from mdr_drive_agents.evaluate import critical_loads_grid, load_policy, policy_velocity
+
+    policy = load_policy(policy_path)
+    crit = critical_loads_grid(scan["k"], lambda pts: policy_velocity(policy, pts))
+    ratios = {k: crit[k] / c for k, c in zip(scan["k"], scan["best cycle"]) if c > 0}
+    under = {k: r for k, r in ratios.items() if r < CRITICAL_LOAD_TARGET}
+    return {"at_target": len(ratios) - len(under), "scanned": len(ratios), "min": min(ratios.values()), "under": under}
+
+
+def critical_table(rows: dict, scans: list[dict]) -> str:
+    lines = ["", "Critical load over the best two-action cycle's, per stored scan: k values at >= 0.97; the minimum; "
+             "the k values under 0.97 (ratio).", "", "| policy | " + " | ".join(
+                 f"{len(s['k'])}-k scan (seed {s['seed']})" for s in scans) + " |", "|---|" + "---|" * len(scans)]
+    for name, results in rows.items():
+        cells = [f"{r['at_target']} of {r['scanned']}; {r['min']:.3f}; "
+                 + (", ".join(f"{k:g} ({v:.3f})" for k, v in r["under"].items()) or "none") for r in results]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def table(rows: dict, searches: list[dict]) -> str:
     seeds = ", ".join(str(r["seed"]) for r in searches)
     lines = [f"Pooled blind statistics over {len(searches)} stored searches (seeds {seeds}); velocities in mm/s.", "",
@@ -89,6 +129,8 @@ def main(argv=None) -> int:
     p.add_argument("--searches", nargs="+", type=input_file, default=None, metavar="BLIND.json",
                    help="stored blind.json files (default: every results/blind/*/blind.json with the benchmark's "
                         "search budgets, one per seed and size)")
+    p.add_argument("--critical-load", action="store_true",
+                   help="also the critical-load target on each distinct stored scan (about 10 s a scan and policy)")
     p.add_argument("--out", default=None, help="also write the table to this Markdown file (refused if it exists)")
     a = p.parse_args(argv)
     if a.out and Path(a.out).exists():
@@ -100,6 +142,10 @@ def main(argv=None) -> int:
         if not searches:
             raise ValueError("no stored blind search with the benchmark's budgets among --searches")
         text = table({policy: pooled(policy, searches) for policy in a.policies}, searches)
+        if a.critical_load:
+            scans = stored_scans(searches)
+            text += critical_table({policy: [critical_load_target(policy, scan) for scan in scans]
+                                    for policy in a.policies}, scans)
         print(text, end="")
         if a.out:
             write_text(a.out, text)

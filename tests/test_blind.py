@@ -168,8 +168,14 @@ def test_the_pooled_script_repeats_the_benchmarks_statistics_once_per_stored_sea
     for key, value in res["statistics"][policy].items():
         if key in pooled:
             assert pooled[key] == pytest.approx(value), key
+    scans = script["stored_scans"](searches)
+    assert len(scans) == 1 and len(scans[0]["k"]) == 25
+    crit = script["critical_load_target"](policy, scans[0])  # as the benchmark counts the target
+    assert crit["at_target"] == res["statistics"][policy]["k_values_at_critical_load_target"]
+    assert crit["min"] == pytest.approx(res["statistics"][policy]["critical_load_over_best_cycle_min"])
     out = tmp_path / "pooled.md"
-    assert script["main"]([policy, "--searches", str(stored), str(copy), "--out", str(out)]) == 0
+    assert script["main"]([policy, "--searches", str(stored), str(copy), "--out", str(out), "--critical-load"]) == 0
+    assert "25-k scan (seed 20261124)" in out.read_text()
     assert "| 24 |" in out.read_text() and "1 stored searches (seeds 20261124)" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         script["main"]([policy, "--searches", str(stored), "--out", str(out)])  # an earlier table is kept
