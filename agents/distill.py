@@ -70,7 +70,9 @@ class DistillConfig:
             teacher's episodes there (module docstring) (-).
         hole_probes: random points per hole round where the student and the teacher drive (-).
         hole_shortfall: a probe is a hole where the student's steady velocity is below the
-            teacher's by more than this fraction of it, and by more than 1 mm/s (-).
+            teacher's by more than this fraction of it, and by more than ``hole_floor`` (-).
+        hole_floor: ... and by more than this (m/s). Near its critical load at high k the teacher
+            moves at under 1 mm/s, so with a floor of 1 mm/s no probe there can be a hole.
         hole_neighbours: teacher episodes added at jittered points around each hole, besides the
             hole itself (k +- 0.01, load +- 5 %) (-).
         hole_steps: gradient steps after each hole round (-).
@@ -112,6 +114,7 @@ class DistillConfig:
     hole_rounds: int = 0
     hole_probes: int = 4096
     hole_shortfall: float = 0.1
+    hole_floor: float = 1e-3
     hole_neighbours: int = 8
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
@@ -136,6 +139,7 @@ class DistillConfig:
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
+        check_range("hole_floor", self.hole_floor, 0.0, 0.01)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
         if not isinstance(self.quantum_centres, bool):
@@ -479,7 +483,7 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
     points = draw_points(field_, config.hole_probes, rng, config, friction)
     _, v_teacher = field_.best(points, radius=config.teacher_radius)
     v_student = student_velocity(student, points)
-    short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), 1e-3)
+    short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), config.hole_floor)
     moving = v_teacher >= 2e-3
     return [p for p, h in zip(points, short) if h], {
         "probes": len(points), "holes": int(short.sum()),

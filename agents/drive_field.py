@@ -59,6 +59,12 @@ class FieldConfig:
             grid neighbours' drives, ``budget`` evaluations per start with initial step ``sigma``
             (action units), keeps a faster drive, and the nodes exchange again
             (``DriveField.polish``; empty: none) (-, action units).
+        refine_k: after the polish passes, (budget, sigma) or (budget, sigma, k_max): a k line
+            between every two (below k_max), each new node started from the best of the interpolation of its two k neighbours' drives and the
+            drives of the six nodes around it, then polished from the three best of them
+            (``DriveField.refine_k``; empty: none) (-, action units). The teacher's drive between two
+            k lines is an interpolation, and where the best drive changes with k (push/clamp cycles
+            past the trapezoid's critical load) it falls short of a search there.
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
@@ -73,6 +79,7 @@ class FieldConfig:
     sigma0: float = 0.25
     consolidate_tolerance: float = 0.0
     polish: tuple[tuple[int, float], ...] = ()
+    refine_k: tuple = ()
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -89,6 +96,13 @@ class FieldConfig:
                 raise ValueError(f"polish={self.polish!r}: each pass is (budget, sigma)")
             check_int("polish budget", entry[0], 1)
             check_range("polish sigma", entry[1], 0.0, 1.0, low_open=True)
+        if self.refine_k:
+            if len(self.refine_k) not in (2, 3):
+                raise ValueError(f"refine_k={self.refine_k!r} must be (budget, sigma), (budget, sigma, k_max) or empty")
+            check_int("refine_k budget", self.refine_k[0], 1)
+            check_range("refine_k sigma", self.refine_k[1], 0.0, 1.0, low_open=True)
+            if len(self.refine_k) == 3:
+                check_range("refine_k k_max", self.refine_k[2], *self.k_range, low_open=True)
         if len(self.friction) != 2:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
@@ -194,6 +208,11 @@ class DriveField:
             field.polish(int(budget), float(sigma), executor=executor, seed=seed + 100_000 * (n + 1))
             field.exchange()
         field.align()
+        if config.refine_k:
+            field.refine_k(int(config.refine_k[0]), float(config.refine_k[1]), executor=executor, seed=seed + 900_000,
+                           k_max=float(config.refine_k[2]) if len(config.refine_k) == 3 else None)
+            field.exchange()
+            field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
 
@@ -262,6 +281,54 @@ class DriveField:
                     changed += 1
         self.meta.setdefault("polished", []).append({"budget": budget, "sigma": sigma, "changed": changed})
         return changed
+
+    def refine_k(self, budget: int, sigma: float, executor=None, seed: int = 0, starts: int = 3,
+                 k_max: float | None = None) -> int:
+        """Insert a k line between every two of the grid's (below ``k_max``, if given), at the same load
+        fractions: each new node plays the interpolation of its two k neighbours' drives and the drives
+        of the six nodes around it (those two and their lighter and heavier neighbours), then CMA-ES
+        over two-action cycles runs from the ``starts`` fastest of them (``budget`` evaluations each,
+        step ``sigma``) and the node keeps the fastest drive found or played; one task per new k line
+        on ``executor``. The old nodes are unchanged. Returns the new nodes."""
+        from mdr_drive_env.sweep import Executor
+
+        from .blind import trapezoid_critical
+
+        nk, ns = self.velocities.shape
+        cells = [i for i in range(nk - 1) if k_max is None or 0.5 * (self.ks[i] + self.ks[i + 1]) < k_max]
+        if not cells:
+            return 0
+        mids = np.array([0.5 * (self.ks[i] + self.ks[i + 1]) for i in cells])
+        mid_crit = trapezoid_critical([float(k) for k in mids])
+        tasks, best = [], []
+        for c, i in enumerate(cells):
+            trials, nodes = [], []
+            for j in range(ns):
+                left = self.drives[i, j]
+                ring = [align_phase(self.drives[a, b], left) for a in (i, i + 1) for b in (j - 1, j, j + 1) if 0 <= b < ns]
+                trials.append(np.array([0.5 * (left + align_phase(self.drives[i + 1, j], left)), *ring]))
+                nodes.append((float(mids[c]), float(self.fractions[j] * mid_crit[c])))
+            played = open_loop_velocity([(*p, *self.friction) for p, t in zip(nodes, trials) for _ in t],
+                                        np.concatenate(trials))
+            line, at = [], 0
+            for node, t in zip(nodes, trials):
+                order = np.argsort(-played[at:at + len(t)])
+                best.append((t[order[0]], float(played[at + order[0]])))
+                line.append((*node, t[order[:starts]]))
+                at += len(t)
+            tasks.append((line, budget, sigma, seed + 7919 * (i + 1), self.friction))
+        found = (executor or Executor()).map(polish_slice, tasks, "teacher: refine k")
+        new_drives = np.array([[drive if vel > best[c * ns + j][1] else best[c * ns + j][0]
+                                for j, (drive, vel) in enumerate(line)] for c, line in enumerate(found)])
+        new_velocities = np.array([[max(vel, best[c * ns + j][1]) for j, (_, vel) in enumerate(line)]
+                                   for c, line in enumerate(found)])
+        at = [i + 1 for i in cells]  # each new line goes before the old line above it
+        self.ks = np.insert(self.ks, at, mids)
+        self.trapezoid_critical = np.insert(self.trapezoid_critical, at, mid_crit)
+        self.drives = np.insert(self.drives, at, new_drives, axis=0)
+        self.velocities = np.insert(self.velocities, at, new_velocities, axis=0)
+        self.meta["refined_k"] = {"budget": budget, "sigma": sigma, "k_max": k_max, "new_nodes": len(cells) * ns}
+        return len(cells) * ns
 
     def consolidate(self, tolerance: float, passes: int = 4) -> int:
         """Spread drives between grid neighbours so that the teacher's drive changes at fewer places:

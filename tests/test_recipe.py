@@ -237,6 +237,39 @@ def test_a_polished_node_plays_at_the_velocity_it_records():
     assert np.allclose(open_loop_velocity(points, field.drives.reshape(4, 2, 5)), field.velocities.ravel())
 
 
+def test_refine_k_adds_a_k_line_between_every_two_and_plays_what_it_records(monkeypatch):
+    from mdr_drive_agents import blind
+    from mdr_drive_agents.evaluate import open_loop_velocity
+    from mdr_drive_env.sweep import Executor
+
+    field = _synthetic_field(nk=2, ns=2)
+    field.trapezoid_critical[:] = 0.02
+    field.velocities = open_loop_velocity([field.point(i, j) for i in range(2) for j in range(2)],
+                                          field.drives.reshape(4, 2, 5)).reshape(2, 2)
+    old_drives, old_velocities = field.drives.copy(), field.velocities.copy()
+    monkeypatch.setattr(blind, "trapezoid_critical", lambda ks: np.full(len(ks), 0.03))
+    field.refine_k(8, 0.1, executor=Executor(workers=1, progress=False))
+    assert np.allclose(field.ks, [0.0, 0.3, 0.6]) and field.velocities.shape == (3, 2)
+    assert np.allclose(field.trapezoid_critical, [0.02, 0.03, 0.02])
+    assert np.array_equal(field.drives[::2], old_drives) and np.array_equal(field.velocities[::2], old_velocities)
+    points = [field.point(1, j) for j in range(2)]  # the new nodes, at the new line's critical load
+    assert np.allclose(open_loop_velocity(points, field.drives[1]), field.velocities[1])
+    for j in range(2):  # never slower than a drive it started from: the k neighbours' drives
+        started = open_loop_velocity([points[j]] * 2, old_drives[:, j])
+        assert field.velocities[1, j] >= started.max() - 1e-12
+    assert field.meta["refined_k"] == {"budget": 8, "sigma": 0.1, "k_max": None, "new_nodes": 2}
+    assert field.refine_k(8, 0.1, executor=Executor(workers=1, progress=False), k_max=0.2) == 2  # only below k_max
+    assert np.allclose(field.ks, [0.0, 0.15, 0.3, 0.6]) and field.drives.shape == (4, 2, 2, 5)
+    assert np.allclose(field.trapezoid_critical, [0.02, 0.03, 0.03, 0.02])
+    assert field.refine_k(8, 0.1, k_max=0.01) == 0 and len(field.ks) == 4
+    with pytest.raises(ValueError, match="refine_k"):
+        FieldConfig(refine_k=(0, 0.1))
+    with pytest.raises(ValueError, match="refine_k"):
+        FieldConfig(refine_k=(10,))
+    with pytest.raises(ValueError, match="refine_k k_max"):
+        FieldConfig(refine_k=(10, 0.1, 0.9))  # outside k_range
+
+
 def test_a_wider_teacher_never_plays_a_slower_drive():
     field = _synthetic_field()
     points = [(0.25, 0.02), (0.45, 0.04)]
