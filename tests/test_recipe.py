@@ -534,3 +534,23 @@ def test_the_load_line_script_marks_where_a_policy_stalls_and_the_teacher_moves(
         main(["--k", "0.9", policy])  # outside the field's k range
     with pytest.raises(SystemExit):
         main(["--k", "0.3", "--from", "1.0", "--to", "0.5"])
+
+
+def test_a_hole_is_a_probe_short_of_the_teacher_by_the_share_and_the_floor(monkeypatch):
+    from mdr_drive_agents import distill
+
+    field = _synthetic_field()
+    teacher = np.array([20e-3, 20e-3, 0.7e-3, 0.7e-3, 5e-3])
+    student = np.array([17e-3, 19.5e-3, -0.02e-3, 0.65e-3, 4.4e-3])
+    monkeypatch.setattr(field, "best", lambda points, radius=1: (np.zeros((len(points), 2, 5)), teacher))
+    monkeypatch.setattr(distill, "student_velocity", lambda student_, points: student)
+
+    def holes(floor):
+        config = DistillConfig(hole_probes=5, hole_floor=floor)
+        found, probe = distill.find_holes(None, field, config, np.random.default_rng(0))
+        return probe["holes"]
+
+    assert holes(1e-3) == 1  # 3 mm/s short of 20; a stall where the teacher moves at 0.7 mm/s is not seen
+    assert holes(1e-4) == 3  # ... now it is, and 0.6 mm/s short of 5 too; 0.05 of 0.7 and 0.5 of 20 are not
+    with pytest.raises(ValueError, match="hole_floor"):
+        DistillConfig(hole_floor=-1e-3)
