@@ -48,7 +48,9 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     assert not (out / ".tasks").exists()
     from mdr_drive_agents.drive_field import DriveField
 
-    assert [p["budget"] for p in DriveField.load(out / "teacher_field.npz").meta["polished"]] == [8]  # the polish ran
+    field = DriveField.load(out / "teacher_field.npz")
+    assert [p["budget"] for p in field.meta["polished"]] == [8]  # the polish ran
+    assert np.allclose(field.ks, [0.0, 0.15, 0.3]) and field.meta["refined_k"]["new_nodes"] == 2  # and the refinement
 
 
 def test_the_distilled_policy_fine_tunes_with_train_resume(recipe_run):
@@ -140,10 +142,14 @@ def test_the_shipped_teacher_field_counts_as_searched_with_the_shipped_config():
     root = Path(__file__).resolve().parents[1]
     field, config = DriveField.load(root / "results" / "recipe" / "teacher_field.npz"), recipe.load_recipe(
         root / "agents" / "configs" / "recipe.yaml")["teacher"]
-    assert "friction" not in field.meta["config"]  # saved before the key existed: its default counts
     assert not recipe.searched_with_another_config(field, config)
     assert recipe.searched_with_another_config(field, dataclasses.replace(config, cycle_budget=701))
     assert recipe.searched_with_another_config(field, dataclasses.replace(config, friction=(0.3, 0.13)))
+    older = DriveField(field.ks, field.fractions, field.trapezoid_critical, field.drives, field.velocities,
+                       {"config": {key: value for key, value in json.loads(json.dumps(dataclasses.asdict(config))).items()
+                                   if key not in ("friction", "refine_k")}})  # saved before those keys existed
+    assert not recipe.searched_with_another_config(older, dataclasses.replace(config, refine_k=()))  # defaults count
+    assert recipe.searched_with_another_config(older, config)
 
 
 def test_configs_reject_bad_values_naming_them():
