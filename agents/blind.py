@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mdr_drive_env.files import json_safe, save_figure, write_csv, write_text
+from mdr_drive_env.files import json_safe, nan_array, save_figure, write_csv, write_text
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from .baselines import CMA_BUDGET, CYCLE_SEARCH, best_cycle, cma_optimize, cycle_critical_load
@@ -192,7 +192,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     if previous:
         res["search_reused_from"] = str(reuse)
         points = [tuple(p) for p in previous["points"]]
-        trap = np.array([np.nan if v is None else v for v in previous["trapezoid"]], dtype=float)
+        trap = nan_array(previous["trapezoid"])
         found = previous["best"]
     else:
         points, _ = draw_points(n, seed)
@@ -200,7 +200,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
         found = executor.map(best_drive, [(k, m, fixed_budget, cycle_budget) for k, m in points],
                              "best drive per point", store=TaskStore(tasks / "best_drive"))
     res["points"], res["trapezoid"], res["best"] = points, trap.tolist(), found
-    best_v = np.array([np.nan if f["velocity"] is None else f["velocity"] for f in found], dtype=float)
+    best_v = nan_array([f["velocity"] for f in found])
     loaded = [load_policy(p) for p in policies]
     learned = {}
     for path, pol in zip(policies, loaded):
@@ -321,15 +321,15 @@ def plot(res: dict, out: str | Path) -> None:
     save_figure(fig, out / "critical_load_vs_k.png")
     plt.close(fig)
 
-    best = np.array([np.nan if b["velocity"] is None else b["velocity"] for b in res["best"]], dtype=float)
+    best = nan_array([b["velocity"] for b in res["best"]])
     fig, ax = plt.subplots(figsize=(7, 4.2))
     ks = np.array([k for k, _ in res["points"]])
     for i, p in enumerate(res["policies"]):
-        v = np.array([np.nan if x is None else x for x in res["learned"][p]], dtype=float)
+        v = nan_array(res["learned"][p])
         sel = best >= MOVING_THRESHOLD
         ax.plot(ks[sel], np.nan_to_num(v[sel], nan=0.0) / best[sel], "^", color=f"C{i}",
                 label=f"{names[i]}: {policy_label(p)}")
-    trap = np.array([np.nan if x is None else x for x in res["trapezoid"]], dtype=float)
+    trap = nan_array(res["trapezoid"])
     sel = best >= MOVING_THRESHOLD
     ax.plot(ks[sel], np.nan_to_num(trap[sel], nan=0.0) / best[sel], "o", color="0.5", label="trapezoid")
     ax.axhline(1.0, color="k", lw=0.6)

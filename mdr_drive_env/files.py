@@ -70,6 +70,11 @@ def json_safe(obj):
     return obj
 
 
+def nan_array(values) -> np.ndarray:
+    """A list of numbers read back from JSON as a float array, None as NaN (``json_safe``'s inverse)."""
+    return np.array([np.nan if v is None else v for v in values], dtype=float)
+
+
 def save_figure(fig, path: str | Path, dpi: int = 120) -> None:
     """Save a matplotlib figure atomically (the format follows the suffix of ``path``)."""
     with atomic_path(path) as tmp:

@@ -64,10 +64,10 @@ def checked(res: dict) -> dict:
     (load / the trapezoid's critical load) of each point, the policy's and the trapezoid's velocities
     (m/s, NaN for a runaway), and ``below``, ``gap`` (``agents.blind.below_trapezoid``)."""
     from mdr_drive_agents.blind import below_trapezoid
+    from mdr_drive_env.files import nan_array
 
     ks, fr = np.array(res["k"]), np.array(res["load_fraction"])
-    learned, trap = (np.array([np.nan if v is None else v for v in res[key]], dtype=float)
-                     for key in ("policy_m_s", "trapezoid_m_s"))
+    learned, trap = (nan_array(res[key]) for key in ("policy_m_s", "trapezoid_m_s"))
     below, gap, _ = below_trapezoid(trap, learned)
     return {"k": np.repeat(ks, len(fr)), "fraction": np.tile(fr, len(ks)), "policy": learned, "trapezoid": trap,
             "below": below, "gap": gap}

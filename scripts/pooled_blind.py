@@ -58,6 +58,7 @@ def pooled(policy_path: str, searches: list[dict]) -> dict:
     """The blind velocity statistics of one policy over the points of all ``searches``."""
     from mdr_drive_agents.blind import velocity_statistics
     from mdr_drive_agents.evaluate import load_policy, policy_rollout, steady_velocity_of
+    from mdr_drive_env.files import nan_array
 
     policy = load_policy(policy_path)
     trap, best, learned = [], [], []
@@ -65,8 +66,8 @@ def pooled(policy_path: str, searches: list[dict]) -> dict:
         points = [tuple(p) for p in res["points"]]
         disp, _, runaway = policy_rollout(policy, points)
         learned.append(steady_velocity_of(disp, runaway=runaway))
-        trap.append(np.array([np.nan if v is None else v for v in res["trapezoid"]], dtype=float))
-        best.append(np.array([np.nan if f["velocity"] is None else f["velocity"] for f in res["best"]], dtype=float))
+        trap.append(nan_array(res["trapezoid"]))
+        best.append(nan_array([f["velocity"] for f in res["best"]]))
     stats = velocity_statistics(np.concatenate(trap), np.concatenate(best), np.concatenate(learned))
     return {"points": int(sum(len(t) for t in trap)), **stats}
 

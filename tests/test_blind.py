@@ -179,3 +179,14 @@ def test_the_pooled_script_repeats_the_benchmarks_statistics_once_per_stored_sea
     assert "| 24 |" in out.read_text() and "1 stored searches (seeds 20261124)" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         script["main"]([policy, "--searches", str(stored), "--out", str(out)])  # an earlier table is kept
+
+
+def test_velocities_read_back_from_json_keep_a_runaway_as_nan():
+    import json
+
+    from mdr_drive_env.files import json_safe, nan_array
+
+    stored = json.loads(json.dumps(json_safe(np.array([1e-3, np.nan, -2e-3]))))  # NaN (a runaway) is stored as null
+    assert stored == [1e-3, None, -2e-3]
+    back = nan_array(stored)
+    assert back.dtype == float and np.isnan(back[1]) and back[[0, 2]].tolist() == [1e-3, -2e-3]
