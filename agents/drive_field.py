@@ -60,8 +60,9 @@ class FieldConfig:
             (action units), keeps a faster drive, and the nodes exchange again
             (``DriveField.polish``; empty: none) (-, action units).
         refine_k: after the polish passes, (budget, sigma) or (budget, sigma, k_max): a k line
-            between every two (below k_max), each new node started from the best of the interpolation of its two k neighbours' drives and the
-            drives of the six nodes around it, then polished from the three best of them
+            between every two (below k_max), each new node started from the best of the
+            interpolation of its two k neighbours' drives and the drives of the six nodes around it,
+            then polished from the three best of them
             (``DriveField.refine_k``; empty: none) (-, action units). The teacher's drive between two
             k lines is an interpolation, and where the best drive changes with k (push/clamp cycles
             past the trapezoid's critical load) it falls short of a search there.
@@ -295,12 +296,13 @@ class DriveField:
         from .blind import trapezoid_critical
 
         nk, ns = self.velocities.shape
-        cells = [i for i in range(nk - 1) if k_max is None or 0.5 * (self.ks[i] + self.ks[i + 1]) < k_max]
+        all_mids = 0.5 * (self.ks[:-1] + self.ks[1:])
+        cells = [i for i in range(nk - 1) if k_max is None or all_mids[i] < k_max]
         if not cells:
             return 0
-        mids = np.array([0.5 * (self.ks[i] + self.ks[i + 1]) for i in cells])
+        mids = all_mids[cells]
         mid_crit = trapezoid_critical([float(k) for k in mids])
-        tasks, best = [], []
+        tasks, trial_d, trial_v = [], [], []  # per new line: its task, its nodes' fastest trial drives and velocities
         for c, i in enumerate(cells):
             trials, nodes = [], []
             for j in range(ns):
@@ -310,18 +312,23 @@ class DriveField:
                 nodes.append((float(mids[c]), float(self.fractions[j] * mid_crit[c])))
             played = open_loop_velocity([(*p, *self.friction) for p, t in zip(nodes, trials) for _ in t],
                                         np.concatenate(trials))
-            line, at = [], 0
+            line, fastest_d, fastest_v, at = [], [], [], 0
             for node, t in zip(nodes, trials):
                 order = np.argsort(-played[at:at + len(t)])
-                best.append((t[order[0]], float(played[at + order[0]])))
+                fastest_d.append(t[order[0]])
+                fastest_v.append(played[at + order[0]])
                 line.append((*node, t[order[:starts]]))
                 at += len(t)
             tasks.append((line, budget, sigma, seed + 7919 * (i + 1), self.friction))
+            trial_d.append(fastest_d)
+            trial_v.append(fastest_v)
         found = (executor or Executor()).map(polish_slice, tasks, "teacher: refine k")
-        new_drives = np.array([[drive if vel > best[c * ns + j][1] else best[c * ns + j][0]
-                                for j, (drive, vel) in enumerate(line)] for c, line in enumerate(found)])
-        new_velocities = np.array([[max(vel, best[c * ns + j][1]) for j, (_, vel) in enumerate(line)]
-                                   for c, line in enumerate(found)])
+        searched_d = np.array([[d for d, _ in line] for line in found])
+        searched_v = np.array([[v for _, v in line] for line in found], dtype=np.float64)
+        trial_d, trial_v = np.array(trial_d), np.array(trial_v, dtype=np.float64)
+        keep_search = searched_v > trial_v  # the node keeps the fastest drive found or played
+        new_drives = np.where(keep_search[:, :, None, None], searched_d, trial_d)
+        new_velocities = np.where(keep_search, searched_v, trial_v)
         at = [i + 1 for i in cells]  # each new line goes before the old line above it
         self.ks = np.insert(self.ks, at, mids)
         self.trapezoid_critical = np.insert(self.trapezoid_critical, at, mid_crit)
