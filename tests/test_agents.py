@@ -36,7 +36,10 @@ def test_training_writes_model_stats_tensorboard_and_resumes(algo, tmp_path):
     assert list((out / "tb").rglob("events.out.tfevents*"))
     assert list((out / "checkpoints").glob("*vecnormalize*.pkl"))
     record = json.loads((out / "run.json").read_text())
-    assert record["seed"] == 0 and record["versions"]["torch"].startswith("2.13") and record["wall_time_s"] > 0
+    assert record["seed"] == 0 and record["versions"]["torch"].startswith("2.13")
+    # a 256-step run can take well under 0.1 s on a fast machine: the record keeps milliseconds
+    assert isinstance(record["wall_time_s"], float) and record["wall_time_s"] >= 0
+    assert np.isfinite(record["steps_per_s_this_run"])
     resumed = train(resume=out, steps=128, **kw)
     assert resumed["total_timesteps"] >= first["total_timesteps"] + 128
     assert resumed["resumes"] == 1
