@@ -330,12 +330,14 @@ def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: 
 
 def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs: dict | None = None,
             hyperparameters: dict | None = None, validation_points=None, progress: bool = True,
-            friction=None) -> Student:
+            friction=None, on_round=None) -> Student:
     """Fit a new PPO student to the drive field's teacher (module docstring), then ``config.rounds``
     DAgger rounds; prints each stage and, with ``validation_points``, the student's velocity as a
     fraction of the teacher's there. With ``friction`` ((mu low, high), (mu1 low, high)) the episodes'
     friction is drawn too (``draw_points``), ``field_`` is queried at (k, load, mu, mu1) points (a
-    ``FrictionField``) and ``env_kwargs`` must give the privileged observation."""
+    ``FrictionField``) and ``env_kwargs`` must give the privileged observation. ``on_round(student,
+    record)``, if given, is called after each round and hole round with that round's history record
+    (e.g. to save the student as it stands)."""
     import torch
 
     torch.set_num_threads(config.torch_threads)
@@ -370,6 +372,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
             record.update(validation_fraction(student, *val))
         student.history.append(record)
         _print_record(record)
+        if on_round is not None:
+            on_round(student, record)
     k_range = (float(field_.ks[0]), float(field_.ks[-1]))
     for h in range(1, config.hole_rounds + 1):
         t0 = time.perf_counter()
@@ -388,6 +392,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
             record.update(validation_fraction(student, *val))
         student.history.append(record)
         _print_record(record)
+        if on_round is not None:
+            on_round(student, record)
     return student
 
 

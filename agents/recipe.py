@@ -16,6 +16,8 @@ Stages (each one's wall time is printed and kept in ``recipe.json``):
 An existing ``OUT`` is refused unless ``--resume`` (teacher tasks reused, the student refitted) or
 ``--force``. ``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
 ``teacher_field.npz``), for trying student settings without searching the teacher again.
+``--snapshots`` also saves the student after each hole round into ``OUT/snapshots/hole_round<H>/``
+(the same files as ``OUT/policy/``), so one run shows what each further hole round changes.
 """
 
 from __future__ import annotations
@@ -115,8 +117,9 @@ def searched_with_another_config(field: DriveField, config: FieldConfig) -> bool
 
 
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
-        force: bool = False, progress: bool = True, teacher: str | Path | None = None) -> dict:
-    """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1); returns
+        force: bool = False, progress: bool = True, teacher: str | Path | None = None, snapshots: bool = False) -> dict:
+    """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1; with
+    ``snapshots``: the student after each hole round in ``out/snapshots/hole_round<H>/`` too); returns
     what ``recipe.json`` holds."""
     recipe = load_recipe(config_path)
     out, executor = start_run(out, resume, force, executor, progress)
@@ -141,11 +144,19 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
           f"grid points, {field.meta.get('exchanged', 0)} drives taken from a neighbour", flush=True)
 
     t1 = time.perf_counter()
+    teacher_record = {"teacher": str(out / "teacher_field.npz"), "recipe": str(config_path)}
+
+    def save_snapshot(student, round_record: dict) -> None:
+        if snapshots and "hole_round" in round_record:
+            record = student_record(seed, recipe["env_kwargs"], recipe["ppo"], recipe["distill"], student,
+                                    round(time.perf_counter() - t1, 1), command, teacher_record)
+            save_student(student, out / "snapshots" / f"hole_round{round_record['hole_round']}", record)
+
     student = distill(field, recipe["distill"], seed=seed, env_kwargs=recipe["env_kwargs"],
-                      hyperparameters=recipe["ppo"], progress=progress)
+                      hyperparameters=recipe["ppo"], progress=progress, on_round=save_snapshot)
     stages["student_s"] = round(time.perf_counter() - t1, 1)
     record = student_record(seed, recipe["env_kwargs"], recipe["ppo"], recipe["distill"], student, stages["student_s"],
-                            command, {"teacher": str(out / "teacher_field.npz"), "recipe": str(config_path)})
+                            command, teacher_record)
     save_student(student, out / "policy", record)
     stages["total_s"] = round(time.perf_counter() - t0, 1)
     print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
@@ -172,10 +183,13 @@ def main(argv=None) -> int:
     ap.add_argument("--no-progress", action="store_true", help="no progress bars")
     ap.add_argument("--teacher", type=input_file, default=None,
                     help="a saved teacher field (.npz, a recipe's teacher_field.npz): skip the teacher search")
+    ap.add_argument("--snapshots", action="store_true",
+                    help="also save the student after each hole round, in OUT/snapshots/hole_round<H>/")
     add_executor_arguments(ap)
     a = ap.parse_args(argv)
     return run_command(ap.prog, lambda: run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force,
-                                            progress=not a.no_progress, teacher=a.teacher),
+                                            progress=not a.no_progress, teacher=a.teacher,
+                                            snapshots=a.snapshots),
                        f"the teacher's finished slices are kept, continue with --resume --out {a.out}")
 
 

@@ -79,13 +79,22 @@ def test_a_saved_teacher_is_distilled_without_searching_again(recipe_run, tmp_pa
 
     out, _ = recipe_run
     assert recipe.main([str(TINY), "--out", str(tmp_path / "again"), "--no-progress", "--workers", "1",
-                        "--teacher", str(out / "teacher_field.npz")]) == 0
+                        "--teacher", str(out / "teacher_field.npz"), "--snapshots"]) == 0
     assert "(loaded)" in capsys.readouterr().out
     again, first = DriveField.load(tmp_path / "again" / "teacher_field.npz"), DriveField.load(out / "teacher_field.npz")
     assert np.array_equal(again.drives, first.drives)
     summary = json.loads((tmp_path / "again" / "recipe.json").read_text())
     assert summary["teacher_loaded_from"] == str(out / "teacher_field.npz")
     assert (tmp_path / "again" / "policy" / "model.zip").exists()
+    # --snapshots: the student after its one hole round, which is the final student
+    from stable_baselines3 import PPO
+
+    snapshot = tmp_path / "again" / "snapshots" / "hole_round1"
+    assert sorted(p.name for p in snapshot.iterdir()) == ["model.zip", "run.json", "vecnormalize.pkl"]
+    final, saved = PPO.load(tmp_path / "again" / "policy" / "model.zip"), PPO.load(snapshot / "model.zip")
+    for a, b in zip(final.policy.parameters(), saved.policy.parameters()):
+        assert np.array_equal(a.detach().numpy(), b.detach().numpy())
+    assert json.loads((snapshot / "run.json").read_text())["distilled_from"]["history"][-1]["hole_round"] == 1
     with pytest.raises(SystemExit) as exit_:
         recipe.main([str(TINY), "--out", str(tmp_path / "x"), "--teacher", str(tmp_path / "missing.npz")])
     assert exit_.value.code == 2 and "missing.npz" in capsys.readouterr().err
