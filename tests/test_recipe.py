@@ -569,3 +569,40 @@ def test_a_hole_is_a_probe_short_of_the_teacher_by_the_share_and_the_floor(monke
     assert holes(1e-4) == 3  # ... now it is, and 0.6 mm/s short of 5 too; 0.05 of 0.7 and 0.5 of 20 are not
     with pytest.raises(ValueError, match="hole_floor"):
         DistillConfig(hole_floor=-1e-3)
+
+
+def test_the_teachers_critical_fraction_is_where_its_grid_velocity_first_falls_to_zero():
+    field = _synthetic_field()
+    v = np.tile(np.linspace(4e-3, -2e-3, len(field.fractions)), (len(field.ks), 1))
+    v[1] = 1e-3  # never stalls on the grid: the heaviest fraction
+    v[2, 0] = -1e-3  # stalls unloaded
+    field.velocities = v
+    crit = field.critical_fractions()
+    s = field.fractions
+    expected = s[0] + (s[-1] - s[0]) * 4.0 / 6.0  # the line's zero, between two nodes
+    assert crit[0] == pytest.approx(expected) and crit[3] == pytest.approx(expected)
+    assert crit[1] == s[-1] and crit[2] == s[0]
+
+
+def test_stall_probes_lie_in_their_band_of_the_teachers_critical_load(monkeypatch):
+    from mdr_drive_agents import distill
+
+    field = _synthetic_field()
+    field.velocities = np.tile(np.linspace(4e-3, -2e-3, len(field.fractions)), (len(field.ks), 1))
+    teacher_crit = field.critical_fractions()[0] * field.trapezoid_critical[0]  # the same at every k here
+    points = distill.stall_points(field, 200, np.random.default_rng(0), (0.9, 1.0))
+    loads = np.array([m for _, m in points])
+    assert len(points) == 200 and loads.min() >= 0.9 * teacher_crit and loads.max() <= teacher_crit
+    seen = []
+    monkeypatch.setattr(field, "best", lambda pts, radius=1: (np.zeros((len(pts), 2, 5)), np.full(len(pts), 1e-3)))
+    monkeypatch.setattr(distill, "student_velocity", lambda student_, pts: seen.append(pts) or np.full(len(pts), 1e-3))
+    config = DistillConfig(hole_probes=40, hole_stall_share=0.25, hole_stall_band=(0.9, 1.0))
+    distill.find_holes(None, field, config, np.random.default_rng(0))
+    loads = np.array([m for _, m in seen[0]])
+    assert len(loads) == 40 and ((loads >= 0.9 * teacher_crit) & (loads <= teacher_crit)).sum() >= 10
+    with pytest.raises(ValueError, match="hole_stall_share"):
+        distill.find_holes(None, field, config, np.random.default_rng(0), friction=((0.2, 0.4), (0.07, 0.13)))
+    with pytest.raises(ValueError, match="hole_stall_share"):
+        DistillConfig(hole_stall_share=1.5)
+    with pytest.raises(ValueError, match="hole_stall_band"):
+        DistillConfig(hole_stall_band=(1.0, 0.9))
