@@ -11,8 +11,9 @@ network acts (``PPO.load`` + ``VecNormalize.load`` + ``model.predict``). Trainin
    (k, load), in the cycle phase that follows the student's previous action: ``cycle_action``);
    the student is refitted on everything gathered so far;
 3. hole rounds 1 ... H: the student and the teacher each drive at fresh random points; where the
-   student falls short of the teacher (``find_holes``), the teacher plays more episodes at and
-   around those points, they are added, and the fit continues. A network fitted to a teacher whose
+   student falls short of the teacher (``find_holes``), the teacher (or, for
+   ``hole_student_share`` of them, the student) plays more episodes at and around those points,
+   labelled with the teacher's actions, they are added, and the fit continues. A network fitted to a teacher whose
    drive jumps between optima is wrong in patches near the jumps, and where the patches fall
    changes from run to run with the fit's round-off: these rounds look for them and fill them.
 
@@ -80,6 +81,10 @@ class DistillConfig:
             under a mm/s, and one time quantum of the student's actions off stalls it (-).
         hole_stall_band: those probes' loads, uniform between these fractions of the teacher's
             critical load at their k (``DriveField.critical_fractions``) (-).
+        hole_student_share: share of the episodes at and around each hole that the student plays
+            (labelled with the teacher's action for the student's own previous action, as a DAgger
+            round), the rest played by the teacher. Where the student's closed loop falls into
+            another cycle than the teacher's, only its own episodes show the way back (-).
         hole_steps: gradient steps after each hole round (-).
         hole_learning_rate: Adam step size of those steps, decaying linearly to zero (-).
         huber_delta: 0 fits the squared error; > 0 the Huber loss with this threshold (``edge_loss``)
@@ -123,6 +128,7 @@ class DistillConfig:
     hole_neighbours: int = 8
     hole_stall_share: float = 0.0
     hole_stall_band: tuple[float, float] = (0.85, 1.02)
+    hole_student_share: float = 0.0
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
     huber_delta: float = 0.0
@@ -148,6 +154,7 @@ class DistillConfig:
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("hole_floor", self.hole_floor, 0.0, 0.01)
         check_range("hole_stall_share", self.hole_stall_share, 0.0, 1.0)
+        check_range("hole_student_share", self.hole_student_share, 0.0, 1.0)
         if (len(self.hole_stall_band) != 2 or not 0.0 <= self.hole_stall_band[0] < self.hole_stall_band[1] <= 2.0):
             raise ValueError(f"hole_stall_band={self.hole_stall_band!r} must be two fractions 0 <= low < high <= 2 "
                              "of the teacher's critical load")
@@ -401,10 +408,14 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         holes, probe = find_holes(student, field_, config, rng, friction)
         loss = None  # no hole found: no fit this round
         if holes:
-            obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
-                                                   config, seed + 100 + h, student.z_phase_origin)
-            obs_all.append(obs)
-            drive_all.append(sample_drives)
+            points = around(holes, config.hole_neighbours, rng, k_range)
+            played = student_played(len(points), config.hole_student_share)
+            for act, mask in ((None, ~played), (student.act, played)):
+                if mask.any():
+                    obs, sample_drives = labelled_episodes(field_, [p for p, m in zip(points, mask) if m], act,
+                                                           config, seed + 100 + h, student.z_phase_origin)
+                    obs_all.append(obs)
+                    drive_all.append(sample_drives)
             loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
                        seed + 100 + h, progress, learning_rate=config.hole_learning_rate)
         record = {"hole_round": h, **probe, "samples": int(sum(len(o) for o in obs_all)),
@@ -523,6 +534,12 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
         "probe_mean_fraction": float(np.mean(v_student[moving] / v_teacher[moving])) if moving.any() else None}
 
 
+def student_played(n: int, share: float) -> np.ndarray:
+    """(n,) bool: which of ``n`` episodes the student plays, evenly spread, ``share`` of them."""
+    i = np.arange(n)
+    return np.floor((i + 1) * share) > np.floor(i * share)
+
+
 def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float]) -> list:
     """Each point and ``n`` jittered copies: k +- 0.01 (kept in ``k_range``), load +- 5 % (friction,
     of (k, load, mu, mu1) points, kept)."""
@@ -561,4 +578,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
 
 __all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "drive_difference", "edge_loss",
            "find_holes", "fit", "jump_brackets", "jump_points", "labelled_episodes", "perturb_previous_actions",
-           "policy_mean", "rollout", "save_student", "stall_points", "student_velocity"]
+           "policy_mean", "rollout", "save_student", "stall_points", "student_played",
+           "student_velocity"]

@@ -606,3 +606,14 @@ def test_stall_probes_lie_in_their_band_of_the_teachers_critical_load(monkeypatc
         DistillConfig(hole_stall_share=1.5)
     with pytest.raises(ValueError, match="hole_stall_band"):
         DistillConfig(hole_stall_band=(1.0, 0.9))
+
+
+def test_the_student_plays_its_share_of_the_hole_episodes_evenly_spread():
+    from mdr_drive_agents.distill import student_played
+
+    assert not student_played(9, 0.0).any() and student_played(9, 1.0).all()
+    half = student_played(10, 0.5)
+    assert half.sum() == 5 and list(half[:4]) == [False, True, False, True]
+    assert student_played(9, 1 / 3).sum() == 3
+    with pytest.raises(ValueError, match="hole_student_share"):
+        DistillConfig(hole_student_share=-0.1)
