@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import sys
 from pathlib import Path
 
 
@@ -270,9 +269,26 @@ decision saw; fraction of the per-point best drive where it moves >= 2 mm/s.
     return dst / "MODEL_CARD.md"
 
 
-if __name__ == "__main__":  # python -m mdr_drive_agents.model_card SRC DST [BLIND.json | ADAPTATION.json]
-    args = sys.argv[1:4]
-    if len(args) == 3 and Path(args[2]).name == "adaptation.json":
-        print(ship_sensor(*args).read_text())
-    else:
-        print(ship(*args).read_text())
+def main(argv=None) -> int:
+    import argparse
+
+    from mdr_drive_env.cli_args import Parser, folder_with, input_file, output_dir, run_command
+
+    ap = Parser(prog="python -m mdr_drive_agents.model_card", description=__doc__,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("src", type=folder_with(*FILES), help="the trained policy's folder (model.zip, vecnormalize.pkl, run.json)")
+    ap.add_argument("dst", type=output_dir, help="where to ship it (its files are replaced, MODEL_CARD.md written)")
+    ap.add_argument("results", nargs="?", type=input_file, default=None,
+                    help="blind.json of mdr-drive benchmark --blind (the card quotes it), or, for a sensor policy, "
+                         "adaptation.json of python -m mdr_drive_agents.adaptation")
+    a = ap.parse_args(argv)
+
+    def work():
+        sensor = a.results is not None and Path(a.results).name == "adaptation.json"
+        print((ship_sensor(a.src, a.dst, a.results) if sensor else ship(a.src, a.dst, a.results)).read_text())
+
+    return run_command(ap.prog, work, "nothing was shipped unless the card was printed")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

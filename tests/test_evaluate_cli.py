@@ -139,3 +139,16 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     text = ship(card_dir, card_dir, blind_json).read_text()  # in place: nothing to copy
     assert "runaway (runaway)" in text and "-1170" not in text  # k = 0.2, 0.4 kg runs away
     assert "--seed 99" in text and "mean 0.885, minimum 0.327" in text and "## Limits" in text
+
+
+def test_the_model_card_command_explains_itself_and_refuses_a_folder_without_a_policy(tmp_path, capsys):
+    from mdr_drive_agents.model_card import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["--help"])
+    assert exit_.value.code == 0 and "blind.json" in capsys.readouterr().out
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(SystemExit) as exit_:
+        main([str(tmp_path / "empty"), str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and "model.zip" in err and len(err.strip().splitlines()) == 1
