@@ -11,9 +11,8 @@ network acts (``PPO.load`` + ``VecNormalize.load`` + ``model.predict``). Trainin
    (k, load), in the cycle phase that follows the student's previous action: ``cycle_action``);
    the student is refitted on everything gathered so far;
 3. hole rounds 1 ... H: the student and the teacher each drive at fresh random points; where the
-   student falls short of the teacher (``find_holes``), the teacher (or, for
-   ``hole_student_share`` of them, the student) plays more episodes at and around those points,
-   labelled with the teacher's actions, they are added, and the fit continues. A network fitted to a teacher whose
+   student falls short of the teacher (``find_holes``), the teacher plays more episodes at and
+   around those points, they are added, and the fit continues. A network fitted to a teacher whose
    drive jumps between optima is wrong in patches near the jumps, and where the patches fall
    changes from run to run with the fit's round-off: these rounds look for them and fill them.
 
@@ -76,15 +75,6 @@ class DistillConfig:
             moves at under 1 mm/s, so with a floor of 1 mm/s no probe there can be a hole.
         hole_neighbours: teacher episodes added at jittered points around each hole, besides the
             hole itself (k +- 0.01, load +- 5 %) (-).
-        hole_stall_share: share of each round's probes drawn near the teacher's own critical load
-            instead of over the whole load range (``stall_points``): there the teacher moves at
-            under a mm/s, and one time quantum of the student's actions off stalls it (-).
-        hole_stall_band: those probes' loads, uniform between these fractions of the teacher's
-            critical load at their k (``DriveField.critical_fractions``) (-).
-        hole_student_share: share of the episodes at and around each hole that the student plays
-            (labelled with the teacher's action for the student's own previous action, as a DAgger
-            round), the rest played by the teacher. Where the student's closed loop falls into
-            another cycle than the teacher's, only its own episodes show the way back (-).
         hole_steps: gradient steps after each hole round (-).
         hole_learning_rate: Adam step size of those steps, decaying linearly to zero (-).
         huber_delta: 0 fits the squared error; > 0 the Huber loss with this threshold (``edge_loss``)
@@ -126,9 +116,6 @@ class DistillConfig:
     hole_shortfall: float = 0.1
     hole_floor: float = 1e-3
     hole_neighbours: int = 8
-    hole_stall_share: float = 0.0
-    hole_stall_band: tuple[float, float] = (0.85, 1.02)
-    hole_student_share: float = 0.0
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
     huber_delta: float = 0.0
@@ -153,11 +140,6 @@ class DistillConfig:
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("hole_floor", self.hole_floor, 0.0, 0.01)
-        check_range("hole_stall_share", self.hole_stall_share, 0.0, 1.0)
-        check_range("hole_student_share", self.hole_student_share, 0.0, 1.0)
-        if (len(self.hole_stall_band) != 2 or not 0.0 <= self.hole_stall_band[0] < self.hole_stall_band[1] <= 2.0):
-            raise ValueError(f"hole_stall_band={self.hole_stall_band!r} must be two fractions 0 <= low < high <= 2 "
-                             "of the teacher's critical load")
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
         if not isinstance(self.quantum_centres, bool):
@@ -178,16 +160,6 @@ def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: Di
         return [(float(k), float(m)) for k, m in zip(ks, loads)]
     mu, mu1 = rng.uniform(*friction[0], n), rng.uniform(*friction[1], n)
     return [(float(k), float(m * a / PAPER_FRICTION[0]), float(a), float(b)) for k, m, a, b in zip(ks, loads, mu, mu1)]
-
-
-def stall_points(field_: DriveField, n: int, rng: np.random.Generator, band: tuple[float, float]) -> list:
-    """``n`` (k, cargo mass kg) points near the teacher's critical load: k uniform over the field's
-    range, the load uniform between ``band`` fractions of the teacher's critical load at k (the
-    field's ``critical_fractions`` times the trapezoid's critical load, interpolated in k)."""
-    ks = rng.uniform(field_.ks[0], field_.ks[-1], n)
-    crit = np.interp(ks, field_.ks, field_.critical_fractions() * field_.trapezoid_critical)
-    loads = rng.uniform(*band, n) * crit
-    return [(float(k), float(m)) for k, m in zip(ks, loads)]
 
 
 def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0, z_phase_origin: float = 0.0):
@@ -408,14 +380,10 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         holes, probe = find_holes(student, field_, config, rng, friction)
         loss = None  # no hole found: no fit this round
         if holes:
-            points = around(holes, config.hole_neighbours, rng, k_range)
-            played = student_played(len(points), config.hole_student_share)
-            for act, mask in ((None, ~played), (student.act, played)):
-                if mask.any():
-                    obs, sample_drives = labelled_episodes(field_, [p for p, m in zip(points, mask) if m], act,
-                                                           config, seed + 100 + h, student.z_phase_origin)
-                    obs_all.append(obs)
-                    drive_all.append(sample_drives)
+            obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
+                                                   config, seed + 100 + h, student.z_phase_origin)
+            obs_all.append(obs)
+            drive_all.append(sample_drives)
             loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
                        seed + 100 + h, progress, learning_rate=config.hole_learning_rate)
         record = {"hole_round": h, **probe, "samples": int(sum(len(o) for o in obs_all)),
@@ -515,16 +483,10 @@ def student_velocity(student: Student, points) -> np.ndarray:
 def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator,
                friction=None):
     """The student and the teacher at ``config.hole_probes`` fresh random points (``draw_points``
-    with ``friction``; a ``config.hole_stall_share`` of them from ``stall_points``): the points
-    where the student's steady velocity falls short of the teacher's (``config.hole_shortfall``),
-    and the probe statistics (share of holes, the student's mean velocity over the teacher's where
-    it moves)."""
-    n_stall = int(round(config.hole_stall_share * config.hole_probes))
-    if n_stall and friction is not None:
-        raise ValueError("hole_stall_share > 0 needs a teacher at one friction (a DriveField)")
-    points = draw_points(field_, config.hole_probes - n_stall, rng, config, friction)
-    if n_stall:
-        points += stall_points(field_, n_stall, rng, config.hole_stall_band)
+    with ``friction``): the points where the student's steady velocity falls short of the teacher's
+    (``config.hole_shortfall``), and the probe statistics (share of holes, the student's mean
+    velocity over the teacher's where it moves)."""
+    points = draw_points(field_, config.hole_probes, rng, config, friction)
     _, v_teacher = field_.best(points, radius=config.teacher_radius)
     v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), config.hole_floor)
@@ -532,12 +494,6 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
     return [p for p, h in zip(points, short) if h], {
         "probes": len(points), "holes": int(short.sum()),
         "probe_mean_fraction": float(np.mean(v_student[moving] / v_teacher[moving])) if moving.any() else None}
-
-
-def student_played(n: int, share: float) -> np.ndarray:
-    """(n,) bool: which of ``n`` episodes the student plays, evenly spread, ``share`` of them."""
-    i = np.arange(n)
-    return np.floor((i + 1) * share) > np.floor(i * share)
 
 
 def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float]) -> list:
@@ -578,5 +534,4 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
 
 __all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "drive_difference", "edge_loss",
            "find_holes", "fit", "jump_brackets", "jump_points", "labelled_episodes", "perturb_previous_actions",
-           "policy_mean", "rollout", "save_student", "stall_points", "student_played",
-           "student_velocity"]
+           "policy_mean", "rollout", "save_student", "student_velocity"]

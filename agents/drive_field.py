@@ -382,20 +382,6 @@ class DriveField:
                 self.drives[i, j] = align_phase(self.drives[i, j], self.drives[i, j - 1])
 
     # ------------------------------------------------------------------ queries
-    def critical_fractions(self) -> np.ndarray:
-        """Per k: the teacher's critical load over the trapezoid's (-), where its grid velocity along
-        the load first falls to zero, linearly interpolated between nodes (the heaviest fraction
-        where it never does)."""
-        out = np.full(len(self.ks), float(self.fractions[-1]))
-        for i, v in enumerate(self.velocities):
-            j = np.flatnonzero(v <= 0.0)
-            if len(j) and j[0] > 0:
-                a, b = v[j[0] - 1], v[j[0]]
-                out[i] = self.fractions[j[0] - 1] + (self.fractions[j[0]] - self.fractions[j[0] - 1]) * a / (a - b)
-            elif len(j):
-                out[i] = float(self.fractions[0])
-        return out
-
     def _cell(self, k: float, load: float):
         """Indices and weights of the grid cell around (k, load): (i, j, wk, ws)."""
         k = float(np.clip(k, self.ks[0], self.ks[-1]))
