@@ -74,18 +74,21 @@ def pooled(policy_path: str, searches: list[dict]) -> dict:
 
 def stored_scans(searches: list[dict]) -> list[dict]:
     """The distinct critical-load scans of ``searches`` (by their k values; the first file's of each):
-    {"seed", "k", "best cycle"} (kg)."""
+    {"seed", "k", "best cycle", "trapezoid"} (kg)."""
     scans: dict = {}
     for res in searches:
         crit = res.get("critical_load_kg") or {}
         if crit.get("k") and crit.get("best cycle"):
-            scans.setdefault(tuple(crit["k"]), {"seed": res["seed"], "k": crit["k"], "best cycle": crit["best cycle"]})
+            scans.setdefault(tuple(crit["k"]), {"seed": res["seed"], "k": crit["k"], "best cycle": crit["best cycle"],
+                                                "trapezoid": crit["trapezoid"]})
     return list(scans.values())
 
 
 def critical_load_target(policy_path: str, scan: dict) -> dict:
     """The policy's critical load over the best cycle's at each k of ``scan``: the k values at the
-    blind benchmark's target (``CRITICAL_LOAD_TARGET``), the minimum ratio and the k values under it."""
+    blind benchmark's target (``CRITICAL_LOAD_TARGET``), the minimum ratio and the k values under it;
+    and the smallest ratio to the trapezoid's critical load (under 1: a k where the policy carries less
+    than the trapezoid, a pocket a count of k values hides)."""
     from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET
     from mdr_drive_agents.evaluate import critical_loads_grid, load_policy, policy_velocity
 
@@ -93,16 +96,20 @@ def critical_load_target(policy_path: str, scan: dict) -> dict:
     crit = critical_loads_grid(scan["k"], lambda pts: policy_velocity(policy, pts))
     ratios = {k: crit[k] / c for k, c in zip(scan["k"], scan["best cycle"]) if c > 0}
     under = {k: r for k, r in ratios.items() if r < CRITICAL_LOAD_TARGET}
-    return {"at_target": len(ratios) - len(under), "scanned": len(ratios), "min": min(ratios.values()), "under": under}
+    over_trapezoid = min(crit[k] / t for k, t in zip(scan["k"], scan["trapezoid"]) if t > 0)
+    return {"at_target": len(ratios) - len(under), "scanned": len(ratios), "min": min(ratios.values()), "under": under,
+            "min_over_trapezoid": over_trapezoid}
 
 
 def critical_table(rows: dict, scans: list[dict]) -> str:
     lines = ["", "Critical load over the best two-action cycle's, per stored scan: k values at >= 0.97; the minimum; "
-             "the k values under 0.97 (ratio).", "", "| policy | " + " | ".join(
+             "the k values under 0.97 (ratio); the smallest ratio to the trapezoid's critical load.", "",
+             "| policy | " + " | ".join(
                  f"{len(s['k'])}-k scan (seed {s['seed']})" for s in scans) + " |", "|---|" + "---|" * len(scans)]
     for name, results in rows.items():
         cells = [f"{r['at_target']} of {r['scanned']}; {r['min']:.3f}; "
-                 + (", ".join(f"{k:g} ({v:.3f})" for k, v in r["under"].items()) or "none") for r in results]
+                 + (", ".join(f"{k:g} ({v:.3f})" for k, v in r["under"].items()) or "none")
+                 + f"; trapezoid x {r['min_over_trapezoid']:.3f}" for r in results]
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 

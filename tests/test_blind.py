@@ -173,6 +173,7 @@ def test_the_pooled_script_repeats_the_benchmarks_statistics_once_per_stored_sea
     crit = script["critical_load_target"](policy, scans[0])  # as the benchmark counts the target
     assert crit["at_target"] == res["statistics"][policy]["k_values_at_critical_load_target"]
     assert crit["min"] == pytest.approx(res["statistics"][policy]["critical_load_over_best_cycle_min"])
+    assert crit["min_over_trapezoid"] == pytest.approx(min(res["statistics"][policy]["critical_load_over_trapezoid"]))
     out = tmp_path / "pooled.md"
     assert script["main"]([policy, "--searches", str(stored), str(copy), "--out", str(out), "--critical-load"]) == 0
     assert "25-k scan (seed 20261124)" in out.read_text()
