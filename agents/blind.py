@@ -120,13 +120,19 @@ def cycle_scan_task(args) -> float:
 
 def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: dict, ks) -> dict:
     """The blind statistics of one policy (velocities in m/s; NaN is a runaway)."""
+    return {**velocity_statistics(trap, best, learned), **critical_load_statistics(crit, ks)}
+
+
+def critical_load_statistics(crit: dict, ks) -> dict:
+    """The critical-load statistics of one policy: ``crit`` holds the critical loads (kg) of the
+    "policy", the "trapezoid" and the "best cycle" at each k of ``ks``; their ratios (None where
+    the reference carries nothing), the smallest to the best cycle's and the k values at the target."""
     ratio_trap = [crit["policy"][i] / crit["trapezoid"][i] if crit["trapezoid"][i] > 0 else None
                   for i in range(len(ks))]
     ratio_cycle = [crit["policy"][i] / crit["best cycle"][i] if crit["best cycle"][i] > 0 else None
                    for i in range(len(ks))]
     finite = [r for r in ratio_cycle if r is not None]
     return {
-        **velocity_statistics(trap, best, learned),
         "critical_load_over_trapezoid": ratio_trap,
         "critical_load_over_best_cycle": ratio_cycle,
         "critical_load_over_best_cycle_min": min(finite) if finite else None,

@@ -89,16 +89,17 @@ def critical_load_target(policy_path: str, scan: dict) -> dict:
     blind benchmark's target (``CRITICAL_LOAD_TARGET``), the minimum ratio and the k values under it;
     and the smallest ratio to the trapezoid's critical load (under 1: a k where the policy carries less
     than the trapezoid, a pocket a count of k values hides)."""
-    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET
+    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, critical_load_statistics
     from mdr_drive_agents.evaluate import critical_loads_grid, load_policy, policy_velocity
 
     policy = load_policy(policy_path)
     crit = critical_loads_grid(scan["k"], lambda pts: policy_velocity(policy, pts))
-    ratios = {k: crit[k] / c for k, c in zip(scan["k"], scan["best cycle"]) if c > 0}
-    under = {k: r for k, r in ratios.items() if r < CRITICAL_LOAD_TARGET}
-    over_trapezoid = min(crit[k] / t for k, t in zip(scan["k"], scan["trapezoid"]) if t > 0)
-    return {"at_target": len(ratios) - len(under), "scanned": len(ratios), "min": min(ratios.values()), "under": under,
-            "min_over_trapezoid": over_trapezoid}
+    s = critical_load_statistics({**scan, "policy": [crit[k] for k in scan["k"]]}, scan["k"])
+    ratios = {k: r for k, r in zip(scan["k"], s["critical_load_over_best_cycle"]) if r is not None}
+    return {"at_target": s["k_values_at_critical_load_target"], "scanned": len(ratios),
+            "min": s["critical_load_over_best_cycle_min"],
+            "under": {k: r for k, r in ratios.items() if r < CRITICAL_LOAD_TARGET},
+            "min_over_trapezoid": min(r for r in s["critical_load_over_trapezoid"] if r is not None)}
 
 
 def critical_table(rows: dict, scans: list[dict]) -> str:
