@@ -22,6 +22,8 @@ error on the policy's mean action, except that where the teacher's action lies o
 an output beyond the edge costs nothing (SB3 clips the action to the box when acting): the
 optimal drives use the full stroke or depth in most components, and only the others need to be
 precise (the steady velocity near an optimal drive changes steeply with the action).
+
+The points and the episodes the student is taught on: ``agents/teacher_data.py``.
 """
 
 from __future__ import annotations
@@ -30,18 +32,14 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import gymnasium as gym
 import numpy as np
 from tqdm import tqdm
 
-import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
-
-from .drive_field import PAPER_FRICTION, DriveField, align_phase, cycle_action
-from .evaluate import ACTION_MAP, steady_velocity_of
+from .drive_field import DriveField, cycle_action
+from .evaluate import steady_velocity_of
+from .teacher_data import around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout
 from mdr_drive_env.core.params import check_int, check_range
-from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
-
-ENV_ID = "MDRDrive-v0"
+from mdr_drive_env.gym_envs.spaces import ObservationLayout
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
 EDGE = 0.999
 
@@ -144,63 +142,6 @@ class DistillConfig:
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
         if not isinstance(self.quantum_centres, bool):
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
-
-
-def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config: DistillConfig,
-                friction=None) -> list:
-    """``n`` (k, cargo mass kg) points: k uniform over the field's range, the load uniform from 0 to
-    ``load_factor`` times the trapezoid's critical load (interpolated from the field's grid), a
-    share without load. With ``friction`` ((mu low, high), (mu1 low, high)): (k, cargo mass kg, mu,
-    mu1) points, mu and mu1 uniform, the load scaled by mu / 0.3 (the same load over mu F_ref)."""
-    ks = rng.uniform(field_.ks[0], field_.ks[-1], n)
-    crit = np.interp(ks, field_.ks, field_.trapezoid_critical)
-    loads = rng.uniform(0.0, config.load_factor, n) * crit
-    loads[rng.uniform(size=n) < config.no_load_share] = 0.0
-    if friction is None:
-        return [(float(k), float(m)) for k, m in zip(ks, loads)]
-    mu, mu1 = rng.uniform(*friction[0], n), rng.uniform(*friction[1], n)
-    return [(float(k), float(m * a / PAPER_FRICTION[0]), float(a), float(b)) for k, m, a, b in zip(ks, loads, mu, mu1)]
-
-
-def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0, z_phase_origin: float = 0.0):
-    """Play at each (k, load kg) point, or (k, load kg, mu, mu1) point in the privileged observation:
-    the teacher's drive (``act`` None) or ``act(obs) -> actions``, in the action units of an env with
-    ``z_phase_origin`` (``drives`` too). Returns the observations (periods * n, 14 or 16), the
-    teacher's drive of each observation's episode (periods * n, 2, 5) and the displacements
-    (periods, n) m."""
-    n = len(points)
-    options = {"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]}
-    kwargs = {"z_phase_origin": z_phase_origin}
-    if len(points[0]) == 4:
-        kwargs["observation"] = "privileged"
-        options.update(friction_coefficient=[p[2] for p in points], base_friction_coefficient=[p[3] for p in points])
-    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods, **kwargs)
-    prev_slice = venv.template.observation_structure["previous_action"]
-    obs, _ = venv.reset(seed=seed, options=options)
-    all_obs, disp = [], []
-    for _ in range(periods):
-        all_obs.append(obs.copy())
-        action = cycle_action(drives, obs[:, prev_slice]) if act is None else act(obs)
-        obs, _, _, _, info = venv.step(np.clip(np.asarray(action).reshape(n, 5), -1.0, 1.0).astype(np.float32))
-        disp.append(info["displacement"])
-    return np.concatenate(all_obs), np.tile(drives, (periods, 1, 1)), np.array(disp)
-
-
-def perturb_previous_actions(obs: np.ndarray, drives: np.ndarray, rng: np.random.Generator, share: float,
-                             prev_slice: slice) -> np.ndarray:
-    """``obs`` with the previous action of a ``share`` of the samples replaced: half by one of the
-    drive's own actions plus Gaussian noise (std 0.02-0.3), half uniform in the box. The label
-    follows from the drive (``cycle_action``), so such samples are free, and they teach the student
-    to come back to its cycle from wherever its last action went (a network fitted only on exact
-    cycles maps a previous action between the two halfway between them, and the cycle decays)."""
-    out = obs.copy()
-    pick = np.flatnonzero(rng.uniform(size=len(obs)) < share)
-    near = rng.uniform(size=len(pick)) < 0.5
-    which = rng.integers(0, 2, len(pick))
-    scale = rng.choice([0.02, 0.1, 0.3], len(pick))[:, None]
-    noisy = drives[pick, which] + rng.normal(size=(len(pick), 5)) * scale
-    out[pick, prev_slice] = np.clip(np.where(near[:, None], noisy, rng.uniform(-1.0, 1.0, (len(pick), 5))), -1.0, 1.0)
-    return out
 
 
 def policy_mean(policy, obs):
@@ -402,77 +343,6 @@ def _print_record(record: dict) -> None:
                    for key, value in record.items()), flush=True)
 
 
-def labelled_episodes(field_: DriveField, points, act, config: DistillConfig, seed: int, z_phase_origin: float = 0.0,
-                      drives: np.ndarray | None = None):
-    """Episodes of ``config.periods`` periods at ``points``, played by the teacher (``act`` None) or by
-    ``act``: their observations and each one's teacher drive (``rollout``; the teacher's drive at each
-    point from ``DriveField.best`` with ``config.teacher_radius`` unless ``drives`` (n, 2, 5) gives
-    them), all in the action units of an env with ``z_phase_origin`` (the field's drives are in the
-    default units, origin 0)."""
-    if drives is None:
-        drives, _ = field_.best(points, radius=config.teacher_radius)
-    if config.quantum_centres:
-        drives = ACTION_MAP.quantum_centre(drives)
-    drives = shift_phase_origin(drives, 0.0, z_phase_origin)
-    obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed, z_phase_origin=z_phase_origin)
-    return obs, sample_drives
-
-
-def drive_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The largest component difference (action units) between drives ``a`` and ``b`` (n, 2, 5), each
-    pair compared in the cycle phase that brings them closest (``align_phase``)."""
-    return np.abs(align_phase(b, a) - a).max(axis=(1, 2))
-
-
-def jump_points(field_: DriveField, points, drives: np.ndarray, config: DistillConfig) -> tuple[list, np.ndarray]:
-    """The points and teacher drives :func:`jump_brackets` adds (its bisection midpoints)."""
-    new_points, new_drives, _ = jump_brackets(field_, points, drives, config)
-    return new_points, new_drives
-
-
-def jump_brackets(field_: DriveField, points, drives: np.ndarray, config: DistillConfig):
-    """Points (and their teacher drives) that locate where the teacher's drive jumps, found by
-    bisection between ``points`` and their ``config.jump_neighbours`` nearest neighbours (in k over
-    the field's k range and load over ``load_factor`` times the trapezoid's critical load) whose
-    drives differ (``drive_difference`` > ``config.jump_threshold``): every level adds the pairs'
-    midpoints and keeps the halves whose ends still differ, ``config.jump_levels`` levels.
-
-    The student is a smooth function of (k, load): across a jump it blends the two drives, and a
-    blend of two optima is not one. Round 0's random points lie about 1.5 % of the domain apart, so
-    the fit can put its blend anywhere in that gap; points on both sides of the jump, a few levels
-    of bisection closer, narrow it.
-
-    Returns the added points (list of (k, load kg)), their drives (m, 2, 5) and the brackets the
-    last level leaves: their ends (b, 2) and (b, 2) and the ends' drives (b, 2, 5) and (b, 2, 5)."""
-    from scipy.spatial import cKDTree
-
-    pts = np.array([tuple(p) for p in points], dtype=np.float64)
-    crit = np.interp(pts[:, 0], field_.ks, field_.trapezoid_critical)
-    span = field_.ks[-1] - field_.ks[0]
-    coords = np.c_[pts[:, 0] / span, pts[:, 1] / np.maximum(crit * config.load_factor, 1e-12)]
-    _, idx = cKDTree(coords).query(coords, k=min(config.jump_neighbours + 1, len(pts)))
-    pairs = np.unique(np.sort(np.c_[np.repeat(np.arange(len(pts)), idx.shape[1] - 1), idx[:, 1:].ravel()], axis=1), axis=0)
-    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-    jumped = drive_difference(drives[pairs[:, 0]], drives[pairs[:, 1]]) > config.jump_threshold
-    a, b = pts[pairs[jumped, 0]], pts[pairs[jumped, 1]]
-    da, db = drives[pairs[jumped, 0]], drives[pairs[jumped, 1]]
-    new_points, new_drives = [], []
-    for _ in range(config.jump_levels):
-        if not len(a):
-            break
-        mid = 0.5 * (a + b)
-        mid_points = [tuple(map(float, m)) for m in mid]
-        dm, _ = field_.best(mid_points, radius=config.teacher_radius)
-        new_points += mid_points
-        new_drives.append(dm)
-        left = drive_difference(da, dm) > config.jump_threshold
-        right = drive_difference(dm, db) > config.jump_threshold
-        a = np.concatenate([a[left], mid[right]])
-        b = np.concatenate([mid[left], b[right]])
-        da, db = np.concatenate([da[left], dm[right]]), np.concatenate([dm[left], db[right]])
-    return new_points, np.concatenate(new_drives) if new_drives else np.zeros((0, 2, 5)), (a, b, da, db)
-
-
 def student_velocity(student: Student, points) -> np.ndarray:
     """The student's steady velocity (m/s) at each (k, load kg) or (k, load kg, mu, mu1) point, closed
     loop over 30 periods."""
@@ -494,18 +364,6 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
     return [p for p, h in zip(points, short) if h], {
         "probes": len(points), "holes": int(short.sum()),
         "probe_mean_fraction": float(np.mean(v_student[moving] / v_teacher[moving])) if moving.any() else None}
-
-
-def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float]) -> list:
-    """Each point and ``n`` jittered copies: k +- 0.01 (kept in ``k_range``), load +- 5 % (friction,
-    of (k, load, mu, mu1) points, kept)."""
-    out = []
-    for k, m, *friction in points:
-        out.append((k, m, *friction))
-        for _ in range(n):
-            out.append((float(np.clip(k + rng.uniform(-0.01, 0.01), *k_range)), float(m * rng.uniform(0.95, 1.05)),
-                        *friction))
-    return out
 
 
 def validation_fraction(student: Student, points, v_teacher: np.ndarray, moving: float = 2e-3) -> dict:
@@ -532,6 +390,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "Student", "adam_fit", "around", "distill", "draw_points", "drive_difference", "edge_loss",
-           "find_holes", "fit", "jump_brackets", "jump_points", "labelled_episodes", "perturb_previous_actions",
-           "policy_mean", "rollout", "save_student", "student_velocity"]
+__all__ = ["DistillConfig", "Student", "adam_fit", "distill", "edge_loss", "find_holes", "fit", "make_student",
+           "policy_mean", "save_student", "student_velocity", "validation_fraction"]

@@ -8,7 +8,7 @@ The student is a smooth function of (k, load); where the teacher's drive jumps b
 it plays something between them over a band. This asks whether anything between them drives:
 
 1. round 0 of the recipe's distillation (``agents/configs/recipe.yaml``, ``--seed``): its random
-   points, the teacher's drives there and the bisection of its jumps (``distill.jump_brackets``),
+   points, the teacher's drives there and the bisection of its jumps (``teacher_data.jump_brackets``),
    down to the last level's brackets (two points 1/2^levels of round 0's spacing apart whose drives
    differ by more than ``jump_threshold``);
 2. at each bracket's midpoint, the two drives (in their closest cycle phase), their even blends at
@@ -44,7 +44,7 @@ SEGMENT_T = (1 / 3, 2 / 3)
 def round0_brackets(field, config, seed: int):
     """Round 0's points and teacher drives (as ``distill.distill`` draws them with ``seed``) and the
     brackets its bisection ends with: (a, b) (n, 2) and their drives (n, 2, 5), b's in a's phase."""
-    from mdr_drive_agents.distill import draw_points, jump_brackets
+    from mdr_drive_agents.teacher_data import draw_points, jump_brackets
     from mdr_drive_agents.drive_field import align_phase
 
     rng = np.random.default_rng(seed)

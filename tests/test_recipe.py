@@ -107,7 +107,7 @@ def test_a_saved_teacher_is_distilled_without_searching_again(recipe_run, tmp_pa
 def test_a_student_taught_with_the_phase_seam_moved_acts_in_that_env_and_reports_default_actions(recipe_run, tmp_path):
     import yaml
 
-    from mdr_drive_agents.distill import labelled_episodes, rollout
+    from mdr_drive_agents.teacher_data import labelled_episodes, rollout
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import Policy, policy_rollout, steady_velocity_of
     from mdr_drive_env.gym_envs.spaces import shift_phase_origin
@@ -417,7 +417,7 @@ class _StepTeacher:
 
 
 def test_drive_difference_compares_cycles_in_their_closest_phase():
-    from mdr_drive_agents.distill import drive_difference
+    from mdr_drive_agents.teacher_data import drive_difference
 
     A, B = _StepTeacher.A[None], _StepTeacher.B[None]
     assert drive_difference(B, B[:, ::-1])[0] == 0.0
@@ -429,7 +429,7 @@ def test_drive_difference_compares_cycles_in_their_closest_phase():
 
 
 def test_jump_points_bisect_towards_where_the_teachers_drive_jumps():
-    from mdr_drive_agents.distill import drive_difference, jump_points
+    from mdr_drive_agents.teacher_data import drive_difference, jump_points
 
     rng = np.random.default_rng(3)
     points = [(float(k), float(m)) for k, m in zip(rng.uniform(0.0, 0.6, 400), rng.uniform(0.0, 0.17, 400))]
@@ -456,7 +456,7 @@ def test_jump_points_bisect_towards_where_the_teachers_drive_jumps():
 
 
 def test_jump_brackets_end_with_pairs_that_straddle_the_jump_closely_and_carry_its_two_drives():
-    from mdr_drive_agents.distill import drive_difference, jump_brackets, jump_points
+    from mdr_drive_agents.teacher_data import drive_difference, jump_brackets, jump_points
 
     rng = np.random.default_rng(4)
     points = [(float(k), float(m)) for k, m in zip(rng.uniform(0.0, 0.6, 300), rng.uniform(0.0, 0.17, 300))]
@@ -494,7 +494,7 @@ def test_the_jump_bridges_script_counts_harmful_jumps_and_searches_bridges(capsy
 
 
 def test_quantum_centres_label_the_student_with_the_teachers_waveforms_at_their_quanta_centres():
-    from mdr_drive_agents.distill import labelled_episodes
+    from mdr_drive_agents.teacher_data import labelled_episodes
     from mdr_drive_agents.evaluate import ACTION_MAP
 
     points = [(0.1, 0.02), (0.4, 0.005)]
