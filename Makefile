@@ -51,10 +51,10 @@ adaptation: $(STAMP)
 benchmark: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark_shipped
 
-## make blind: the shipped policy on 120 random points of the report seed its model card quotes (results/blind/seed20261136, where the previous build sits beside it; about 9 minutes on 2 cores)
+## make blind: the shipped policy on 120 random points of the report seed its model card quotes (results/blind/seed20261138, where the previous build sits beside it; about 8 minutes on 2 cores)
 blind: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261136 --policies agents/pretrained/ppo_generalist \
-	    --out results/blind/seed20261136_shipped
+	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261138 --policies agents/pretrained/ppo_generalist \
+	    --out results/blind/seed20261138_shipped
 
 ## make claims: each claim of the paper's text against the model variants (results/paper_claims)
 claims: $(STAMP)
