@@ -205,6 +205,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     b.add_argument("--seed", type=int, default=None, help="seed of the blind points (-); required with --blind")
     b.add_argument("--scan-ks", type=int_range(2), default=25,
                    help="k values of the critical-load scan, evenly spaced in [0, 0.6] (-)")
+    b.add_argument("--scan-draw", action="store_true",
+                   help="draw the scan's k values with --seed, one uniform k in each of --scan-ks equal cells of "
+                        "[0, 0.6], instead of spacing them evenly (the same for every seed): the critical-load "
+                        "target judged on k values no decision saw")
     b.add_argument("--reuse-search", default=None, metavar="BLIND.json", type=input_file,
                    help="take the points, the trapezoid and the searches from an earlier blind.json of the same "
                         "seed, size and budgets; only the policies run")
@@ -223,7 +227,7 @@ def main(args: argparse.Namespace) -> int:
         from mdr_drive_env.sweep import executor_from
 
         res = blind.run(args.policies, args.blind, args.seed, out, quick=args.quick, scan_ks=args.scan_ks,
-                        reuse=args.reuse_search, executor=executor_from(args), resume=args.resume, **budget)
+                        scan_draw=args.scan_draw, reuse=args.reuse_search, executor=executor_from(args), resume=args.resume, **budget)
         print((Path(out) / "blind.md").read_text())
         print(f"tables and figures in {out}/")
         return 0

@@ -8,7 +8,10 @@ reports the trapezoid, each policy (closed loop), and the best drive found by a 
 CMA-ES over fixed actions (``CMA_BUDGET`` evaluations) and over two-action cycles
 (``CYCLE_SEARCH``, from the trapezoid and from the push/clamp cycle), the better of the two. Then
 a critical-load scan over ``--scan-ks`` values of k in [0, 0.6] for the trapezoid, the policies and
-the best two-action cycle (bisection with CMA-ES at every trial load, ``cycle_critical_load``).
+the best two-action cycle (bisection with CMA-ES at every trial load, ``cycle_critical_load``):
+evenly spaced, the same for every seed, or with ``--scan-draw`` drawn with the seed, one uniform k
+in each of ``--scan-ks`` equal cells (``scan_k_values``), so that the critical-load target too is
+judged on k values no decision saw.
 Every velocity follows the evaluation protocol of ``agents.evaluate`` (30 periods, mean of the
 last 10, runaways marked).
 
@@ -66,6 +69,10 @@ CRITICAL_LOAD_TARGET = 0.97
 CYCLE_BISECTIONS = 8
 #: Budgets of the quick mode (CI): tiny searches, a 3-value scan with 1 bisection step.
 QUICK = {"fixed_budget": 24, "cycle_budget": 32, "scan_ks": 3, "iterations": 1}
+#: How a scan's k values were chosen (``blind.json``'s ``scan``; files without the key: evenly spaced).
+EVEN_SCAN, DRAWN_SCAN = "evenly spaced", "drawn with the seed, one per equal cell"
+#: The second entry of the seed sequence that draws a scan's k values (``scan_k_values``).
+SCAN_STREAM = 1
 
 
 def trapezoid_critical(ks) -> np.ndarray:
@@ -82,6 +89,18 @@ def draw_points(n: int, seed: int) -> tuple[list[tuple[float, float]], np.ndarra
     crit = trapezoid_critical(ks)
     masses = rng.uniform(0.0, 1.0, n) * LOAD_FACTOR * crit
     return [(k, float(m)) for k, m in zip(ks, masses)], crit
+
+
+def scan_k_values(count: int, seed: int | None = None) -> list[float]:
+    """The k values of the critical-load scan: ``count`` evenly spaced over ``K_RANGE`` (``seed``
+    None), or drawn with ``seed``, one uniform k in each of ``count`` equal cells of it (a stream of
+    its own: the points ``draw_points`` draws with the same seed are unchanged). Rounded to 1e-6."""
+    low, high = K_RANGE
+    if seed is None:
+        return [float(k) for k in np.round(np.linspace(low, high, count), 6)]
+    rng = np.random.default_rng([seed, SCAN_STREAM])
+    cells = np.arange(count) + rng.uniform(size=count)
+    return [float(k) for k in np.round(low + cells * (high - low) / count, 6)]
 
 
 def best_drive(args) -> dict:
@@ -110,6 +129,9 @@ def reusable_search(path: str | Path, res: dict, scan_ks: int) -> dict:
     if len(previous["critical_load_kg"]["k"]) != scan_ks:
         raise ValueError(f"--reuse-search {path}: it scanned {len(previous['critical_load_kg']['k'])} k values, "
                          f"not --scan-ks {scan_ks}")
+    if previous.get("scan", EVEN_SCAN) != res["scan"]:
+        raise ValueError(f"--reuse-search {path}: its scan's k values are {previous.get('scan', EVEN_SCAN)}, "
+                         f"not {res['scan']}")
     return previous
 
 
@@ -172,14 +194,15 @@ def velocity_statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray)
 def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = False, scan_ks: int = 25,
         workers: int | None = None, fixed_budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_SEARCH["budget"],
         iterations: int = CYCLE_BISECTIONS, reuse: str | Path | None = None, executor: Executor | None = None,
-        resume: bool = False) -> dict:
+        resume: bool = False, scan_draw: bool = False) -> dict:
     """The blind benchmark (module docstring); returns what ``blind.json`` holds.
 
     ``reuse``: a ``blind.json`` of the same seed, size, search budgets and scan, whose points,
     trapezoid, best drives and critical loads of the trapezoid and the best cycle are taken as they
     are (the searches are most of the cost); only the policies are run. ``executor`` runs the
     searches (default: ``workers`` local processes); ``resume`` reuses the searches an interrupted
-    run into ``out`` finished.
+    run into ``out`` finished; ``scan_draw`` draws the scan's k values with ``seed``
+    (``scan_k_values``) instead of spacing them evenly.
     """
     if quick:
         fixed_budget, cycle_budget, scan_ks, iterations = (QUICK[key] for key in
@@ -193,7 +216,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
                             "two_action_cycle_cma_evaluations_per_start": cycle_budget, "cycle_starts": 2,
                             "cycle_critical_load_bisection_steps": iterations},
                  "protocol": f"fast numerics; mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}",
-                 "policies": list(policies)}
+                 "scan": DRAWN_SCAN if scan_draw else EVEN_SCAN, "policies": list(policies)}
     previous = reusable_search(reuse, res, scan_ks) if reuse else None
     if previous:
         res["search_reused_from"] = str(reuse)
@@ -217,7 +240,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
         old = previous["critical_load_kg"]
         ks, crit_trap, crit_cycle = old["k"], np.array(old["trapezoid"]), old["best cycle"]
     else:
-        ks = [float(k) for k in np.round(np.linspace(*K_RANGE, scan_ks), 6)]
+        ks = scan_k_values(scan_ks, seed if scan_draw else None)
         crit_trap = trapezoid_critical(ks)
         crit_cycle = executor.map(cycle_scan_task,
                                   [(k, m, iterations, cycle_budget) for k, m in zip(ks, crit_trap)],
@@ -258,7 +281,8 @@ def markdown(res: dict) -> str:
         lines.append(f"| {k:.3f} | {m:.4f} | {format_velocity(res['trapezoid'][i])} | "
                      f"{format_velocity(b['velocity'])} ({b['kind']}) | " + " | ".join(cells) + " |")
     crit = res["critical_load_kg"]
-    lines += ["", "Critical load (kg) per k (best cycle: bisection with CMA-ES at every trial load):", "",
+    lines += ["", f"Critical load (kg) per k (k {res.get('scan', EVEN_SCAN)}; best cycle: bisection with CMA-ES at "
+              "every trial load):", "",
               "| k | trapezoid | best cycle | " + " | ".join(f"policy {i + 1}" for i in range(len(res["policies"])))
               + " |", "|---|---|---|" + "---|" * len(res["policies"])]
     for i, k in enumerate(crit["k"]):

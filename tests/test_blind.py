@@ -23,6 +23,31 @@ def test_points_are_drawn_from_the_training_domain_by_the_seed():
     assert np.all(crit > 0)
 
 
+def test_a_drawn_scan_has_one_k_per_equal_cell_by_the_seed_and_leaves_the_points_unchanged():
+    even = blind.scan_k_values(4)
+    assert even == [0.0, 0.2, 0.4, 0.6]
+    drawn = blind.scan_k_values(4, seed=3)
+    assert drawn == blind.scan_k_values(4, seed=3) and drawn != blind.scan_k_values(4, seed=4)
+    for i, k in enumerate(drawn):  # cell i of [0, 0.6] is [0.15 i, 0.15 (i + 1)]
+        assert 0.15 * i <= k <= 0.15 * (i + 1)
+    assert drawn != even
+    assert blind.draw_points(3, seed=3)[0] == blind.draw_points(3, seed=3)[0]  # its own stream
+
+
+def test_a_drawn_scan_is_recorded_and_a_reused_search_must_have_scanned_alike(tmp_path, monkeypatch, capsys):
+    first = tmp_path / "first"
+    res = blind.run([str(PRETRAINED)], 2, seed=5, out=first, quick=True, workers=1, scan_draw=True)
+    assert res["scan"] == blind.DRAWN_SCAN and res["critical_load_kg"]["k"] == blind.scan_k_values(3, seed=5)
+    assert "drawn with the seed" in (first / "blind.md").read_text()
+    monkeypatch.setattr(blind, "best_drive", lambda args: pytest.fail("searched again"))
+    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: pytest.fail("searched again"))
+    assert main(["benchmark", "--blind", "2", "--seed", "5", "--quick", "--scan-draw", "--policies", str(PRETRAINED),
+                 "--reuse-search", str(first / "blind.json"), "--out", str(tmp_path / "second")]) == 0
+    assert main(["benchmark", "--blind", "2", "--seed", "5", "--quick", "--reuse-search", str(first / "blind.json"),
+                 "--out", str(tmp_path / "third")]) == 2
+    assert "its scan's k values are drawn with the seed" in capsys.readouterr().err
+
+
 def test_statistics_on_known_numbers():
     trap = np.array([10e-3, 5e-3, -1e-3, np.nan, 1e-3])
     best = np.array([20e-3, 10e-3, 4e-3, 1e-3, 1.5e-3])
