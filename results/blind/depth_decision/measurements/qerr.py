@@ -6,10 +6,13 @@ from mdr_drive_agents.evaluate import load_policy, ACTION_MAP
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
 field = DriveField.load("results/recipe/teacher_field.npz")
 cfg = DistillConfig(teacher_radius=2, quantum_centres=True, periods=8)
-rng = np.random.default_rng(int(sys.argv[2]) if len(sys.argv) > 2 else 555)
-pts = draw_points(field, 1500, rng, cfg)
+# python qerr.py POLICY [SEED]: 1,500 fresh points of SEED (555); SEED "train": the first 1,500 of the
+# recipe's own round-0 points (its seed 0 draws 4,096), played as the recipe played them (episode seed 0)
+train = len(sys.argv) > 2 and sys.argv[2] == "train"
+rng = np.random.default_rng(0 if train else int(sys.argv[2]) if len(sys.argv) > 2 else 555)
+pts = draw_points(field, 4096, rng, cfg)[:1500] if train else draw_points(field, 1500, rng, cfg)
 drives, v = field.best(pts, radius=2)
-obs, sd = labelled_episodes(field, pts, None, cfg, 1, drives=drives)
+obs, sd = labelled_episodes(field, pts, None, cfg, 0 if train else 1, drives=drives)
 prev = ObservationLayout.structure["previous_action"]
 y = cycle_action(sd, obs[:, prev])
 pol = load_policy(sys.argv[1])
