@@ -23,7 +23,7 @@ def test_points_are_drawn_from_the_training_domain_by_the_seed():
     assert np.all(crit > 0)
 
 
-def test_a_drawn_scan_has_one_k_per_equal_cell_by_the_seed_and_leaves_the_points_unchanged():
+def test_a_drawn_scan_has_one_k_per_equal_cell_by_the_seed():
     even = blind.scan_k_values(4)
     assert even == [0.0, 0.2, 0.4, 0.6]
     drawn = blind.scan_k_values(4, seed=3)
@@ -31,13 +31,13 @@ def test_a_drawn_scan_has_one_k_per_equal_cell_by_the_seed_and_leaves_the_points
     for i, k in enumerate(drawn):  # cell i of [0, 0.6] is [0.15 i, 0.15 (i + 1)]
         assert 0.15 * i <= k <= 0.15 * (i + 1)
     assert drawn != even
-    assert blind.draw_points(3, seed=3)[0] == blind.draw_points(3, seed=3)[0]  # its own stream
 
 
-def test_a_drawn_scan_is_recorded_and_a_reused_search_must_have_scanned_alike(tmp_path, monkeypatch, capsys):
+def test_a_drawn_scan_leaves_the_points_is_recorded_and_a_reused_search_must_have_scanned_alike(tmp_path, monkeypatch, capsys):
     first = tmp_path / "first"
     res = blind.run([str(PRETRAINED)], 2, seed=5, out=first, quick=True, workers=1, scan_draw=True)
     assert res["scan"] == blind.DRAWN_SCAN and res["critical_load_kg"]["k"] == blind.scan_k_values(3, seed=5)
+    assert [tuple(p) for p in res["points"]] == blind.draw_points(2, seed=5)[0]  # the scan's own stream: same points
     assert "drawn with the seed" in (first / "blind.md").read_text()
     monkeypatch.setattr(blind, "best_drive", lambda args: pytest.fail("searched again"))
     monkeypatch.setattr(blind, "cycle_scan_task", lambda args: pytest.fail("searched again"))
