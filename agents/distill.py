@@ -37,7 +37,8 @@ from tqdm import tqdm
 
 from .drive_field import DriveField, cycle_action
 from .evaluate import steady_velocity_of
-from .teacher_data import around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout
+from .teacher_data import (around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout,
+                           teacher_drives)
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
@@ -80,6 +81,11 @@ class DistillConfig:
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
             the interpolation (``DriveField.best``): 1 the cell's four corners, R the 2R x 2R nodes
             around it (-).
+        teacher_load_margin: the teacher chooses, among its candidate drives at a point, only those
+            that still move at ``1 +`` this times the load, where one does and loses at most 10 %
+            of the velocity (``pick_best``): near a drive's critical load another drive often takes
+            over, and a student whose switch lags the teacher's by a per cent of load stalls in
+            between (-).
         jump_levels: bisection levels of ``jump_points`` after round 0's teacher episodes: where
             neighbouring points' teacher drives differ, the midpoint's episodes are added, and the
             half holding the jump is bisected again (0: off) (-).
@@ -109,6 +115,7 @@ class DistillConfig:
     log_std: float = -3.0
     torch_threads: int = 1
     teacher_radius: int = 1
+    teacher_load_margin: float = 0.0
     hole_rounds: int = 0
     hole_probes: int = 4096
     hole_shortfall: float = 0.1
@@ -138,6 +145,7 @@ class DistillConfig:
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("hole_floor", self.hole_floor, 0.0, 0.01)
+        check_range("teacher_load_margin", self.teacher_load_margin, 0.0, 0.5)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
         if not isinstance(self.quantum_centres, bool):
@@ -286,12 +294,12 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     student = make_student(config, seed, env_kwargs or {}, hyperparameters or {})
     val = None
     if validation_points:
-        val = (validation_points, field_.best(validation_points, radius=config.teacher_radius)[1])
+        val = (validation_points, teacher_drives(field_, validation_points, config)[1])
     obs_all, drive_all = [], []
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config, friction)
-        drives, _ = field_.best(points, radius=config.teacher_radius)
+        drives, _ = teacher_drives(field_, points, config)
         extra = []
         if r == 0 and config.jump_levels:
             extra, extra_drives = jump_points(field_, points, drives, config)
@@ -357,7 +365,7 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
     (``config.hole_shortfall``), and the probe statistics (share of holes, the student's mean
     velocity over the teacher's where it moves)."""
     points = draw_points(field_, config.hole_probes, rng, config, friction)
-    _, v_teacher = field_.best(points, radius=config.teacher_radius)
+    _, v_teacher = teacher_drives(field_, points, config)
     v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), config.hole_floor)
     moving = v_teacher >= 2e-3

@@ -87,15 +87,20 @@ def perturb_previous_actions(obs: np.ndarray, drives: np.ndarray, rng: np.random
     return out
 
 
+def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
+    """The recipe's teacher at ``points``: drives (n, 2, 5) and velocities (n,) m/s from
+    ``field_.best`` with ``config.teacher_radius`` and ``config.teacher_load_margin``."""
+    return field_.best(points, radius=config.teacher_radius, load_margin=config.teacher_load_margin)
+
+
 def labelled_episodes(field_: DriveField, points, act, config, seed: int, z_phase_origin: float = 0.0,
                       drives: np.ndarray | None = None):
     """Episodes of ``config.periods`` periods at ``points``, played by the teacher (``act`` None) or by
     ``act``: their observations and each one's teacher drive (``rollout``; the teacher's drive at each
-    point from ``DriveField.best`` with ``config.teacher_radius`` unless ``drives`` (n, 2, 5) gives
-    them), all in the action units of an env with ``z_phase_origin`` (the field's drives are in the
+    point from :func:`teacher_drives` unless ``drives`` (n, 2, 5) gives them), all in the action units of an env with ``z_phase_origin`` (the field's drives are in the
     default units, origin 0)."""
     if drives is None:
-        drives, _ = field_.best(points, radius=config.teacher_radius)
+        drives, _ = teacher_drives(field_, points, config)
     if config.quantum_centres:
         drives = ACTION_MAP.quantum_centre(drives)
     drives = shift_phase_origin(drives, 0.0, z_phase_origin)
@@ -147,7 +152,7 @@ def jump_brackets(field_: DriveField, points, drives: np.ndarray, config):
             break
         mid = 0.5 * (a + b)
         mid_points = [tuple(map(float, m)) for m in mid]
-        dm, _ = field_.best(mid_points, radius=config.teacher_radius)
+        dm, _ = teacher_drives(field_, mid_points, config)
         new_points += mid_points
         new_drives.append(dm)
         left = drive_difference(da, dm) > config.jump_threshold
@@ -171,4 +176,4 @@ def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float
 
 
 __all__ = ["around", "draw_points", "drive_difference", "jump_brackets", "jump_points", "labelled_episodes",
-           "perturb_previous_actions", "rollout"]
+           "perturb_previous_actions", "rollout", "teacher_drives"]
