@@ -21,13 +21,11 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
+from mdr_drive_env import ENV_ID  # importing the package registers the env
 
 from .drive_field import PAPER_FRICTION, DriveField, align_phase, cycle_action
 from .evaluate import ACTION_MAP
 from mdr_drive_env.gym_envs.spaces import shift_phase_origin
-
-ENV_ID = "MDRDrive-v0"
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config,

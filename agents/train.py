@@ -26,9 +26,9 @@ import numpy as np
 import yaml
 
 from .evaluate import trapezoid_action
+from mdr_drive_env import ENV_ID
 
 CONFIG_DIR = Path(__file__).parent / "configs"
-ENV_ID = "MDRDrive-v0"
 #: Config keys of agents/train.py itself: recorded in run.json, not passed to SB3.
 NOT_SB3_KEYS = ("warm_start",)
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.

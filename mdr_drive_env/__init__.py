@@ -6,7 +6,9 @@ imports it on demand (also in subprocesses).
 
 __version__ = "0.1.0"
 
-ENV_IDS = ("MDRDrive-v0", "MDRDriveSensor-v0")
+#: The full-observation env's id (what the agents train and play on).
+ENV_ID = "MDRDrive-v0"
+ENV_IDS = (ENV_ID, "MDRDriveSensor-v0")
 
 #: MDRDriveSensor-v0: what an encoder measures, with k, the load and both frictions hidden and drawn
 #: per episode (the load up to 0.4 of mu F_ref: about 1.25 times the trapezoid's critical load,

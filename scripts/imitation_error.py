@@ -6,8 +6,8 @@
 
 N points drawn as the blind benchmark draws them (k uniform in [0, 0.6], load up to 1.25 times the
 trapezoid's critical load). At each, the policy drives closed loop for 30 periods; its last two
-actions (its steady cycle) are compared with the teacher's drive there (``DriveField.best`` with the
-recipe's ``teacher_radius``, in whichever phase is closer): the root mean square of the difference
+actions (its steady cycle) are compared with the teacher's drive there (``teacher_data.teacher_drives``
+with the recipe's settings, in whichever phase is closer): the root mean square of the difference
 over the 10 entries, in action units. Printed: the error's quantiles, and per band of error the
 points where the teacher moves >= 2 mm/s and the share of them where the policy reaches less than
 0.85 of the teacher's velocity; then the same share per band of k. With ``--label-spread``, also per
@@ -47,11 +47,12 @@ def main(argv=None) -> int:
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import load_policy, policy_rollout, steady_velocity_of
     from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
+    from mdr_drive_agents.teacher_data import teacher_drives
 
-    radius = load_recipe(DEFAULT_CONFIG)["distill"].teacher_radius
+    teacher_config = load_recipe(DEFAULT_CONFIG)["distill"]
     points, _ = draw_points(args.n, args.seed)
     field = DriveField.load(args.field)
-    teacher, v_teacher = field.best(points, radius=radius)
+    teacher, v_teacher = teacher_drives(field, points, teacher_config)
     disp, actions, _ = policy_rollout(load_policy(args.policy), points)
     v = steady_velocity_of(disp)
     cycle = actions[-2:].transpose(1, 0, 2).astype(np.float64)
@@ -73,7 +74,7 @@ def main(argv=None) -> int:
         sel = (ks >= lo) & (ks < lo + 0.1 + (1e-9 if lo >= 0.5 else 0.0))
         print(f"| {lo:.1f} - {lo + 0.1:.1f} | {int(sel.sum())} | {short[sel].mean() if sel.any() else float('nan'):.3f} |")
     if args.label_spread:
-        spread = label_spread(field, points, teacher, radius)[moving]
+        spread = label_spread(field, points, teacher, teacher_config)[moving]
         print("| the teacher's jump near the point | points | under 0.85 of the teacher |\n|---|---|---|")
         for lo, hi in zip(SPREAD_BANDS[:-1], SPREAD_BANDS[1:]):
             sel = (spread >= lo) & (spread < hi)
@@ -81,14 +82,16 @@ def main(argv=None) -> int:
     return 0
 
 
-def label_spread(field, points, teacher: np.ndarray, radius: int) -> np.ndarray:
+def label_spread(field, points, teacher: np.ndarray, teacher_config) -> np.ndarray:
     """Per point, the largest entry of the difference (in the closer phase) between the teacher's
     drive ``teacher`` (n, 2, 5) there and at k +- 0.01 (kept in the field's k range) and the load
     times 0.95 and 1.05 (action units)."""
+    from mdr_drive_agents.teacher_data import teacher_drives
+
     lo, hi = float(field.ks[0]), float(field.ks[-1])
     beside = [(float(np.clip(k + dk, lo, hi)), m * f) for k, m in points
               for dk, f in ((-0.01, 1.0), (0.01, 1.0), (0.0, 0.95), (0.0, 1.05))]
-    others = field.best(beside, radius=radius)[0].reshape(len(points), 4, 2, 5)
+    others = teacher_drives(field, beside, teacher_config)[0].reshape(len(points), 4, 2, 5)
     same = np.abs(others - teacher[:, None]).max(axis=(2, 3))
     swapped = np.abs(others - teacher[:, None, ::-1]).max(axis=(2, 3))
     return np.minimum(same, swapped).max(axis=1)

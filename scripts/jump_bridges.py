@@ -44,12 +44,12 @@ SEGMENT_T = (1 / 3, 2 / 3)
 def round0_brackets(field, config, seed: int):
     """Round 0's points and teacher drives (as ``distill.distill`` draws them with ``seed``) and the
     brackets its bisection ends with: (a, b) (n, 2) and their drives (n, 2, 5), b's in a's phase."""
-    from mdr_drive_agents.teacher_data import draw_points, jump_brackets
+    from mdr_drive_agents.teacher_data import draw_points, jump_brackets, teacher_drives
     from mdr_drive_agents.drive_field import align_phase
 
     rng = np.random.default_rng(seed)
     points = draw_points(field, config.points, rng, config)
-    drives, _ = field.best(points, radius=config.teacher_radius)
+    drives, _ = teacher_drives(field, points, config)
     _, _, (a, b, da, db) = jump_brackets(field, points, drives, config)
     return a, b, da, align_phase(db.reshape(-1, 2, 5), da.reshape(-1, 2, 5))
 

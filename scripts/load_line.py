@@ -5,7 +5,7 @@
 
 Loads evenly spaced from FROM to TO times the trapezoid's critical load at K (as the teacher's grid
 is spaced; interpolated from ``--field``). Per load: the teacher's steady velocity (the best of its
-drives around the point, ``DriveField.best`` with the recipe's ``teacher_radius``) and each policy's
+drives around the point, ``teacher_drives`` with the recipe's settings) and each policy's
 (closed loop, the evaluation protocol's 30 periods, mean of 21-30), in mm/s, a row marked ``<<``
 where a policy stalls (<= 0) and the teacher moves. ``--labels`` adds the teacher's drive there
 (its two actions' ten entries, action units): where it jumps between loads a student fitted to it
@@ -44,15 +44,16 @@ def main(argv=None) -> int:
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import load_policy, policy_velocity
     from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
+    from mdr_drive_agents.teacher_data import teacher_drives
 
     field = DriveField.load(args.field)
     if not field.ks[0] <= args.k <= field.ks[-1]:
         p.error(f"--k {args.k!r} is outside the field's range [{field.ks[0]:g}, {field.ks[-1]:g}]")
-    radius = load_recipe(DEFAULT_CONFIG)["distill"].teacher_radius
+    teacher_config = load_recipe(DEFAULT_CONFIG)["distill"]
     crit = float(np.interp(args.k, field.ks, field.trapezoid_critical))
     fractions = np.linspace(args.low, args.high, args.loads)
     points = [(args.k, float(f * crit)) for f in fractions]
-    drives, v_teacher = field.best(points, radius=radius)
+    drives, v_teacher = teacher_drives(field, points, teacher_config)
     v_policies = [policy_velocity(load_policy(path), points) for path in args.policies]
     print(f"k = {args.k:g}; the trapezoid's critical load {crit:.5g} kg; velocities in mm/s")
     head = ["load / trapezoid's critical", "load (kg)", "teacher", *(str(path) for path in args.policies)]

@@ -13,7 +13,7 @@ it. Per policy, with the blind benchmark's statistics: points below the trapezoi
 0.05 mm/s (where either moves), the fraction of that reference where it moves >= 2 mm/s (mean,
 minimum, points under 0.85), and the critical load at ``--scan-ks`` values of k (the midpoints of
 equal cells of [0, 0.6], so none is a k of the blind benchmark's 25-value scan) over the teacher's
-own (its neighbourhood of the recipe's ``teacher_radius``, as the recipe's student was taught) and over the trapezoid's. The
+own (``teacher_data.teacher_drives`` with the recipe's settings, as the recipe's student was taught) and over the trapezoid's. The
 reference is weaker than the benchmark's search, so fractions read higher here; use it to compare
 policies, and report on ``mdr-drive benchmark --blind``.
 
@@ -64,8 +64,9 @@ def main(argv=None) -> int:
         trapezoid_action,
     )
     from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
+    from mdr_drive_agents.teacher_data import teacher_drives
 
-    radius = load_recipe(DEFAULT_CONFIG)["distill"].teacher_radius
+    teacher_config = load_recipe(DEFAULT_CONFIG)["distill"]
 
     points, _ = draw_points(args.n, args.seed)
     trap = open_loop_velocity(points, trapezoid_action())
@@ -78,7 +79,7 @@ def main(argv=None) -> int:
     low, high = K_RANGE
     scan_ks = [float(k) for k in low + (np.arange(args.scan_ks) + 0.5) * (high - low) / args.scan_ks]
     crit_trap = trapezoid_critical(scan_ks)
-    crit_teacher = critical_loads_grid(scan_ks, lambda pts: field.best(pts, radius=radius)[1])
+    crit_teacher = critical_loads_grid(scan_ks, lambda pts: teacher_drives(field, pts, teacher_config)[1])
     print(f"{args.n} points of seed {args.seed}; reference: the teacher's 6 x 6 neighbourhood ({args.field}) "
           f"or any better drive; {int(scored.sum())} points where it moves >= 2 mm/s")
     print("| policy | below the trapezoid (worst, mm/s) | fraction of the reference: mean / min | under 0.85 | "
@@ -102,25 +103,26 @@ def main(argv=None) -> int:
     if args.cycle_scan:
         print_cycle_scan(scan_ks, crit_trap, {"the teacher": crit_teacher, **crits}, args.workers)
     if args.searched:
-        print_teacher_against_search(field, args.searched, radius)
+        print_teacher_against_search(field, args.searched, teacher_config)
     if len(learned) > 1:  # not a policy: whether the policies fail at the same points or each at its own
         print(f"| the best of these policies at each point (not a policy) | "
               f"{velocity_cells(np.max(list(learned.values()), axis=0))} | - | - |")
     return 0
 
 
-def print_teacher_against_search(field, blind_json, radius: int, worst: int = 6) -> None:
+def print_teacher_against_search(field, blind_json, teacher_config, worst: int = 6) -> None:
     """The teacher's velocity at an earlier blind benchmark's points over that benchmark's best drive
     found there, where it moves >= 2 mm/s: mean, minimum, points under 0.85, and the ``worst`` points
     (k, load over the trapezoid's critical load, teacher's / best mm/s)."""
     import json
 
     from mdr_drive_agents.blind import FRACTION_TARGET, MOVING_THRESHOLD, trapezoid_critical
+    from mdr_drive_agents.teacher_data import teacher_drives
 
     res = json.loads(Path(blind_json).read_text())
     points = [(float(k), float(m)) for k, m in res["points"]]
     best = np.array([b["velocity"] for b in res["best"]], dtype=np.float64)
-    _, teacher = field.best(points, radius=radius)
+    _, teacher = teacher_drives(field, points, teacher_config)
     scored = np.flatnonzero(best >= MOVING_THRESHOLD)
     frac = teacher[scored] / best[scored]
     crit = trapezoid_critical([k for k, _ in points])

@@ -41,10 +41,10 @@ def main(argv=None) -> int:
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import open_loop_velocity
     from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
+    from mdr_drive_agents.teacher_data import teacher_drives
 
     points, _ = draw_points(args.n, args.seed)
-    drives, v = DriveField.load(args.field).best(
-        points, radius=load_recipe(DEFAULT_CONFIG)["distill"].teacher_radius)
+    drives, v = teacher_drives(DriveField.load(args.field), points, load_recipe(DEFAULT_CONFIG)["distill"])
     moving = v >= MOVING_THRESHOLD
     rng = np.random.default_rng(args.seed)
     print(f"{args.n} points of seed {args.seed}; {int(moving.sum())} where the teacher moves >= 2 mm/s; "

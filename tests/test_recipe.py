@@ -324,14 +324,14 @@ def test_the_imitation_error_script_bands_the_failures_by_the_teachers_jump_near
     field = _synthetic_field()
     points = [(0.25, 0.02), (0.45, 0.04)]
     drives, _ = field.best(points, radius=1)
-    spread = script["label_spread"](field, points, drives, 1)
+    spread = script["label_spread"](field, points, drives, DistillConfig(teacher_radius=1))
     beside = [(0.24, 0.02), (0.26, 0.02), (0.25, 0.019), (0.25, 0.021)]
     others, _ = field.best(beside, radius=1)
     expected = max(min(np.abs(o - drives[0]).max(), np.abs(o - drives[0][::-1]).max()) for o in others)
     assert spread.shape == (2,) and spread[0] == pytest.approx(expected)
     uniform = DriveField(field.ks, field.fractions, field.trapezoid_critical,
                          np.broadcast_to(field.drives[0, 0], field.drives.shape), field.velocities)
-    assert np.all(script["label_spread"](uniform, points, uniform.best(points)[0], 1) < 1e-12)  # one drive all around
+    assert np.all(script["label_spread"](uniform, points, uniform.best(points)[0], DistillConfig(teacher_radius=1)) < 1e-12)  # one drive all around
 
 
 def test_the_teacher_check_script_adds_the_per_point_best_of_several_policies(capsys):
@@ -408,7 +408,7 @@ class _StepTeacher:
     def __init__(self, jump=True):
         self.jump, self.calls = jump, 0
 
-    def best(self, points, radius=1):
+    def best(self, points, radius=1, load_margin=0.0):
         self.calls += 1
         k = np.array([p[0] for p in points])
         b = np.where(np.arange(len(k)) % 2 == 0, 1, 0)  # every other B written in the swapped phase
@@ -557,7 +557,7 @@ def test_a_hole_is_a_probe_short_of_the_teacher_by_the_share_and_the_floor(monke
     field = _synthetic_field()
     teacher = np.array([20e-3, 20e-3, 0.7e-3, 0.7e-3, 5e-3])
     student = np.array([17e-3, 19.5e-3, -0.02e-3, 0.65e-3, 4.4e-3])
-    monkeypatch.setattr(field, "best", lambda points, radius=1: (np.zeros((len(points), 2, 5)), teacher))
+    monkeypatch.setattr(field, "best", lambda points, radius=1, load_margin=0.0: (np.zeros((len(points), 2, 5)), teacher))
     monkeypatch.setattr(distill, "student_velocity", lambda student_, points: student)
 
     def holes(floor):
