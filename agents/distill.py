@@ -81,11 +81,6 @@ class DistillConfig:
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
             the interpolation (``DriveField.best``): 1 the cell's four corners, R the 2R x 2R nodes
             around it (-).
-        teacher_load_margin: the teacher chooses, among its candidate drives at a point, only those
-            that still move at ``1 +`` this times the load, where one does and loses at most 10 %
-            of the velocity (``pick_best``): near a drive's critical load another drive often takes
-            over, and a student whose switch lags the teacher's by a per cent of load stalls in
-            between (-).
         jump_levels: bisection levels of ``jump_points`` after round 0's teacher episodes: where
             neighbouring points' teacher drives differ, the midpoint's episodes are added, and the
             half holding the jump is bisected again (0: off) (-).
@@ -115,7 +110,6 @@ class DistillConfig:
     log_std: float = -3.0
     torch_threads: int = 1
     teacher_radius: int = 1
-    teacher_load_margin: float = 0.0
     hole_rounds: int = 0
     hole_probes: int = 4096
     hole_shortfall: float = 0.1
@@ -145,7 +139,6 @@ class DistillConfig:
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("hole_floor", self.hole_floor, 0.0, 0.01)
-        check_range("teacher_load_margin", self.teacher_load_margin, 0.0, 0.5)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
         if not isinstance(self.quantum_centres, bool):

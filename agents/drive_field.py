@@ -420,19 +420,16 @@ class DriveField:
         load over mu F_ref (the load scales with mu at a given ratio of mu1 to mu)."""
         return float(point[1]) * self.friction[0] / float(point[2])
 
-    def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1,
-             load_margin: float = 0.0, margin_loss: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """The teacher's drive (n, 2, 5) and its velocity (n,) at each (k, load kg) point, or (k, load
         kg, mu, mu1) point at other friction (the grid is read at the same load over mu F_ref,
         ``field_load``): the best of :meth:`candidates` (with ``radius``) played at the point, the
         interpolation unless another candidate is better by more than ``prefer_interpolation``
-        (relative), so neighbouring labels stay smooth. ``load_margin`` > 0: only candidates that
-        still move at ``1 + load_margin`` times the load are chosen, if that loses at most
-        ``margin_loss`` of the velocity (:func:`pick_best`)."""
+        (relative), so neighbouring labels stay smooth."""
         check_int("radius", radius, 1)
         points = self.with_friction(points)
         cands = [self.candidates(p[0], self.field_load(p), radius) for p in points]  # c may differ at the edge
-        return pick_best(points, cands, prefer_interpolation, load_margin, margin_loss)
+        return pick_best(points, cands, prefer_interpolation)
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:
@@ -460,43 +457,16 @@ def with_friction(points, friction) -> list[tuple[float, float, float, float]]:
     return [tuple(map(float, p)) if len(p) == 4 else (float(p[0]), float(p[1]), *map(float, friction)) for p in points]
 
 
-def pick_best(points, cands: list, prefer_interpolation: float, load_margin: float = 0.0,
-              margin_loss: float = 0.1, margin_floor: float = 5e-4) -> tuple[np.ndarray, np.ndarray]:
+def pick_best(points, cands: list, prefer_interpolation: float) -> tuple[np.ndarray, np.ndarray]:
     """Per point, the best of its candidate drives ``cands[i]`` (c_i, 2, 5) played there (one batched
     call), the first (an interpolation) unless another is better by more than
-    ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s.
-
-    ``load_margin`` m > 0: the candidates are also played at ``1 + m`` times each point's load, and
-    only those that still move there (velocity > 0) are chosen; where none does but some move at the
-    point (within m of every candidate's critical load), the one whose velocity, interpolated
-    linearly between the two loads, reaches zero last; either only if it loses at most
-    ``margin_loss`` (relative) of the fastest candidate's velocity at the point, or at most
-    ``margin_floor`` (m/s). Near a drive's
-    critical load another drive is often faster by a hair until the first one stalls; a student
-    whose switch between the two lags the teacher's by a per cent of load stalls in between. The
-    margin moves the switch to where the first drive still moves at a load m heavier."""
-    check_range("load_margin", load_margin, 0.0, 1.0)
-    check_range("margin_loss", margin_loss, 0.0, 1.0)
-    check_range("margin_floor", margin_floor, 0.0, 0.01)
-    flat = [p for p, c in zip(points, cands) for _ in c]
-    v = open_loop_velocity(flat, np.concatenate(cands))
-    heavy = (open_loop_velocity([(p[0], p[1] * (1.0 + load_margin), *p[2:]) for p in flat], np.concatenate(cands))
-             if load_margin > 0.0 else None)
+    ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s."""
+    v = open_loop_velocity([p for p, c in zip(points, cands) for _ in c], np.concatenate(cands))
     drives, velocities, start = [], [], 0
     for c in cands:
         vc = v[start:start + len(c)]
-        score = vc
-        if heavy is not None:
-            hc = heavy[start:start + len(c)]
-            robust = None
-            if np.any(hc > 0.0):
-                robust = np.where(hc > 0.0, vc, -np.inf)
-            elif np.any(vc > 0.0):  # where each stalls between the two loads (linearly): the latest
-                robust = np.where(vc > 0.0, vc / np.maximum(vc - hc, 1e-300), -np.inf)
-            if robust is not None and vc[np.argmax(robust)] >= vc.max() - max(margin_loss * abs(vc.max()), margin_floor):
-                score = robust
-        pick = int(np.argmax(score))
-        if np.isfinite(score[0]) and score[pick] <= score[0] + prefer_interpolation * abs(score[0]):
+        pick = int(np.argmax(vc))
+        if vc[pick] <= vc[0] + prefer_interpolation * abs(vc[0]):
             pick = 0
         drives.append(c[pick])
         velocities.append(vc[pick])

@@ -89,14 +89,12 @@ class FrictionField:
         mixed = (1.0 - w) * below[0] + w * above[0]
         return np.array([mixed, *below, *above])
 
-    def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1,
-             load_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """The teacher's drive (n, 2, 5) and its velocity (n,) m/s at each (k, load kg, mu, mu1)
-        point ((k, load) points: the paper's friction): the best of :meth:`candidates` played there
-        (``load_margin``: as ``DriveField.best``)."""
+        point ((k, load) points: the paper's friction): the best of :meth:`candidates` played there."""
         check_int("radius", radius, 1)
         points = with_friction(points, PAPER_FRICTION)
-        return pick_best(points, [self.candidates(p, radius) for p in points], prefer_interpolation, load_margin)
+        return pick_best(points, [self.candidates(p, radius) for p in points], prefer_interpolation)
 
     @classmethod
     def load(cls, paths) -> "FrictionField":

@@ -87,8 +87,8 @@ def perturb_previous_actions(obs: np.ndarray, drives: np.ndarray, rng: np.random
 
 def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
     """The recipe's teacher at ``points``: drives (n, 2, 5) and velocities (n,) m/s from
-    ``field_.best`` with ``config.teacher_radius`` and ``config.teacher_load_margin``."""
-    return field_.best(points, radius=config.teacher_radius, load_margin=config.teacher_load_margin)
+    ``field_.best`` with ``config.teacher_radius``."""
+    return field_.best(points, radius=config.teacher_radius)
 
 
 def labelled_episodes(field_: DriveField, points, act, config, seed: int, z_phase_origin: float = 0.0,

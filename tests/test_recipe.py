@@ -408,7 +408,7 @@ class _StepTeacher:
     def __init__(self, jump=True):
         self.jump, self.calls = jump, 0
 
-    def best(self, points, radius=1, load_margin=0.0):
+    def best(self, points, radius=1):
         self.calls += 1
         k = np.array([p[0] for p in points])
         b = np.where(np.arange(len(k)) % 2 == 0, 1, 0)  # every other B written in the swapped phase
@@ -557,7 +557,7 @@ def test_a_hole_is_a_probe_short_of_the_teacher_by_the_share_and_the_floor(monke
     field = _synthetic_field()
     teacher = np.array([20e-3, 20e-3, 0.7e-3, 0.7e-3, 5e-3])
     student = np.array([17e-3, 19.5e-3, -0.02e-3, 0.65e-3, 4.4e-3])
-    monkeypatch.setattr(field, "best", lambda points, radius=1, load_margin=0.0: (np.zeros((len(points), 2, 5)), teacher))
+    monkeypatch.setattr(field, "best", lambda points, radius=1: (np.zeros((len(points), 2, 5)), teacher))
     monkeypatch.setattr(distill, "student_velocity", lambda student_, points: student)
 
     def holes(floor):
@@ -570,55 +570,3 @@ def test_a_hole_is_a_probe_short_of_the_teacher_by_the_share_and_the_floor(monke
     with pytest.raises(ValueError, match="hole_floor"):
         DistillConfig(hole_floor=-1e-3)
 
-
-def _linear_velocities(monkeypatch, lines: dict):
-    """``open_loop_velocity`` in ``drive_field`` replaced by velocity lines of the load: a candidate
-    drive whose first entry is ``c`` moves at ``lines[c](load)`` m/s."""
-    from mdr_drive_agents import drive_field
-
-    def fake(points, actions, *args, **kwargs):
-        return np.array([lines[float(a[0, 0])](p[1]) for p, a in zip(points, actions)])
-
-    monkeypatch.setattr(drive_field, "open_loop_velocity", fake)
-
-
-def _drives(*ids):
-    return np.array([np.full((2, 5), float(i)) for i in ids])
-
-
-def test_a_load_margin_switches_before_the_faster_drive_stalls_unless_that_costs_too_much(monkeypatch):
-    from mdr_drive_agents.drive_field import pick_best
-
-    _linear_velocities(monkeypatch, {
-        0.1: lambda m: 2e-2 * (1.0 - m),      # fast, stalls at 1.0
-        0.2: lambda m: 5.5e-3 * (1.2 - m),    # a little slower at 0.915, stalls at 1.2
-        0.3: lambda m: 1e-3 * (1.5 - m),      # much slower at 0.915, stalls at 1.5
-    })
-    point = [(0.3, 0.915)]
-    drives, v = pick_best(point, [_drives(0.1, 0.2)], 0.0)
-    assert drives[0, 0, 0] == 0.1 and np.isclose(v[0], 2e-2 * 0.085)  # no margin: the faster
-    drives, v = pick_best(point, [_drives(0.1, 0.2)], 0.0, load_margin=0.1)
-    assert drives[0, 0, 0] == 0.2 and np.isclose(v[0], 5.5e-3 * 0.285)  # 0.1 stalls at 1.0065: the other
-    drives, _ = pick_best(point, [_drives(0.1, 0.3)], 0.0, load_margin=0.1)
-    assert drives[0, 0, 0] == 0.1  # the robust one loses 1.1 mm/s (66 %): more than the gate allows
-    drives, _ = pick_best(point, [_drives(0.1, 0.3)], 0.0, load_margin=0.1, margin_loss=0.7)
-    assert drives[0, 0, 0] == 0.3
-
-
-def test_where_no_drive_moves_past_the_margin_the_teacher_takes_the_one_that_stalls_last(monkeypatch):
-    from mdr_drive_agents.drive_field import pick_best
-
-    _linear_velocities(monkeypatch, {
-        0.1: lambda m: 2e-3 * (1.0 - m),      # faster at 0.98, stalls at 1.0
-        0.4: lambda m: 5e-4 * (1.05 - m),     # slower, stalls at 1.05
-        0.5: lambda m: -1e-5,                 # never moves, backs off the least past 1.07
-    })
-    point = [(0.3, 0.98)]
-    assert pick_best(point, [_drives(0.1, 0.4, 0.5)], 0.0)[0][0, 0, 0] == 0.1
-    drives, v = pick_best(point, [_drives(0.1, 0.4, 0.5)], 0.0, load_margin=0.1)  # both stalled at 1.078
-    assert drives[0, 0, 0] == 0.4 and np.isclose(v[0], 5e-4 * 0.07)
-    assert pick_best([(0.3, 1.1)], [_drives(0.5, 0.1, 0.4)], 0.0, load_margin=0.1)[0][0, 0, 0] == 0.5  # none moves: the fastest
-    with pytest.raises(ValueError, match="load_margin"):
-        pick_best(point, [_drives(0.1)], 0.0, load_margin=-0.1)
-    with pytest.raises(ValueError, match="teacher_load_margin"):
-        DistillConfig(teacher_load_margin=0.9)
