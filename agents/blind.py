@@ -98,9 +98,15 @@ def scan_k_values(count: int, seed: int | None = None) -> list[float]:
     low, high = K_RANGE
     if seed is None:
         return [float(k) for k in np.round(np.linspace(low, high, count), 6)]
-    rng = np.random.default_rng([seed, SCAN_STREAM])
-    cells = np.arange(count) + rng.uniform(size=count)
-    return [float(k) for k in np.round(low + cells * (high - low) / count, 6)]
+    return [float(k) for k in np.round(in_k_cells(np.random.default_rng([seed, SCAN_STREAM]).uniform(size=count)), 6)]
+
+
+def in_k_cells(offsets) -> np.ndarray:
+    """One k in each of ``len(offsets)`` equal cells of ``K_RANGE``, at ``offsets`` (0 ... 1) of
+    its cell (0.5: the cells' midpoints)."""
+    low, high = K_RANGE
+    offsets = np.asarray(offsets, dtype=np.float64)
+    return low + (np.arange(len(offsets)) + offsets) * (high - low) / len(offsets)
 
 
 def best_drive(args) -> dict:

@@ -54,7 +54,8 @@ def main(argv=None) -> int:
                    help="local processes of the cycle scan (default: the cores available)")
     args = p.parse_args(argv)
 
-    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, K_RANGE, MOVING_THRESHOLD, draw_points, trapezoid_critical, velocity_statistics
+    from mdr_drive_agents.blind import (CRITICAL_LOAD_TARGET, MOVING_THRESHOLD, draw_points, in_k_cells,
+                                        trapezoid_critical, velocity_statistics)
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import (
         critical_loads_grid,
@@ -76,8 +77,7 @@ def main(argv=None) -> int:
     learned = {path: policy_velocity(policy, points) for path, policy in policies.items()}
     reference = np.fmax(np.fmax(trap, teacher), np.max(list(learned.values()), axis=0))
     scored = reference >= MOVING_THRESHOLD
-    low, high = K_RANGE
-    scan_ks = [float(k) for k in low + (np.arange(args.scan_ks) + 0.5) * (high - low) / args.scan_ks]
+    scan_ks = [float(k) for k in in_k_cells(np.full(args.scan_ks, 0.5))]
     crit_trap = trapezoid_critical(scan_ks)
     crit_teacher = critical_loads_grid(scan_ks, lambda pts: teacher_drives(field, pts, teacher_config)[1])
     print(f"{args.n} points of seed {args.seed}; reference: the teacher's 6 x 6 neighbourhood ({args.field}) "

@@ -31,6 +31,8 @@ def test_a_drawn_scan_has_one_k_per_equal_cell_by_the_seed():
     for i, k in enumerate(drawn):  # cell i of [0, 0.6] is [0.15 i, 0.15 (i + 1)]
         assert 0.15 * i <= k <= 0.15 * (i + 1)
     assert drawn != even
+    assert np.allclose(blind.in_k_cells([0.5, 0.5, 0.5, 0.5]), [0.075, 0.225, 0.375, 0.525])  # the cells' midpoints
+    assert np.allclose(blind.in_k_cells([0.0, 1.0]), [0.0, 0.6])
 
 
 def test_a_drawn_scan_leaves_the_points_is_recorded_and_a_reused_search_must_have_scanned_alike(tmp_path, monkeypatch, capsys):
