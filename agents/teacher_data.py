@@ -95,8 +95,8 @@ def labelled_episodes(field_: DriveField, points, act, config, seed: int, z_phas
                       drives: np.ndarray | None = None):
     """Episodes of ``config.periods`` periods at ``points``, played by the teacher (``act`` None) or by
     ``act``: their observations and each one's teacher drive (``rollout``; the teacher's drive at each
-    point from :func:`teacher_drives` unless ``drives`` (n, 2, 5) gives them), all in the action units of an env with ``z_phase_origin`` (the field's drives are in the
-    default units, origin 0)."""
+    point from :func:`teacher_drives` unless ``drives`` (n, 2, 5) gives them), all in the action
+    units of an env with ``z_phase_origin`` (the field's drives are in the default units, origin 0)."""
     if drives is None:
         drives, _ = teacher_drives(field_, points, config)
     if config.quantum_centres:
