@@ -43,8 +43,6 @@ from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
 EDGE = 0.999
-#: The observation entries that ``DistillConfig.input_gain`` widens: where the point lies.
-INPUT_GAIN_ENTRIES = ("k", "load_over_friction", "load_over_10N")
 
 
 @dataclass(frozen=True)
@@ -95,11 +93,6 @@ class DistillConfig:
             0.005 for the phase) leaves the waveform unchanged; a rise in the box's first or last
             quantum becomes the edge itself, past which the fit lets the output go. Near stall one
             quantum changes the steady velocity by more than a mm/s.
-        input_gain: the normalised entries that locate the point (``observation_structure``'s
-            ``INPUT_GAIN_ENTRIES``: k and the load) are this many times wider than unit variance
-            (their VecNormalize variance divided by its square, and ``clip_obs`` raised by the same
-            factor), so the first layer turns as many times more sharply along them for the same
-            weights; 1 is plain VecNormalize (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -129,7 +122,6 @@ class DistillConfig:
     jump_neighbours: int = 6
     jump_threshold: float = 0.3
     quantum_centres: bool = False
-    input_gain: float = 1.0
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -149,22 +141,8 @@ class DistillConfig:
         check_range("hole_floor", self.hole_floor, 0.0, 0.01)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
-        check_range("input_gain", self.input_gain, 1.0, 10.0)
         if not isinstance(self.quantum_centres, bool):
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
-
-
-def set_statistics(venv, obs: np.ndarray, input_gain: float = 1.0) -> None:
-    """Fix ``venv``'s observation statistics to those of ``obs``, with the variance of the
-    ``INPUT_GAIN_ENTRIES`` divided by ``input_gain`` squared (and ``clip_obs`` times it), so that
-    those entries reach the network ``input_gain`` times wider (``DistillConfig.input_gain``)."""
-    var = obs.astype(np.float64).var(axis=0)
-    for name in INPUT_GAIN_ENTRIES:
-        var[ObservationLayout.structure[name]] /= input_gain ** 2
-    venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
-    venv.obs_rms.var = var
-    venv.obs_rms.count = float(len(obs))
-    venv.clip_obs = 10.0 * input_gain
 
 
 def policy_mean(policy, obs):
@@ -324,7 +302,9 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         obs_all.append(obs)
         drive_all.append(sample_drives)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
-            set_statistics(student.venv, obs, config.input_gain)
+            student.venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
+            student.venv.obs_rms.var = obs.astype(np.float64).var(axis=0)
+            student.venv.obs_rms.count = float(len(obs))
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
                    config.steps if r == 0 else config.round_steps, config, seed + r, progress)
         record = {"round": r, **({"jump_points": len(extra)} if r == 0 and config.jump_levels else {}),
@@ -411,5 +391,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "INPUT_GAIN_ENTRIES", "Student", "adam_fit", "distill", "edge_loss", "find_holes", "fit",
-           "make_student", "policy_mean", "save_student", "set_statistics", "student_velocity", "validation_fraction"]
+__all__ = ["DistillConfig", "Student", "adam_fit", "distill", "edge_loss", "find_holes", "fit", "make_student",
+           "policy_mean", "save_student", "student_velocity", "validation_fraction"]

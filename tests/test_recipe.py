@@ -570,32 +570,3 @@ def test_a_hole_is_a_probe_short_of_the_teacher_by_the_share_and_the_floor(monke
     with pytest.raises(ValueError, match="hole_floor"):
         DistillConfig(hole_floor=-1e-3)
 
-
-
-def test_input_gain_widens_only_the_entries_that_locate_the_point_and_survives_a_plain_vecnormalize_load(tmp_path):
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
-
-    from mdr_drive_agents.distill import INPUT_GAIN_ENTRIES, set_statistics
-
-    env = gym.make("MDRDrive-v0", k=(0.0, 0.6), load_ratio=(0.0, 0.5))
-    rng = np.random.default_rng(0)
-    obs = np.stack([env.observation_space.sample() for _ in range(64)]).astype(np.float32)
-    obs += rng.normal(size=obs.shape).astype(np.float32) * 0.01
-    structure = env.unwrapped.observation_structure
-    gained = np.zeros(obs.shape[1], dtype=bool)
-    for name in INPUT_GAIN_ENTRIES:
-        gained[structure[name]] = True
-    venv = VecNormalize(DummyVecEnv([lambda: gym.make("MDRDrive-v0")]))
-    set_statistics(venv, obs, 1.0)
-    plain = venv.normalize_obs(obs)
-    assert venv.clip_obs == 10.0
-    set_statistics(venv, obs, 3.0)
-    wide = venv.normalize_obs(obs)
-    np.testing.assert_allclose(wide[:, ~gained], plain[:, ~gained], rtol=1e-5)
-    np.testing.assert_allclose(wide[:, gained], 3.0 * plain[:, gained], rtol=1e-4, atol=1e-5)
-    venv.save(tmp_path / "vecnormalize.pkl")
-    loaded = VecNormalize.load(str(tmp_path / "vecnormalize.pkl"), DummyVecEnv([lambda: gym.make("MDRDrive-v0")]))
-    assert loaded.clip_obs == 30.0
-    np.testing.assert_allclose(loaded.normalize_obs(obs), wide, rtol=1e-6)
-    with pytest.raises(ValueError, match="input_gain"):
-        DistillConfig(input_gain=0.5)
