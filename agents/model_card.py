@@ -15,6 +15,7 @@ from pathlib import Path
 
 from mdr_drive_env.files import write_text
 
+from .blind import DRAWN_SCAN, EVEN_SCAN
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -121,9 +122,10 @@ def blind_section(blind_json: str | Path, policy_key: str) -> str:
     res = json.loads(Path(blind_json).read_text())
     s = res["statistics"][policy_key]
     over_trap = [r for r in s["critical_load_over_trapezoid"] if r is not None]
+    draw = " --scan-draw" if res.get("scan", EVEN_SCAN) == DRAWN_SCAN else ""
     return f"""## Blind results (`{Path(blind_json).as_posix()}`)
 
-`mdr-drive benchmark --blind {res['n']} --seed {res['seed']} --policies {' '.join(res.get('policies', [policy_key]))}`:
+`mdr-drive benchmark --blind {res['n']} --seed {res['seed']}{draw} --policies {' '.join(res.get('policies', [policy_key]))}`:
 {res['n']} random (k, load) points of the training domain that no training or selection decision saw
 (the best drive at a point: the search's, or any compared policy's where it is faster).
 

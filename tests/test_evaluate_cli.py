@@ -141,6 +141,20 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     assert "--seed 99" in text and "mean 0.885, minimum 0.327" in text and "## Limits" in text
 
 
+def test_the_model_cards_blind_command_repeats_a_drawn_scan(tmp_path):
+    from mdr_drive_agents.blind import DRAWN_SCAN, EVEN_SCAN
+    from mdr_drive_agents.model_card import blind_section
+
+    stats = {"points_below_trapezoid": 0, "points_scored": 20, "fraction_of_best_mean": 1.1,
+             "fraction_of_best_min": 0.9, "critical_load_over_best_cycle": [0.99, 1.0],
+             "critical_load_over_best_cycle_min": 0.99, "critical_load_over_trapezoid": [1.2, 1.5]}
+    for scan, flag in ((DRAWN_SCAN, True), (EVEN_SCAN, False), (None, False)):
+        res = {"n": 24, "seed": 99, "policies": ["P"], "statistics": {"P": stats}, **({"scan": scan} if scan else {})}
+        (tmp_path / "blind.json").write_text(json.dumps(res))
+        text = blind_section(tmp_path / "blind.json", "P")
+        assert "--blind 24 --seed 99" in text and ("--scan-draw" in text) == flag
+
+
 def test_the_model_card_command_explains_itself_and_refuses_a_folder_without_a_policy(tmp_path, capsys):
     from mdr_drive_agents.model_card import main
 
