@@ -35,7 +35,7 @@ convergence: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/mdr-drive bench --out results/bench
 
-## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; about 18 minutes)
+## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; about 15 minutes alone on 2 cores)
 train: $(STAMP)
 	$(PY) -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --force
 
@@ -51,10 +51,10 @@ adaptation: $(STAMP)
 benchmark: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark_shipped
 
-## make blind: the shipped policy on 120 random points of the report seed its model card quotes (results/blind/seed20261138, where the previous build sits beside it; about 8 minutes on 2 cores)
+## make blind: the shipped policy on 120 random points of the report seed its model card quotes, the scan's k drawn with the seed (results/blind/seed20261141_drawn_scan, where the previous build sits beside it; about 6 minutes on 2 cores)
 blind: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261138 --policies agents/pretrained/ppo_generalist \
-	    --out results/blind/seed20261138_shipped
+	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261141 --scan-draw --policies agents/pretrained/ppo_generalist \
+	    --out results/blind/seed20261141_shipped
 
 ## make claims: each claim of the paper's text against the model variants (results/paper_claims)
 claims: $(STAMP)
