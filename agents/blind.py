@@ -91,6 +91,12 @@ def draw_points(n: int, seed: int) -> tuple[list[tuple[float, float]], np.ndarra
     return [(k, float(m)) for k, m in zip(ks, masses)], crit
 
 
+def scan_of(res: dict) -> str:
+    """How the scan of a blind benchmark's result ``res`` chose its k values: ``EVEN_SCAN`` or
+    ``DRAWN_SCAN`` (files written before ``--scan-draw`` have no key: evenly spaced)."""
+    return res.get("scan", EVEN_SCAN)
+
+
 def scan_k_values(count: int, seed: int | None = None) -> list[float]:
     """The k values of the critical-load scan: ``count`` evenly spaced over ``K_RANGE`` (``seed``
     None), or drawn with ``seed``, one uniform k in each of ``count`` equal cells of it (a stream of
@@ -135,8 +141,8 @@ def reusable_search(path: str | Path, res: dict, scan_ks: int) -> dict:
     if len(previous["critical_load_kg"]["k"]) != scan_ks:
         raise ValueError(f"--reuse-search {path}: it scanned {len(previous['critical_load_kg']['k'])} k values, "
                          f"not --scan-ks {scan_ks}")
-    if previous.get("scan", EVEN_SCAN) != res["scan"]:
-        raise ValueError(f"--reuse-search {path}: its scan's k values are {previous.get('scan', EVEN_SCAN)}, "
+    if scan_of(previous) != res["scan"]:
+        raise ValueError(f"--reuse-search {path}: its scan's k values are {scan_of(previous)}, "
                          f"not {res['scan']}")
     return previous
 

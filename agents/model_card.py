@@ -15,7 +15,7 @@ from pathlib import Path
 
 from mdr_drive_env.files import write_text
 
-from .blind import DRAWN_SCAN, EVEN_SCAN
+from .blind import DRAWN_SCAN, scan_of
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -122,7 +122,7 @@ def blind_section(blind_json: str | Path, policy_key: str) -> str:
     res = json.loads(Path(blind_json).read_text())
     s = res["statistics"][policy_key]
     over_trap = [r for r in s["critical_load_over_trapezoid"] if r is not None]
-    draw = " --scan-draw" if res.get("scan", EVEN_SCAN) == DRAWN_SCAN else ""
+    draw = " --scan-draw" if scan_of(res) == DRAWN_SCAN else ""
     return f"""## Blind results (`{Path(blind_json).as_posix()}`)
 
 `mdr-drive benchmark --blind {res['n']} --seed {res['seed']}{draw} --policies {' '.join(res.get('policies', [policy_key]))}`:
