@@ -113,7 +113,8 @@ def main(argv=None) -> int:
 def print_teacher_against_search(field, blind_json, teacher_config, worst: int = 6) -> None:
     """The teacher's velocity at an earlier blind benchmark's points over that benchmark's best drive
     found there, where it moves >= 2 mm/s: mean, minimum, points under 0.85, and the ``worst`` points
-    (k, load over the trapezoid's critical load, teacher's / best mm/s)."""
+    (k, load over the trapezoid's critical load, teacher's / best mm/s); and, where the file has a
+    critical-load scan, the teacher's critical load at its k over the best cycle's stored there."""
     import json
 
     from mdr_drive_agents.blind import FRACTION_TARGET, MOVING_THRESHOLD, trapezoid_critical
@@ -132,6 +133,17 @@ def print_teacher_against_search(field, blind_json, teacher_config, worst: int =
     for i in scored[np.argsort(frac)[:worst]]:
         print(f"  k = {points[i][0]:.4f}, load / trapezoid's critical = {points[i][1] / crit[i]:.2f}: "
               f"{teacher[i] * 1e3:.1f} of {best[i] * 1e3:.1f} mm/s")
+    scan = res.get("critical_load_kg") or {}
+    if scan.get("k") and scan.get("best cycle"):
+        from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET
+        from mdr_drive_agents.evaluate import critical_loads_grid
+
+        ks = [float(k) for k in scan["k"]]
+        mine = critical_loads_grid(ks, lambda pts: teacher_drives(field, pts, teacher_config)[1])
+        ratio = np.array([mine[k] for k in ks]) / np.maximum(np.array(scan["best cycle"], dtype=np.float64), 1e-12)
+        under = ", ".join(f"{k:g} ({r:.3f})" for k, r in zip(ks, ratio) if r < CRITICAL_LOAD_TARGET) or "none"
+        print(f"The teacher's critical load over that benchmark's best cycle's ({len(ks)} k): min {ratio.min():.3f}, "
+              f"{int((ratio >= CRITICAL_LOAD_TARGET).sum())} at >= {CRITICAL_LOAD_TARGET:g}; under it: {under}")
 
 
 def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers) -> None:

@@ -529,6 +529,21 @@ def test_the_teacher_check_script_scores_the_teacher_against_an_earlier_blind_se
     out = capsys.readouterr().out
     assert "3 where the search moves >= 2 mm/s): fraction mean 0.767, min 0.500, 2 under 0.85" in out
     assert out.split("2 under 0.85")[1].splitlines()[1].startswith("  k = 0.5000")  # the worst point first
+    assert "critical load" not in out.split("2 under 0.85")[1]  # the file has no scan
+
+    # with a scan: the teacher's critical load over the stored best cycle's, the k under 0.97 named
+    from mdr_drive_agents.evaluate import critical_loads_grid
+    from mdr_drive_agents.teacher_data import teacher_drives
+
+    field, config = DriveField.load(field_path), load_recipe(DEFAULT_CONFIG)["distill"]
+    ks = [0.2, 0.4]
+    own = critical_loads_grid(ks, lambda pts: teacher_drives(field, pts, config)[1])
+    scan = {"k": ks, "best cycle": [own[0.2], own[0.4] / 0.9], "trapezoid": [0.1, 0.01]}
+    blind_json.write_text(json.dumps({"seed": 5, "points": points, "best": [{"velocity": v} for v in best],
+                                      "critical_load_kg": scan}))
+    assert main(["--n", "2", "--seed", "3", "--scan-ks", "1", "--field", str(field_path),
+                 "--searched", str(blind_json), policy]) == 0
+    assert "best cycle's (2 k): min 0.900, 1 at >= 0.97; under it: 0.4 (0.900)" in capsys.readouterr().out
 
 
 def test_the_load_line_script_marks_where_a_policy_stalls_and_the_teacher_moves(capsys):
