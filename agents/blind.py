@@ -174,6 +174,21 @@ def critical_load_statistics(crit: dict, ks) -> dict:
     }
 
 
+def critical_load_on_scan(velocity, scan: dict) -> dict:
+    """A drive's critical load on a stored scan (``scan``: a blind result's ``critical_load_kg``, with
+    its "k", "trapezoid" and "best cycle" in kg), ``velocity(points) -> m/s`` scanned as the benchmark
+    scans: the k values at the target (``CRITICAL_LOAD_TARGET``), those scanned, the smallest ratio
+    to the best cycle's and the k values under the target ({k: ratio}), and the smallest ratio to the
+    trapezoid's (under 1: a k where the drive carries less than the trapezoid)."""
+    crit = critical_loads_grid(scan["k"], velocity)
+    s = critical_load_statistics({**scan, "policy": [crit[k] for k in scan["k"]]}, scan["k"])
+    ratios = {k: r for k, r in zip(scan["k"], s["critical_load_over_best_cycle"]) if r is not None}
+    return {"at_target": s["k_values_at_critical_load_target"], "scanned": len(ratios),
+            "min": s["critical_load_over_best_cycle_min"],
+            "under": {k: r for k, r in ratios.items() if r < CRITICAL_LOAD_TARGET},
+            "min_over_trapezoid": min(r for r in s["critical_load_over_trapezoid"] if r is not None)}
+
+
 def below_trapezoid(trap: np.ndarray, learned: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where a drive is below the trapezoid: slower by more than ``BELOW_TOLERANCE`` where either
     moves; with its velocity minus the trapezoid's (m/s; a runaway, NaN, as -inf) and where either

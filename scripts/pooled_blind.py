@@ -85,21 +85,14 @@ def stored_scans(searches: list[dict]) -> list[dict]:
 
 
 def critical_load_target(policy_path: str, scan: dict) -> dict:
-    """The policy's critical load over the best cycle's at each k of ``scan``: the k values at the
-    blind benchmark's target (``CRITICAL_LOAD_TARGET``), the minimum ratio and the k values under it;
-    and the smallest ratio to the trapezoid's critical load (under 1: a k where the policy carries less
-    than the trapezoid, a pocket a count of k values hides)."""
-    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, critical_load_statistics
-    from mdr_drive_agents.evaluate import critical_loads_grid, load_policy, policy_velocity
+    """The policy's critical load over the best cycle's at each k of ``scan``
+    (``agents.blind.critical_load_on_scan``: the k values at the blind benchmark's target, the minimum
+    ratio and the k values under it, the smallest ratio to the trapezoid's)."""
+    from mdr_drive_agents.blind import critical_load_on_scan
+    from mdr_drive_agents.evaluate import load_policy, policy_velocity
 
     policy = load_policy(policy_path)
-    crit = critical_loads_grid(scan["k"], lambda pts: policy_velocity(policy, pts))
-    s = critical_load_statistics({**scan, "policy": [crit[k] for k in scan["k"]]}, scan["k"])
-    ratios = {k: r for k, r in zip(scan["k"], s["critical_load_over_best_cycle"]) if r is not None}
-    return {"at_target": s["k_values_at_critical_load_target"], "scanned": len(ratios),
-            "min": s["critical_load_over_best_cycle_min"],
-            "under": {k: r for k, r in ratios.items() if r < CRITICAL_LOAD_TARGET},
-            "min_over_trapezoid": min(r for r in s["critical_load_over_trapezoid"] if r is not None)}
+    return critical_load_on_scan(lambda pts: policy_velocity(policy, pts), scan)
 
 
 def critical_table(rows: dict, scans: list[dict]) -> str:

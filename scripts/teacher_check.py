@@ -135,17 +135,12 @@ def print_teacher_against_search(field, blind_json, teacher_config, worst: int =
               f"{teacher[i] * 1e3:.1f} of {best[i] * 1e3:.1f} mm/s")
     scan = res.get("critical_load_kg") or {}
     if scan.get("k") and scan.get("best cycle") and scan.get("trapezoid"):
-        from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, critical_load_statistics
-        from mdr_drive_agents.evaluate import critical_loads_grid
+        from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, critical_load_on_scan
 
-        ks = [float(k) for k in scan["k"]]
-        mine = critical_loads_grid(ks, lambda pts: teacher_drives(field, pts, teacher_config)[1])
-        s = critical_load_statistics({**scan, "policy": [mine[k] for k in ks]}, ks)
-        under = ", ".join(f"{k:g} ({r:.3f})" for k, r in zip(ks, s["critical_load_over_best_cycle"])
-                          if r is not None and r < CRITICAL_LOAD_TARGET) or "none"
-        print(f"The teacher's critical load over that benchmark's best cycle's ({len(ks)} k): "
-              f"min {s['critical_load_over_best_cycle_min']:.3f}, {s['k_values_at_critical_load_target']} at >= "
-              f"{CRITICAL_LOAD_TARGET:g}; under it: {under}")
+        r = critical_load_on_scan(lambda pts: teacher_drives(field, pts, teacher_config)[1], scan)
+        under = ", ".join(f"{k:g} ({v:.3f})" for k, v in r["under"].items()) or "none"
+        print(f"The teacher's critical load over that benchmark's best cycle's ({len(scan['k'])} k): "
+              f"min {r['min']:.3f}, {r['at_target']} at >= {CRITICAL_LOAD_TARGET:g}; under it: {under}")
 
 
 def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers) -> None:
