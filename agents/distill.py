@@ -302,8 +302,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         obs_all.append(obs)
         drive_all.append(sample_drives)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
-            student.venv.obs_rms.mean = obs.astype(np.float64).mean(axis=0)
-            student.venv.obs_rms.var = obs.astype(np.float64).var(axis=0)
+            obs64 = obs.astype(np.float64)
+            student.venv.obs_rms.mean, student.venv.obs_rms.var = obs64.mean(axis=0), obs64.var(axis=0)
             student.venv.obs_rms.count = float(len(obs))
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
                    config.steps if r == 0 else config.round_steps, config, seed + r, progress)
