@@ -35,7 +35,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from .drive_field import DriveField, cycle_action
+from .cycles import cycle_action
+from .drive_field import DriveField
 from .evaluate import steady_velocity_of
 from .teacher_data import (around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout,
                            teacher_drives)

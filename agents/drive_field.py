@@ -32,8 +32,9 @@ import numpy as np
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import atomic_path
 
-from .baselines import PUSH_CLAMP, best_cma_run, cma_optimize
-from .evaluate import open_loop_velocity, trapezoid_action
+from .cycles import align_phase
+from .evaluate import open_loop_velocity
+from .field_search import polish_slice, search_slice
 
 #: The paper's friction coefficients (mu indenter-slider, mu1 slider-base), the env's defaults.
 PAPER_FRICTION = (0.3, 0.1)
@@ -116,60 +117,6 @@ class FieldConfig:
     @property
     def fractions(self) -> np.ndarray:
         return np.linspace(0.0, self.max_load_fraction, self.load_fractions)
-
-
-def search_point(k: float, load: float, previous: np.ndarray | None, config: FieldConfig,
-                 seed: int = 0) -> tuple[np.ndarray, float]:
-    """The best drive (2, 5) found at (k, load kg) and its steady velocity (m/s): CMA-ES over fixed
-    actions (from the lighter point's first action, or the trapezoid) and over two-action cycles
-    (from the lighter point's drive, the trapezoid and the push/clamp cycle)."""
-    friction = tuple(config.friction)
-    fixed = cma_optimize(k, load, config.fixed_budget, sigma0=config.sigma0, seed=seed,
-                         x0=None if previous is None else previous[0], friction=friction)
-    starts = ([] if previous is None else [previous]) + [np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP]
-    cycle = best_cma_run(k, load, starts, config.cycle_budget, popsize=16, sigma0=config.sigma0, cycle=2,
-                         seed=seed, friction=friction)
-    if cycle.velocity > fixed.velocity:
-        return np.asarray(cycle.action, dtype=np.float64), cycle.velocity
-    return np.tile(fixed.action, (2, 1)), fixed.velocity
-
-
-def search_slice(args) -> tuple[np.ndarray, np.ndarray]:
-    """Drives (n_loads, 2, 5) and velocities (n_loads,) along one k, light to heavy (continuation)."""
-    k, loads, config, seed = args
-    drives, velocities, previous = [], [], None
-    for j, load in enumerate(loads):
-        drive, v = search_point(float(k), float(load), previous, config, seed=seed + j)
-        drives.append(drive)
-        velocities.append(v)
-        previous = drive
-    return np.array(drives), np.array(velocities)
-
-
-def polish_slice(args) -> list[tuple[np.ndarray, float]]:
-    """Per node of one k slice, the best two-action cycle (2, 5) and its velocity (m/s) found by
-    CMA-ES from each of its starts (``DriveField.polish``)."""
-    nodes, budget, sigma, seed, friction = args
-    out = []
-    for j, (k, load, starts) in enumerate(nodes):
-        run = best_cma_run(k, load, list(starts), budget, popsize=16, sigma0=sigma, cycle=2, seed=seed + 31 * j,
-                           friction=tuple(friction))
-        out.append((np.asarray(run.action, dtype=np.float64), float(run.velocity)))
-    return out
-
-
-def swap_is_closer(drives: np.ndarray, references: np.ndarray) -> np.ndarray:
-    """Per pair, whether the swapped cycle of ``drives`` (n, 2, 5) is closer to ``references`` (n, 2, 5)
-    than the cycle as written (summed absolute differences): (n,) bool."""
-    return (np.abs(drives[:, ::-1] - references).sum(axis=(1, 2)) < np.abs(drives - references).sum(axis=(1, 2)))
-
-
-def align_phase(drive: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """``drive`` (2, 5) or its swapped cycle, whichever is closer to ``reference`` (2, 5); or so pair
-    by pair for ``drive`` and ``reference`` (n, 2, 5)."""
-    if drive.ndim == 2:
-        return drive[::-1] if swap_is_closer(drive[None], reference[None])[0] else drive
-    return np.where(swap_is_closer(drive, reference)[:, None, None], drive[:, ::-1], drive)
 
 
 class DriveField:
@@ -474,15 +421,4 @@ def pick_best(points, cands: list, prefer_interpolation: float) -> tuple[np.ndar
     return np.array(drives), np.array(velocities)
 
 
-def cycle_action(drives: np.ndarray, previous_actions: np.ndarray) -> np.ndarray:
-    """The action each drive (n, 2, 5) plays after ``previous_actions`` (n, 5): its second action
-    after a period closer to its first, else its first (also after a zero action, an episode's
-    start); a fixed drive (both actions equal) plays its action."""
-    prev = np.asarray(previous_actions, dtype=np.float64)
-    first, second = drives[:, 0], drives[:, 1]
-    after_first = (np.abs(prev - first).sum(1) < np.abs(prev - second).sum(1)) & (np.abs(prev).sum(1) > 0)
-    return np.where(after_first[:, None], second, first)
-
-
-__all__ = ["PAPER_FRICTION", "DriveField", "FieldConfig", "align_phase", "cycle_action", "pick_best", "search_point",
-           "swap_is_closer", "with_friction"]
+__all__ = ["PAPER_FRICTION", "DriveField", "FieldConfig", "pick_best", "with_friction"]

@@ -40,7 +40,8 @@ from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import write_text
 from mdr_drive_env.sweep import Executor, TaskStore, add_executor_arguments, executor_from, task_folder
 
-from .drive_field import PAPER_FRICTION, DriveField, FieldConfig, align_phase, pick_best, with_friction
+from .cycles import align_phase
+from .drive_field import PAPER_FRICTION, DriveField, FieldConfig, pick_best, with_friction
 
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "friction_teacher.yaml"
 #: mu of every field: the fields differ in mu1 only (the load scales with mu).

@@ -23,7 +23,8 @@ import numpy as np
 
 from mdr_drive_env import ENV_ID  # importing the package registers the env
 
-from .drive_field import PAPER_FRICTION, DriveField, align_phase, cycle_action
+from .cycles import align_phase, cycle_action
+from .drive_field import PAPER_FRICTION, DriveField
 from .evaluate import ACTION_MAP
 from mdr_drive_env.gym_envs.spaces import shift_phase_origin
 

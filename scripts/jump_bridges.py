@@ -45,7 +45,7 @@ def round0_brackets(field, config, seed: int):
     """Round 0's points and teacher drives (as ``distill.distill`` draws them with ``seed``) and the
     brackets its bisection ends with: (a, b) (n, 2) and their drives (n, 2, 5), b's in a's phase."""
     from mdr_drive_agents.teacher_data import draw_points, jump_brackets, teacher_drives
-    from mdr_drive_agents.drive_field import align_phase
+    from mdr_drive_agents.cycles import align_phase
 
     rng = np.random.default_rng(seed)
     points = draw_points(field, config.points, rng, config)

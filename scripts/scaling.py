@@ -7,7 +7,7 @@ Three sweeps, each a representative slice of the real one, run first on 1 worker
 ``--workers`` (default: the cores available), same tasks, same results (checked):
 
 - the paper reproduction at paper numerics (``mdr-drive reproduce --quick``'s Fig. 5 cases);
-- the shipped recipe's teacher (``agents.drive_field.search_slice``: two of its 13 k slices);
+- the shipped recipe's teacher (``agents.field_search.search_slice``: two of its 13 k slices);
 - the blind benchmark's per-point search (``agents.blind.best_drive`` at the first points of a seed).
 
 Every task's own duration is measured in the worker, so the projection to P CPUs uses measured
@@ -79,7 +79,7 @@ def reproduce_sweep(n: int):
 
 def teacher_sweep(n: int):
     from mdr_drive_agents.blind import trapezoid_critical
-    from mdr_drive_agents.drive_field import search_slice
+    from mdr_drive_agents.field_search import search_slice
     from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
 
     config = load_recipe(DEFAULT_CONFIG)["teacher"]

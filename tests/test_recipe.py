@@ -12,7 +12,8 @@ import pytest
 import mdr_drive_env  # noqa: F401
 from mdr_drive_agents import recipe
 from mdr_drive_agents.distill import DistillConfig
-from mdr_drive_agents.drive_field import FieldConfig, align_phase, cycle_action
+from mdr_drive_agents.cycles import align_phase, cycle_action
+from mdr_drive_agents.drive_field import FieldConfig
 
 TINY = Path(__file__).parent / "data" / "recipe_tiny.yaml"
 

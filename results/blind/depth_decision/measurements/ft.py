@@ -4,7 +4,8 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecNormalize
 import mdr_drive_agents.distill as D
 import mdr_drive_agents.teacher_data as T
-from mdr_drive_agents.drive_field import DriveField, cycle_action
+from mdr_drive_agents.cycles import cycle_action
+from mdr_drive_agents.drive_field import DriveField
 from mdr_drive_agents.evaluate import ACTION_MAP
 from mdr_drive_agents.vec_env import BatchedVecEnv
 from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe

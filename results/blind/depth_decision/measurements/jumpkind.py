@@ -1,5 +1,6 @@
 import numpy as np, collections
-from mdr_drive_agents.drive_field import DriveField, align_phase
+from mdr_drive_agents.cycles import align_phase
+from mdr_drive_agents.drive_field import DriveField
 f = DriveField.load("results/recipe/teacher_field.npz")
 nk, ns = f.velocities.shape
 kinds = collections.Counter(); ncomp = collections.Counter()

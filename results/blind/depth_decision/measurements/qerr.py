@@ -1,5 +1,6 @@
 import sys, numpy as np
-from mdr_drive_agents.drive_field import DriveField, cycle_action
+from mdr_drive_agents.cycles import cycle_action
+from mdr_drive_agents.drive_field import DriveField
 from mdr_drive_agents.distill import DistillConfig
 from mdr_drive_agents.teacher_data import draw_points, labelled_episodes
 from mdr_drive_agents.evaluate import load_policy, ACTION_MAP

@@ -1,6 +1,7 @@
 import sys, numpy as np
 from scipy.spatial import cKDTree
-from mdr_drive_agents.drive_field import DriveField, align_phase
+from mdr_drive_agents.cycles import align_phase
+from mdr_drive_agents.drive_field import DriveField
 from mdr_drive_agents.evaluate import open_loop_velocity
 from mdr_drive_agents.teacher_data import draw_points, drive_difference
 from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
