@@ -11,8 +11,8 @@ import pytest
 
 import mdr_drive_env  # noqa: F401
 from mdr_drive_agents import recipe
+from mdr_drive_agents.cycles import align_phase
 from mdr_drive_agents.distill import DistillConfig
-from mdr_drive_agents.cycles import align_phase, cycle_action
 from mdr_drive_agents.drive_field import FieldConfig
 
 TINY = Path(__file__).parent / "data" / "recipe_tiny.yaml"
@@ -179,14 +179,6 @@ def test_configs_reject_bad_values_naming_them():
         FieldConfig(polish=((0, 0.1),))
     with pytest.raises(ValueError, match="polish"):
         FieldConfig(polish=((10, 0.1, 3),))
-
-
-def test_cycle_labels_follow_the_previous_action():
-    drives = np.array([[[1.0, 0, 0, 0, 0], [-1.0, 0, 0, 0, 0]]] * 3)
-    prev = np.array([[0.0] * 5, [0.9, 0, 0, 0, 0], [-0.9, 0, 0, 0, 0]])
-    labels = cycle_action(drives, prev)
-    assert labels[:, 0].tolist() == [1.0, -1.0, 1.0]  # start: first; after the first: second; after it: first
-    assert np.array_equal(align_phase(drives[0][::-1], drives[0]), drives[0])
 
 
 def _synthetic_field(nk=4, ns=5):
