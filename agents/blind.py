@@ -174,6 +174,15 @@ def critical_load_statistics(crit: dict, ks) -> dict:
     }
 
 
+def stored_scan(res: dict) -> dict | None:
+    """The critical-load scan a blind benchmark's result ``res`` stored, {"k", "best cycle",
+    "trapezoid"} (kg), or None where it has none (a result written without the scan's best cycle)."""
+    crit = res.get("critical_load_kg") or {}
+    if not (crit.get("k") and crit.get("best cycle") and crit.get("trapezoid")):
+        return None
+    return {"k": crit["k"], "best cycle": crit["best cycle"], "trapezoid": crit["trapezoid"]}
+
+
 def critical_load_on_scan(velocity, scan: dict) -> dict:
     """A drive's critical load on a stored scan (``scan``: a blind result's ``critical_load_kg``, with
     its "k", "trapezoid" and "best cycle" in kg), ``velocity(points) -> m/s`` scanned as the benchmark

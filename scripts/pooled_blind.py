@@ -75,12 +75,13 @@ def pooled(policy_path: str, searches: list[dict]) -> dict:
 def stored_scans(searches: list[dict]) -> list[dict]:
     """The distinct critical-load scans of ``searches`` (by their k values; the first file's of each):
     {"seed", "k", "best cycle", "trapezoid"} (kg)."""
+    from mdr_drive_agents.blind import stored_scan
+
     scans: dict = {}
     for res in searches:
-        crit = res.get("critical_load_kg") or {}
-        if crit.get("k") and crit.get("best cycle"):
-            scans.setdefault(tuple(crit["k"]), {"seed": res["seed"], "k": crit["k"], "best cycle": crit["best cycle"],
-                                                "trapezoid": crit["trapezoid"]})
+        scan = stored_scan(res)
+        if scan is not None:
+            scans.setdefault(tuple(scan["k"]), {"seed": res["seed"], **scan})
     return list(scans.values())
 
 

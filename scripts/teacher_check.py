@@ -117,7 +117,8 @@ def print_teacher_against_search(field, blind_json, teacher_config, worst: int =
     critical-load scan, the teacher's critical load at its k over the best cycle's stored there."""
     import json
 
-    from mdr_drive_agents.blind import FRACTION_TARGET, MOVING_THRESHOLD, trapezoid_critical
+    from mdr_drive_agents.blind import (CRITICAL_LOAD_TARGET, FRACTION_TARGET, MOVING_THRESHOLD, critical_load_on_scan,
+                                        stored_scan, trapezoid_critical)
     from mdr_drive_agents.teacher_data import teacher_drives
 
     res = json.loads(Path(blind_json).read_text())
@@ -133,10 +134,8 @@ def print_teacher_against_search(field, blind_json, teacher_config, worst: int =
     for i in scored[np.argsort(frac)[:worst]]:
         print(f"  k = {points[i][0]:.4f}, load / trapezoid's critical = {points[i][1] / crit[i]:.2f}: "
               f"{teacher[i] * 1e3:.1f} of {best[i] * 1e3:.1f} mm/s")
-    scan = res.get("critical_load_kg") or {}
-    if scan.get("k") and scan.get("best cycle") and scan.get("trapezoid"):
-        from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, critical_load_on_scan
-
+    scan = stored_scan(res)
+    if scan is not None:
         r = critical_load_on_scan(lambda pts: teacher_drives(field, pts, teacher_config)[1], scan)
         under = ", ".join(f"{k:g} ({v:.3f})" for k, v in r["under"].items()) or "none"
         print(f"The teacher's critical load over that benchmark's best cycle's ({len(scan['k'])} k): "

@@ -218,3 +218,14 @@ def test_velocities_read_back_from_json_keep_a_runaway_as_nan():
     assert stored == [1e-3, None, -2e-3]
     back = nan_array(stored)
     assert back.dtype == float and np.isnan(back[1]) and back[[0, 2]].tolist() == [1e-3, -2e-3]
+
+
+def test_a_stored_scan_needs_its_k_best_cycle_and_trapezoid():
+    from mdr_drive_agents.blind import stored_scan
+
+    crit = {"k": [0.1, 0.3], "best cycle": [0.2, 0.05], "trapezoid": [0.15, 0.04], "policy": [0.19, 0.05]}
+    assert stored_scan({"critical_load_kg": crit}) == {"k": [0.1, 0.3], "best cycle": [0.2, 0.05],
+                                                       "trapezoid": [0.15, 0.04]}
+    assert stored_scan({}) is None
+    assert stored_scan({"critical_load_kg": {**crit, "best cycle": []}}) is None  # written without the search's cycle
+    assert stored_scan({"critical_load_kg": {k: v for k, v in crit.items() if k != "trapezoid"}}) is None
