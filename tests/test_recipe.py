@@ -390,6 +390,29 @@ def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_err
     assert fitted[0.05] == pytest.approx(0.2 + 2 * 0.05 / 3, abs=0.005)  # within delta of the majority's drive
 
 
+def test_the_quantum_slack_ignores_errors_within_the_labels_quantum_and_counts_larger_ones_from_its_edge():
+    import torch
+
+    from mdr_drive_agents.distill import DistillConfig, edge_loss
+
+    slack = torch.tensor([0.0, 0.003, 0.0, 0.003, 0.003])
+    label = torch.zeros(1, 5)
+    inside = torch.tensor([[0.0, 0.0029, 0.0, -0.0029, 0.002]])
+    assert float(edge_loss(inside, label, 0.05, slack)) == 0.0
+    assert float(edge_loss(inside, label, 0.05)) > 0.0  # without the slack they cost
+    beyond = torch.tensor([[0.01, 0.013, 0.0, -0.008, 0.0]])
+    expected = (0.01 ** 2 + 0.01 ** 2 + 0.005 ** 2) / 5  # amplitudes in full, the others from the slack on
+    assert float(edge_loss(beyond, label, 0.05, slack)) == pytest.approx(expected, rel=1e-5)
+    assert float(edge_loss(beyond, label, 0.0, slack)) == pytest.approx(expected, rel=1e-5)
+    # without the slack, the loss is the plain one (the shipped recipe is unchanged)
+    assert float(edge_loss(beyond, label, 0.05, None)) == pytest.approx(
+        float(2.0 * torch.nn.functional.huber_loss(beyond, label, delta=0.05)))
+    with pytest.raises(ValueError, match="quantum_slack=0.5 needs quantum_centres"):
+        DistillConfig(quantum_slack=0.5)
+    with pytest.raises(ValueError, match="quantum_slack"):
+        DistillConfig(quantum_slack=1.5, quantum_centres=True)
+
+
 class _StepTeacher:
     """A stand-in teacher whose drive jumps from A to B at k = 0.3 (one cycle phase of B swapped:
     the comparison must not count the phase as a jump), and a constant one."""
