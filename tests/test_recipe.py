@@ -301,6 +301,25 @@ def test_the_imitation_error_script_compares_the_shipped_policy_with_its_teacher
     assert sum(int(line.split("|")[2]) for line in out.splitlines()[4:10]) == moving  # every point in one band
 
 
+def test_the_quantum_check_counts_the_quanta_an_output_is_off_and_runs_on_the_shipped_policy(capsys):
+    import runpy
+
+    from mdr_drive_env.gym_envs.spaces import ActionMap
+
+    root = Path(__file__).parents[1]
+    script = runpy.run_path(str(root / "scripts" / "quantum_check.py"))
+    amap = ActionMap()
+    labels = amap.quantum_centre(np.random.default_rng(2).uniform(-0.9, 0.9, (50, 5)))
+    width = 2.0 * amap.quantum_half_widths()
+    assert np.array_equal(script["quanta_off"](labels + 0.45 * width, labels, amap), np.zeros((50, 3)))
+    assert np.array_equal(script["quanta_off"](labels + 1.0 * width, labels, amap), np.ones((50, 3)))
+    assert np.array_equal(script["quanta_off"](labels - 2.0 * width, labels, amap), 2 * np.ones((50, 3)))
+    assert script["main"](["--points", "4", "--seed", "3", str(root / "agents" / "pretrained" / "ppo_generalist")]) == 0
+    row = capsys.readouterr().out.splitlines()[-1]
+    for cell in row.split("|")[2:5]:  # each entry's three shares add up to one
+        assert sum(float(x) for x in cell.split("/")) == pytest.approx(1.0, abs=0.002)
+
+
 def test_the_imitation_error_script_bands_the_failures_by_the_teachers_jump_near_each_point(capsys):
     import runpy
 
