@@ -37,7 +37,7 @@ from tqdm import tqdm
 
 from .cycles import cycle_action
 from .drive_field import DriveField
-from .evaluate import ACTION_MAP, steady_velocity_of
+from .evaluate import steady_velocity_of
 from .teacher_data import (around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout,
                            teacher_drives)
 from mdr_drive_env.core.params import check_int, check_range
@@ -94,10 +94,6 @@ class DistillConfig:
             0.005 for the phase) leaves the waveform unchanged; a rise in the box's first or last
             quantum becomes the edge itself, past which the fit lets the output go. Near stall one
             quantum changes the steady velocity by more than a mm/s.
-        quantum_slack: with ``quantum_centres``, the loss ignores an error in a rise fraction or
-            the z phase up to this fraction of half a quantum (``ActionMap.quantum_half_widths``)
-            and counts a larger one from there (``edge_loss``): the fit spends nothing on outputs
-            already in the label's quantum and all on those that select another one (0: off) (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -127,7 +123,6 @@ class DistillConfig:
     jump_neighbours: int = 6
     jump_threshold: float = 0.3
     quantum_centres: bool = False
-    quantum_slack: float = 0.0
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -147,12 +142,8 @@ class DistillConfig:
         check_range("hole_floor", self.hole_floor, 0.0, 0.01)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
-        check_range("quantum_slack", self.quantum_slack, 0.0, 1.0)
         if not isinstance(self.quantum_centres, bool):
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
-        if self.quantum_slack > 0.0 and not self.quantum_centres:
-            raise ValueError(f"quantum_slack={self.quantum_slack!r} needs quantum_centres: true (the slack is "
-                             "measured from the centre of the label's quantum)")
 
 
 def policy_mean(policy, obs):
@@ -161,29 +152,22 @@ def policy_mean(policy, obs):
     return policy.get_distribution(obs).distribution.mean
 
 
-def edge_loss(mean, target, huber_delta: float = 0.0, slack=None):
+def edge_loss(mean, target, huber_delta: float = 0.0):
     """Squared error, except beyond the box's edge where the target is on it (SB3 clips there).
 
     With ``huber_delta`` > 0, the Huber loss instead (squared within ``huber_delta`` action units,
     linear beyond; scaled by ``2 / huber_delta`` so that it agrees with the squared error near zero):
     where neighbouring samples are labelled with different drives, a squared error is minimised by
     their mean, a blend that may drive nowhere; a loss linear in large errors by their median, one
-    of the drives.
-
-    With ``slack`` (a tensor of one value per action entry, action units), an error within an
-    entry's slack costs nothing and a larger one is counted from it: the rise fractions and the z
-    phase select whole time quanta, so any output within the label's quantum plays the same waveform
-    (``DistillConfig.quantum_slack``)."""
+    of the drives."""
     import torch
 
     upper, lower = target >= EDGE, target <= -EDGE
     clipped = torch.where(upper, torch.clamp(mean, max=1.0), torch.where(lower, torch.clamp(mean, min=-1.0), mean))
-    error = clipped - torch.clamp(target, -1.0, 1.0)
-    if slack is not None:
-        error = torch.sign(error) * torch.relu(error.abs() - slack)
+    target = torch.clamp(target, -1.0, 1.0)
     if huber_delta > 0.0:
-        return 2.0 * torch.nn.functional.huber_loss(error, torch.zeros_like(error), delta=huber_delta)
-    return torch.mean(error ** 2)
+        return 2.0 * torch.nn.functional.huber_loss(clipped, target, delta=huber_delta)
+    return torch.mean((clipped - target) ** 2)
 
 
 @dataclass
@@ -239,9 +223,6 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
     prev_slice = structure["previous_action"]
     policy = student.model.policy
     rng = np.random.default_rng(seed)
-    slack = None
-    if config.quantum_slack > 0.0:
-        slack = torch.as_tensor(config.quantum_slack * ACTION_MAP.quantum_half_widths(), dtype=torch.float32)
 
     def epoch():
         x = perturb_previous_actions(obs, drives, rng, config.perturbed_share, prev_slice)
@@ -249,7 +230,7 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
         for column in shuffled:
             x[:, column] = x[rng.permutation(len(x)), column]
         x = torch.as_tensor(student.venv.normalize_obs(x.astype(np.float64)), dtype=torch.float32)
-        return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx], config.huber_delta, slack)
+        return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx], config.huber_delta)
 
     policy.set_training_mode(True)
     loss = adam_fit([*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()], epoch, steps,

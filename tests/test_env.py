@@ -165,13 +165,6 @@ def test_quantum_centres_select_the_same_waveform_with_half_a_quantum_of_room(or
     first = np.array([[0.5, -1.0 + 0.4 * rise, 0.5, 1.0 - 0.4 * rise, -1.0 + 0.4 * phase]])
     assert np.array_equal(amap.quantum_centre(first)[0, 1:], [-1.0, 0.5, 1.0, -1.0])
     assert amap.quantum_centre(np.array([[0.0, 0.0, 0.0, -1.0 + 0.6 * rise, 0.0]]))[0, 3] == pytest.approx(-1.0 + rise)
-    # quantum_half_widths: the same room, one value per entry (0 for the amplitudes)
-    np.testing.assert_allclose(amap.quantum_half_widths(), [0.0, rise / 2, 0.0, rise / 2, phase / 2])
-    inside = amap.to_params_batch(np.clip(centres + 0.99 * amap.quantum_half_widths(), -1.0, 1.0))
-    outside = amap.to_params_batch(np.clip(centres + 1.01 * amap.quantum_half_widths(), -1.0, 1.0))
-    assert np.array_equal(inside[:, :4], same[:, :4])
-    interior = (np.abs(centres[:, 1]) < 0.99)  # one quantum on: another rise time unless at the box's edge
-    assert not np.any(outside[interior, 1] == same[interior, 1])
 
 
 def test_truncation_at_max_periods_and_never_terminated():

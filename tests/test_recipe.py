@@ -310,7 +310,8 @@ def test_the_quantum_check_counts_the_quanta_an_output_is_off_and_runs_on_the_sh
     script = runpy.run_path(str(root / "scripts" / "quantum_check.py"))
     amap = ActionMap()
     labels = amap.quantum_centre(np.random.default_rng(2).uniform(-0.9, 0.9, (50, 5)))
-    width = 2.0 * amap.quantum_half_widths()
+    rise = 2.0 / (amap.quanta * (amap.max_rise_fraction - amap.min_rise_fraction))
+    width = np.array([0.0, rise, 0.0, rise, 2.0 / amap.quanta])  # one quantum per entry, action units
     assert np.array_equal(script["quanta_off"](labels + 0.45 * width, labels, amap), np.zeros((50, 3)))
     assert np.array_equal(script["quanta_off"](labels + 1.0 * width, labels, amap), np.ones((50, 3)))
     assert np.array_equal(script["quanta_off"](labels - 2.0 * width, labels, amap), 2 * np.ones((50, 3)))
@@ -407,29 +408,6 @@ def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_err
     assert fitted[0.0] == pytest.approx(0.48, abs=0.01)  # the mean: a blend of the two
     # the median, up to the pull of the outvoted labels (2 x delta each) on the quadratic part (3 x 2 (x - 0.2)):
     assert fitted[0.05] == pytest.approx(0.2 + 2 * 0.05 / 3, abs=0.005)  # within delta of the majority's drive
-
-
-def test_the_quantum_slack_ignores_errors_within_the_labels_quantum_and_counts_larger_ones_from_its_edge():
-    import torch
-
-    from mdr_drive_agents.distill import DistillConfig, edge_loss
-
-    slack = torch.tensor([0.0, 0.003, 0.0, 0.003, 0.003])
-    label = torch.zeros(1, 5)
-    inside = torch.tensor([[0.0, 0.0029, 0.0, -0.0029, 0.002]])
-    assert float(edge_loss(inside, label, 0.05, slack)) == 0.0
-    assert float(edge_loss(inside, label, 0.05)) > 0.0  # without the slack they cost
-    beyond = torch.tensor([[0.01, 0.013, 0.0, -0.008, 0.0]])
-    expected = (0.01 ** 2 + 0.01 ** 2 + 0.005 ** 2) / 5  # amplitudes in full, the others from the slack on
-    assert float(edge_loss(beyond, label, 0.05, slack)) == pytest.approx(expected, rel=1e-5)
-    assert float(edge_loss(beyond, label, 0.0, slack)) == pytest.approx(expected, rel=1e-5)
-    # without the slack, the loss is the plain one (the shipped recipe is unchanged)
-    assert float(edge_loss(beyond, label, 0.05, None)) == pytest.approx(
-        float(2.0 * torch.nn.functional.huber_loss(beyond, label, delta=0.05)))
-    with pytest.raises(ValueError, match="quantum_slack=0.5 needs quantum_centres"):
-        DistillConfig(quantum_slack=0.5)
-    with pytest.raises(ValueError, match="quantum_slack"):
-        DistillConfig(quantum_slack=1.5, quantum_centres=True)
 
 
 class _StepTeacher:

@@ -147,13 +147,6 @@ class ActionMap:
         out[..., 4] = 2.0 * np.rint(u[..., 4] * n) / n - 1.0  # z phase: quantum 0 at -1, quantum n at +1
         return out
 
-    def quantum_half_widths(self) -> np.ndarray:
-        """Half the width of one time quantum in each action entry (action units, (5,)): within it of
-        :meth:`quantum_centre` an action selects the same waveform. 0 for the amplitudes, which are
-        not quantised; 1 / (quanta * rise span) for the rise fractions, 1 / quanta for the z phase."""
-        n, _, _, span, *_ = self._grid
-        return np.array([0.0, 1.0 / (n * span), 0.0, 1.0 / (n * span), 1.0 / n])
-
     def to_waveform(self, action) -> Waveform:
         """The waveform an action selects, as a validated :class:`Waveform`."""
         p = self.to_params(action)
