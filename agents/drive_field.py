@@ -67,6 +67,13 @@ class FieldConfig:
             (``DriveField.refine_k``; empty: none) (-, action units). The teacher's drive between two
             k lines is an interpolation, and where the best drive changes with k (push/clamp cycles
             past the trapezoid's critical load) it falls short of a search there.
+        refine_load: after the k lines, (budget, sigma, low, high) or (budget, sigma, low, high, k_max):
+            a load line between every two whose midpoint fraction lies in [low, high], on every k line
+            (searched up to k_max, above it each new node a copy of a neighbour's drive), each new node started from the
+            best of the interpolation of its lighter and heavier neighbours' drives and the six nodes
+            around it, then polished from the three best (``DriveField.refine_load``; empty: none)
+            (-, action units, -, -, -). Between load lines 0.12 apart the best drive can change (past
+            about 0.6 of the trapezoid's critical load, where it slows steeply with the load).
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
@@ -82,6 +89,7 @@ class FieldConfig:
     consolidate_tolerance: float = 0.0
     polish: tuple[tuple[int, float], ...] = ()
     refine_k: tuple = ()
+    refine_load: tuple = ()
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -105,6 +113,16 @@ class FieldConfig:
             check_range("refine_k sigma", self.refine_k[1], 0.0, 1.0, low_open=True)
             if len(self.refine_k) == 3:
                 check_range("refine_k k_max", self.refine_k[2], *self.k_range, low_open=True)
+        if self.refine_load:
+            if len(self.refine_load) not in (4, 5):
+                raise ValueError(f"refine_load={self.refine_load!r} must be (budget, sigma, low, high), "
+                                 "(budget, sigma, low, high, k_max) or empty")
+            check_int("refine_load budget", self.refine_load[0], 1)
+            check_range("refine_load sigma", self.refine_load[1], 0.0, 1.0, low_open=True)
+            check_range("refine_load low", self.refine_load[2], 0.0, self.max_load_fraction)
+            check_range("refine_load high", self.refine_load[3], self.refine_load[2], self.max_load_fraction)
+            if len(self.refine_load) == 5:
+                check_range("refine_load k_max", self.refine_load[4], *self.k_range)
         if len(self.friction) != 2:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
@@ -159,6 +177,13 @@ class DriveField:
         if config.refine_k:
             field.refine_k(int(config.refine_k[0]), float(config.refine_k[1]), executor=executor, seed=seed + 900_000,
                            k_max=float(config.refine_k[2]) if len(config.refine_k) == 3 else None)
+            field.exchange()
+            field.align()
+        if config.refine_load:
+            budget, sigma, low, high = config.refine_load[:4]
+            k_max = float(config.refine_load[4]) if len(config.refine_load) == 5 else None
+            field.refine_load(int(budget), float(sigma), (float(low), float(high)), executor=executor, seed=seed + 950_000,
+                              k_max=k_max)
             field.exchange()
             field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
@@ -230,6 +255,36 @@ class DriveField:
         self.meta.setdefault("polished", []).append({"budget": budget, "sigma": sigma, "changed": changed})
         return changed
 
+    def _searched_new_nodes(self, lines: list, budget: int, sigma: float, starts: int, seed: int, label: str,
+                            executor=None) -> tuple[np.ndarray, np.ndarray]:
+        """Drives (n_lines, n, 2, 5) and velocities (n_lines, n) m/s of new nodes, ``lines`` of
+        [((k, load kg), trial drives (t, 2, 5)), ...]: every node plays its trials (one batched call),
+        CMA-ES over two-action cycles runs from the ``starts`` fastest of them (``budget`` evaluations
+        each, step ``sigma``; one task per line on ``executor``) and the node keeps the fastest drive
+        found or played."""
+        from mdr_drive_env.sweep import Executor
+
+        tasks, trial_d, trial_v = [], [], []  # per line: its task, its nodes' fastest trial drives and velocities
+        for n, line in enumerate(lines):
+            played = open_loop_velocity([(*node, *self.friction) for node, t in line for _ in t],
+                                        np.concatenate([t for _, t in line]))
+            nodes, fastest_d, fastest_v, at = [], [], [], 0
+            for node, t in line:
+                order = np.argsort(-played[at:at + len(t)])
+                fastest_d.append(t[order[0]])
+                fastest_v.append(played[at + order[0]])
+                nodes.append((*node, t[order[:starts]]))
+                at += len(t)
+            tasks.append((nodes, budget, sigma, seed + 7919 * (n + 1), self.friction))
+            trial_d.append(fastest_d)
+            trial_v.append(fastest_v)
+        found = (executor or Executor()).map(polish_slice, tasks, label)
+        searched_d = np.array([[d for d, _ in line] for line in found])
+        searched_v = np.array([[v for _, v in line] for line in found], dtype=np.float64)
+        trial_d, trial_v = np.array(trial_d), np.array(trial_v, dtype=np.float64)
+        keep_search = searched_v > trial_v
+        return np.where(keep_search[:, :, None, None], searched_d, trial_d), np.where(keep_search, searched_v, trial_v)
+
     def refine_k(self, budget: int, sigma: float, executor=None, seed: int = 0, starts: int = 3,
                  k_max: float | None = None) -> int:
         """Insert a k line between every two of the grid's (below ``k_max``, if given), at the same load
@@ -238,8 +293,6 @@ class DriveField:
         over two-action cycles runs from the ``starts`` fastest of them (``budget`` evaluations each,
         step ``sigma``) and the node keeps the fastest drive found or played; one task per new k line
         on ``executor``. The old nodes are unchanged. Returns the new nodes."""
-        from mdr_drive_env.sweep import Executor
-
         from .blind import trapezoid_critical
 
         nk, ns = self.velocities.shape
@@ -249,33 +302,17 @@ class DriveField:
             return 0
         mids = all_mids[cells]
         mid_crit = trapezoid_critical([float(k) for k in mids])
-        tasks, trial_d, trial_v = [], [], []  # per new line: its task, its nodes' fastest trial drives and velocities
+        lines = []
         for c, i in enumerate(cells):
-            trials, nodes = [], []
+            line = []
             for j in range(ns):
                 left = self.drives[i, j]
                 ring = [align_phase(self.drives[a, b], left) for a in (i, i + 1) for b in (j - 1, j, j + 1) if 0 <= b < ns]
-                trials.append(np.array([0.5 * (left + align_phase(self.drives[i + 1, j], left)), *ring]))
-                nodes.append((float(mids[c]), float(self.fractions[j] * mid_crit[c])))
-            played = open_loop_velocity([(*p, *self.friction) for p, t in zip(nodes, trials) for _ in t],
-                                        np.concatenate(trials))
-            line, fastest_d, fastest_v, at = [], [], [], 0
-            for node, t in zip(nodes, trials):
-                order = np.argsort(-played[at:at + len(t)])
-                fastest_d.append(t[order[0]])
-                fastest_v.append(played[at + order[0]])
-                line.append((*node, t[order[:starts]]))
-                at += len(t)
-            tasks.append((line, budget, sigma, seed + 7919 * (i + 1), self.friction))
-            trial_d.append(fastest_d)
-            trial_v.append(fastest_v)
-        found = (executor or Executor()).map(polish_slice, tasks, "teacher: refine k")
-        searched_d = np.array([[d for d, _ in line] for line in found])
-        searched_v = np.array([[v for _, v in line] for line in found], dtype=np.float64)
-        trial_d, trial_v = np.array(trial_d), np.array(trial_v, dtype=np.float64)
-        keep_search = searched_v > trial_v  # the node keeps the fastest drive found or played
-        new_drives = np.where(keep_search[:, :, None, None], searched_d, trial_d)
-        new_velocities = np.where(keep_search, searched_v, trial_v)
+                line.append(((float(mids[c]), float(self.fractions[j] * mid_crit[c])),
+                             np.array([0.5 * (left + align_phase(self.drives[i + 1, j], left)), *ring])))
+            lines.append(line)
+        new_drives, new_velocities = self._searched_new_nodes(lines, budget, sigma, starts, seed, "teacher: refine k",
+                                                              executor)
         at = [i + 1 for i in cells]  # each new line goes before the old line above it
         self.ks = np.insert(self.ks, at, mids)
         self.trapezoid_critical = np.insert(self.trapezoid_critical, at, mid_crit)
@@ -283,6 +320,56 @@ class DriveField:
         self.velocities = np.insert(self.velocities, at, new_velocities, axis=0)
         self.meta["refined_k"] = {"budget": budget, "sigma": sigma, "k_max": k_max, "new_nodes": len(cells) * ns}
         return len(cells) * ns
+
+    def refine_load(self, budget: int, sigma: float, band: tuple[float, float], executor=None, seed: int = 0,
+                    starts: int = 3, k_max: float | None = None) -> int:
+        """Insert a load line between every two of the grid's whose midpoint fraction lies in ``band``
+        (low, high; load / the trapezoid's critical load), on every k line: each new node plays the
+        interpolation of its lighter and heavier neighbours' drives and the drives of the six nodes
+        around it (those two and their neighbours in k), then CMA-ES over two-action cycles runs from
+        the ``starts`` fastest (``budget`` evaluations each, step ``sigma``) and the node keeps the
+        fastest drive found or played; one task per k line on ``executor``. Above ``k_max`` (if given)
+        the new nodes are not searched: each keeps the faster of its lighter and heavier neighbours'
+        drives, so the teacher's drives there stay the grid's. The old nodes are unchanged; the load
+        fractions are no longer evenly spaced. Returns the new nodes searched."""
+        nk, ns = self.velocities.shape
+        all_mids = 0.5 * (self.fractions[:-1] + self.fractions[1:])
+        cells = [j for j in range(ns - 1) if band[0] <= all_mids[j] <= band[1]]
+        if not cells:
+            return 0
+        mids = all_mids[cells]
+        searched = [i for i in range(nk) if k_max is None or self.ks[i] <= k_max]
+        lines = []
+        for i in searched:
+            line = []
+            for c, j in enumerate(cells):
+                light = self.drives[i, j]
+                ring = [align_phase(self.drives[a, b], light) for a in (i - 1, i, i + 1) if 0 <= a < nk for b in (j, j + 1)]
+                line.append(((float(self.ks[i]), float(mids[c] * self.trapezoid_critical[i])),
+                             np.array([0.5 * (light + align_phase(self.drives[i, j + 1], light)), *ring])))
+            lines.append(line)
+        new_drives = np.zeros((nk, len(cells), *self.drives.shape[2:]))
+        new_velocities = np.zeros((nk, len(cells)))
+        if searched:
+            new_drives[searched], new_velocities[searched] = self._searched_new_nodes(
+                lines, budget, sigma, starts, seed, "teacher: refine load", executor)
+        copied = [i for i in range(nk) if i not in searched]
+        if copied:  # the faster of the lighter and heavier neighbours' drives, played at the new node
+            pairs = [(i, c, d) for i in copied for c, j in enumerate(cells)
+                     for d in (self.drives[i, j], align_phase(self.drives[i, j + 1], self.drives[i, j]))]
+            v = open_loop_velocity([(float(self.ks[i]), float(mids[c] * self.trapezoid_critical[i]), *self.friction)
+                                    for i, c, _ in pairs], np.array([d for *_, d in pairs]))
+            for n in range(0, len(pairs), 2):
+                i, c, _ = pairs[n]
+                pick = n if v[n] >= v[n + 1] else n + 1
+                new_drives[i, c], new_velocities[i, c] = pairs[pick][2], v[pick]
+        at = [j + 1 for j in cells]  # each new line goes before the old line above it
+        self.fractions = np.insert(self.fractions, at, mids)
+        self.drives = np.insert(self.drives, at, new_drives, axis=1)
+        self.velocities = np.insert(self.velocities, at, new_velocities, axis=1)
+        self.meta["refined_load"] = {"budget": budget, "sigma": sigma, "band": list(band), "k_max": k_max,
+                                     "new_nodes": len(cells) * nk, "searched": len(cells) * len(searched)}
+        return len(cells) * len(searched)
 
     def consolidate(self, tolerance: float, passes: int = 4) -> int:
         """Spread drives between grid neighbours so that the teacher's drive changes at fewer places:

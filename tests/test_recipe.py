@@ -278,6 +278,45 @@ def test_refine_k_adds_a_k_line_between_every_two_and_plays_what_it_records(monk
         FieldConfig(refine_k=(10, 0.1, 0.9))  # outside k_range
 
 
+def test_refine_load_adds_load_lines_in_its_band_and_plays_what_it_records():
+    from mdr_drive_agents.evaluate import open_loop_velocity
+    from mdr_drive_env.sweep import Executor
+
+    field = _synthetic_field(nk=2, ns=3)  # fractions 0, 0.6, 1.2
+    field.trapezoid_critical[:] = 0.02
+    field.velocities = open_loop_velocity([field.point(i, j) for i in range(2) for j in range(3)],
+                                          field.drives.reshape(6, 2, 5)).reshape(2, 3)
+    old_drives, old_velocities = field.drives.copy(), field.velocities.copy()
+    assert field.refine_load(8, 0.1, (0.5, 1.0), executor=Executor(workers=1, progress=False)) == 2  # 0.9 only
+    assert np.allclose(field.fractions, [0.0, 0.6, 0.9, 1.2]) and field.velocities.shape == (2, 4)
+    assert np.array_equal(field.drives[:, [0, 1, 3]], old_drives)
+    assert np.array_equal(field.velocities[:, [0, 1, 3]], old_velocities)
+    points = [field.point(i, 2) for i in range(2)]  # the new nodes, at 0.9 of the critical load
+    assert np.isclose(points[0][1], 0.9 * 0.02)
+    assert np.allclose(open_loop_velocity(points, field.drives[:, 2]), field.velocities[:, 2])
+    for i in range(2):  # never slower than a drive it started from: the lighter and heavier neighbours'
+        started = open_loop_velocity([points[i]] * 2, old_drives[i, 1:])
+        assert field.velocities[i, 2] >= started.max() - 1e-12
+    assert field.meta["refined_load"] == {"budget": 8, "sigma": 0.1, "band": [0.5, 1.0], "k_max": None,
+                                          "new_nodes": 2, "searched": 2}
+    i, j, _, ws = field._cell(0.0, 0.95 * 0.02)  # queries read the uneven fractions
+    assert j == 2 and np.isclose(ws, (0.95 - 0.9) / 0.3)
+    assert field.refine_load(8, 0.1, (1.3, 1.4)) == 0
+    # above k_max the new nodes are not searched: each keeps its lighter or heavier neighbour's drive
+    assert field.refine_load(8, 0.1, (0.7, 0.8), executor=Executor(workers=1, progress=False), k_max=0.3) == 1
+    assert np.allclose(field.fractions, [0.0, 0.6, 0.75, 0.9, 1.2])
+    upper = field.point(1, 2)
+    neighbours = open_loop_velocity([upper] * 2, field.drives[1, [1, 3]])
+    assert any(np.array_equal(field.drives[1, 2], align_phase(field.drives[1, b], field.drives[1, 1])) for b in (1, 3))
+    assert np.isclose(field.velocities[1, 2], neighbours.max())
+    assert field.meta["refined_load"]["searched"] == 1 and field.meta["refined_load"]["new_nodes"] == 2
+    for bad, match in (((0, 0.1, 0.5, 1.0), "refine_load budget"), ((10, 0.1, 0.5), "refine_load"),
+                       ((10, 0.1, 1.0, 0.5), "refine_load high"), ((10, 0.1, 0.5, 9.0), "refine_load high"),
+                       ((10, 0.1, 0.5, 1.0, 0.9), "refine_load k_max")):
+        with pytest.raises(ValueError, match=match):
+            FieldConfig(refine_load=bad)
+
+
 def test_a_wider_teacher_never_plays_a_slower_drive():
     field = _synthetic_field()
     points = [(0.25, 0.02), (0.45, 0.04)]
