@@ -34,7 +34,7 @@ from mdr_drive_env.files import atomic_path
 
 from .cycles import align_phase
 from .evaluate import open_loop_velocity
-from .field_search import polish_slice, search_slice
+from .field_search import polish_slice, search_new_nodes, search_slice
 
 #: The paper's friction coefficients (mu indenter-slider, mu1 slider-base), the env's defaults.
 PAPER_FRICTION = (0.3, 0.1)
@@ -255,36 +255,6 @@ class DriveField:
         self.meta.setdefault("polished", []).append({"budget": budget, "sigma": sigma, "changed": changed})
         return changed
 
-    def _searched_new_nodes(self, lines: list, budget: int, sigma: float, starts: int, seed: int, label: str,
-                            executor=None) -> tuple[np.ndarray, np.ndarray]:
-        """Drives (n_lines, n, 2, 5) and velocities (n_lines, n) m/s of new nodes, ``lines`` of
-        [((k, load kg), trial drives (t, 2, 5)), ...]: every node plays its trials (one batched call),
-        CMA-ES over two-action cycles runs from the ``starts`` fastest of them (``budget`` evaluations
-        each, step ``sigma``; one task per line on ``executor``) and the node keeps the fastest drive
-        found or played."""
-        from mdr_drive_env.sweep import Executor
-
-        tasks, trial_d, trial_v = [], [], []  # per line: its task, its nodes' fastest trial drives and velocities
-        for n, line in enumerate(lines):
-            played = open_loop_velocity([(*node, *self.friction) for node, t in line for _ in t],
-                                        np.concatenate([t for _, t in line]))
-            nodes, fastest_d, fastest_v, at = [], [], [], 0
-            for node, t in line:
-                order = np.argsort(-played[at:at + len(t)])
-                fastest_d.append(t[order[0]])
-                fastest_v.append(played[at + order[0]])
-                nodes.append((*node, t[order[:starts]]))
-                at += len(t)
-            tasks.append((nodes, budget, sigma, seed + 7919 * (n + 1), self.friction))
-            trial_d.append(fastest_d)
-            trial_v.append(fastest_v)
-        found = (executor or Executor()).map(polish_slice, tasks, label)
-        searched_d = np.array([[d for d, _ in line] for line in found])
-        searched_v = np.array([[v for _, v in line] for line in found], dtype=np.float64)
-        trial_d, trial_v = np.array(trial_d), np.array(trial_v, dtype=np.float64)
-        keep_search = searched_v > trial_v
-        return np.where(keep_search[:, :, None, None], searched_d, trial_d), np.where(keep_search, searched_v, trial_v)
-
     def refine_k(self, budget: int, sigma: float, executor=None, seed: int = 0, starts: int = 3,
                  k_max: float | None = None) -> int:
         """Insert a k line between every two of the grid's (below ``k_max``, if given), at the same load
@@ -311,8 +281,8 @@ class DriveField:
                 line.append(((float(mids[c]), float(self.fractions[j] * mid_crit[c])),
                              np.array([0.5 * (left + align_phase(self.drives[i + 1, j], left)), *ring])))
             lines.append(line)
-        new_drives, new_velocities = self._searched_new_nodes(lines, budget, sigma, starts, seed, "teacher: refine k",
-                                                              executor)
+        new_drives, new_velocities = search_new_nodes(lines, budget, sigma, starts, seed, self.friction,
+                                                       "teacher: refine k", executor)
         at = [i + 1 for i in cells]  # each new line goes before the old line above it
         self.ks = np.insert(self.ks, at, mids)
         self.trapezoid_critical = np.insert(self.trapezoid_critical, at, mid_crit)
@@ -351,8 +321,8 @@ class DriveField:
         new_drives = np.zeros((nk, len(cells), *self.drives.shape[2:]))
         new_velocities = np.zeros((nk, len(cells)))
         if searched:
-            new_drives[searched], new_velocities[searched] = self._searched_new_nodes(
-                lines, budget, sigma, starts, seed, "teacher: refine load", executor)
+            new_drives[searched], new_velocities[searched] = search_new_nodes(
+                lines, budget, sigma, starts, seed, self.friction, "teacher: refine load", executor)
         copied = [i for i in range(nk) if i not in searched]
         if copied:  # the faster of the lighter and heavier neighbours' drives, played at the new node
             pairs = [(i, c, d) for i in copied for c, j in enumerate(cells)

@@ -1,6 +1,6 @@
 """The teacher's searches at its grid nodes: CMA-ES (``agents.baselines``) from the starts the drive
 field gives them, one k slice per task so that an executor (``mdr_drive_env.sweep.Executor``) can spread
-the slices over processes or a Ray cluster (``DriveField.search``, ``polish``, ``refine_k``).
+the slices over processes or a Ray cluster (``DriveField.search``, ``polish``, ``refine_k``, ``refine_load``).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .baselines import PUSH_CLAMP, best_cma_run, cma_optimize
-from .evaluate import trapezoid_action
+from .evaluate import open_loop_velocity, trapezoid_action
 
 if TYPE_CHECKING:
     from .drive_field import FieldConfig
@@ -56,4 +56,35 @@ def polish_slice(args) -> list[tuple[np.ndarray, float]]:
     return out
 
 
-__all__ = ["polish_slice", "search_point", "search_slice"]
+def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: int, friction, label: str,
+                     executor=None) -> tuple[np.ndarray, np.ndarray]:
+    """Drives (n_lines, n, 2, 5) and velocities (n_lines, n) m/s of new grid nodes (``DriveField.refine_k``,
+    ``refine_load``), ``lines`` of [((k, load kg), trial drives (t, 2, 5)), ...] at ``friction`` (mu,
+    mu1): every node plays its trials (one batched call), CMA-ES over two-action cycles runs from the
+    ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``; one task per line on
+    ``executor``) and the node keeps the fastest drive found or played."""
+    from mdr_drive_env.sweep import Executor
+
+    tasks, trial_d, trial_v = [], [], []  # per line: its task, its nodes' fastest trial drives and velocities
+    for n, line in enumerate(lines):
+        played = open_loop_velocity([(*node, *friction) for node, t in line for _ in t],
+                                    np.concatenate([t for _, t in line]))
+        nodes, fastest_d, fastest_v, at = [], [], [], 0
+        for node, t in line:
+            order = np.argsort(-played[at:at + len(t)])
+            fastest_d.append(t[order[0]])
+            fastest_v.append(played[at + order[0]])
+            nodes.append((*node, t[order[:starts]]))
+            at += len(t)
+        tasks.append((nodes, budget, sigma, seed + 7919 * (n + 1), friction))
+        trial_d.append(fastest_d)
+        trial_v.append(fastest_v)
+    found = (executor or Executor()).map(polish_slice, tasks, label)
+    searched_d = np.array([[d for d, _ in line] for line in found])
+    searched_v = np.array([[v for _, v in line] for line in found], dtype=np.float64)
+    trial_d, trial_v = np.array(trial_d), np.array(trial_v, dtype=np.float64)
+    keep_search = searched_v > trial_v
+    return np.where(keep_search[:, :, None, None], searched_d, trial_d), np.where(keep_search, searched_v, trial_v)
+
+
+__all__ = ["polish_slice", "search_new_nodes", "search_point", "search_slice"]
