@@ -1,6 +1,6 @@
 """Ship a trained policy: copy model, VecNormalize statistics and run record, and write its model card.
 
-    python -m mdr_drive_agents.model_card runs/recipe/policy agents/pretrained/ppo_generalist [BLIND.json]
+    python -m mdr_drive_agents.model_card runs/recipe/policy agents/pretrained/ppo_generalist [BLIND.json ...]
     python -m mdr_drive_agents.model_card runs/sensor/policy agents/pretrained/ppo_sensor ADAPTATION.json
 
 The card's evaluation table is computed here, from the shipped files, with the benchmark protocol.
@@ -15,7 +15,7 @@ from pathlib import Path
 
 from mdr_drive_env.files import write_text
 
-from .blind import DRAWN_SCAN, scan_of
+from .blind import CRITICAL_LOAD_TARGET, DRAWN_SCAN, scan_of
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -123,6 +123,10 @@ def blind_section(blind_json: str | Path, policy_key: str) -> str:
     s = res["statistics"][policy_key]
     over_trap = [r for r in s["critical_load_over_trapezoid"] if r is not None]
     draw = " --scan-draw" if scan_of(res) == DRAWN_SCAN else ""
+    at_target = ""
+    if s.get("k_values_at_critical_load_target") is not None:
+        at_target = (f" (at least {CRITICAL_LOAD_TARGET:g} of it at {s['k_values_at_critical_load_target']} of "
+                     f"{len(s['critical_load_over_best_cycle'])} k)")
     return f"""## Blind results (`{Path(blind_json).as_posix()}`)
 
 `mdr-drive benchmark --blind {res['n']} --seed {res['seed']}{draw} --policies {' '.join(res.get('policies', [policy_key]))}`:
@@ -133,7 +137,7 @@ def blind_section(blind_json: str | Path, policy_key: str) -> str:
 * fraction of the best drive a CMA-ES search finds (where it moves >= 2 mm/s, {s['points_scored']} points):
   mean {s['fraction_of_best_mean']:.3f}, minimum {s['fraction_of_best_min']:.3f}
 * critical load over the best two-action cycle's, smallest over {len(s['critical_load_over_best_cycle'])} k:
-  {s['critical_load_over_best_cycle_min']:.3f}; over the trapezoid's: {min(over_trap):.3f}-{max(over_trap):.3f}
+  {s['critical_load_over_best_cycle_min']:.3f}{at_target}; over the trapezoid's: {min(over_trap):.3f}-{max(over_trap):.3f}
 """
 
 
@@ -148,10 +152,11 @@ def copy_policy(src: str | Path, dst: str | Path) -> tuple[Path, dict]:
     return dst, json.loads((dst / "run.json").read_text())
 
 
-def ship(src: str | Path, dst: str | Path, blind_json: str | Path | None = None) -> Path:
+def ship(src: str | Path, dst: str | Path, blind_json=None) -> Path:
     """Copy the policy in ``src`` (``model.zip``, ``vecnormalize.pkl``, ``run.json``) to ``dst``
-    (nothing to copy if they are the same folder) and write its card; with ``blind_json``, the card
-    quotes the policy's blind results from it."""
+    (nothing to copy if they are the same folder) and write its card; with ``blind_json`` (a path or
+    a list of them, one per report seed), the card quotes the policy's blind results from each."""
+    blind_jsons = [] if blind_json is None else [blind_json] if isinstance(blind_json, (str, Path)) else list(blind_json)
     dst, run = copy_policy(src, dst)
     size_kb = sum((dst / n).stat().st_size for n in FILES) / 1024
     hyper = {k: v for k, v in run["hyperparameters"].items() if k != "policy_kwargs"}
@@ -192,7 +197,9 @@ folder first: a resumed run writes into it; the observation statistics stay as d
   evaluate` before relying on it. `python scripts/dense_check.py {dst.as_posix()} --out DIR` maps
   where it is below the trapezoid on a dense grid of the whole domain (no search needed; about a
   minute): narrow rows of load, some going backwards fast. Where those points fall depends on the
-  build: the same recipe with another `seed` misses about as often, elsewhere (docs/ablations.md).
+  build, and builds of one recipe differ widely: the shipped one was chosen among seeds on decision
+  data (`results/blind/selection_decision`); another `seed` is expected to miss more often
+  (docs/ablations.md).
 
 ## Evaluation
 
@@ -202,7 +209,7 @@ fresh drive, computed by `python -m mdr_drive_agents.model_card {Path(src).as_po
 
 {evaluation_table(dst)}
 
-{blind_section(blind_json, dst.as_posix()) if blind_json else ""}"""
+{chr(10).join(blind_section(b, dst.as_posix()) for b in blind_jsons)}"""
     write_text(dst / "MODEL_CARD.md", card)
     return dst / "MODEL_CARD.md"
 
@@ -280,14 +287,16 @@ def main(argv=None) -> int:
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("src", type=folder_with(*FILES), help="the trained policy's folder (model.zip, vecnormalize.pkl, run.json)")
     ap.add_argument("dst", type=output_dir, help="where to ship it (its files are replaced, MODEL_CARD.md written)")
-    ap.add_argument("results", nargs="?", type=input_file, default=None,
-                    help="blind.json of mdr-drive benchmark --blind (the card quotes it), or, for a sensor policy, "
-                         "adaptation.json of python -m mdr_drive_agents.adaptation")
+    ap.add_argument("results", nargs="*", type=input_file, default=[],
+                    help="blind.json of mdr-drive benchmark --blind, one per report seed (the card quotes each), "
+                         "or, for a sensor policy, one adaptation.json of python -m mdr_drive_agents.adaptation")
     a = ap.parse_args(argv)
 
     def work():
-        sensor = a.results is not None and Path(a.results).name == "adaptation.json"
-        print((ship_sensor(a.src, a.dst, a.results) if sensor else ship(a.src, a.dst, a.results)).read_text())
+        sensor = any(Path(r).name == "adaptation.json" for r in a.results)
+        if sensor and len(a.results) != 1:
+            raise ValueError(f"a sensor policy's card quotes one adaptation.json, got {len(a.results)} files")
+        print((ship_sensor(a.src, a.dst, a.results[0]) if sensor else ship(a.src, a.dst, a.results)).read_text())
 
     return run_command(ap.prog, work, "nothing was shipped unless the card was printed")
 

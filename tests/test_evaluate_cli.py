@@ -139,6 +139,14 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     text = ship(card_dir, card_dir, blind_json).read_text()  # in place: nothing to copy
     assert "runaway (runaway)" in text and "-1170" not in text  # k = 0.2, 0.4 kg runs away
     assert "--seed 99" in text and "mean 0.885, minimum 0.327" in text and "## Limits" in text
+    second = tmp_path / "blind2.json"
+    res = json.loads(blind_json.read_text())
+    res["seed"] = 100
+    res["statistics"][card_dir.as_posix()]["k_values_at_critical_load_target"] = 1
+    second.write_text(json.dumps(res))
+    text = ship(card_dir, card_dir, [blind_json, second]).read_text()  # one section per report seed
+    assert text.count("## Blind results") == 2 and "--seed 99" in text and "--seed 100" in text
+    assert "0.937 (at least 0.97 of it at 1 of 2 k)" in text
 
 
 def test_the_model_cards_blind_command_repeats_a_drawn_scan(tmp_path):
