@@ -176,7 +176,11 @@ def test_fitting_the_estimator_through_the_teacher_brings_its_actions_to_the_tol
     from mdr_drive_agents.evaluate import Policy
     from mdr_drive_env.gym_envs.spaces import SensorLayout
 
-    config = AdaptConfig(history=2, episodes=8, periods=6, load_step_periods=(1, 4), estimator_arch=(16,))
+    from mdr_drive_agents.evaluate import SENSOR_PRETRAINED
+
+    # the sensor recipe's own pinned teacher, so the check does not move with the shipped generalist
+    config = AdaptConfig(history=2, episodes=8, periods=6, load_step_periods=(1, 4), estimator_arch=(16,),
+                         teacher=str(Path(SENSOR_PRETRAINED) / "teacher"))
     teacher = Policy(config.teacher)
     sensed, privileged, _ = collect(*sensor_envs(config, 8, seed=4), lambda s, p: teacher(p))
     hidden = hidden_entries(teacher_layout(teacher))
