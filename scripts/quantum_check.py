@@ -60,12 +60,12 @@ def main(argv=None) -> int:
           "share of the samples in the label's quantum / one off / two or more; |error| median, 90th percentile")
     print("| policy | x rise | z rise | z phase | |error| median (5 entries) | 90th percentile |")
     print("|---|---|---|---|---|---|")
+    obs, drives = labelled_episodes(field, points, None, config, seed=3)  # the teacher's: the same for every policy
+    labels = np.clip(cycle_action(drives, obs[:, prev]), -1.0, 1.0)
     for path in args.policies:
         policy = load_policy(path)
         if policy.play_kwargs.get("z_phase_origin", 0.0) != 0.0:
             p.error(f"{path}: a policy with a moved z phase seam is not supported")
-        obs, drives = labelled_episodes(field, points, None, config, seed=3)
-        labels = np.clip(cycle_action(drives, obs[:, prev]), -1.0, 1.0)
         actions = np.clip(np.asarray(policy(obs), dtype=np.float64).reshape(-1, 5), -1.0, 1.0)
         off = quanta_off(actions, labels, ACTION_MAP)
         shares = [f"{(o == 0).mean():.3f} / {(o == 1).mean():.3f} / {(o >= 2).mean():.3f}" for o in off.T]
