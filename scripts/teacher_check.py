@@ -13,14 +13,20 @@ it. Per policy, with the blind benchmark's statistics: points below the trapezoi
 0.05 mm/s (where either moves), the fraction of that reference where it moves >= 2 mm/s (mean,
 minimum, points under 0.85), and the critical load at ``--scan-ks`` values of k (the midpoints of
 equal cells of [0, 0.6], so none is a k of the blind benchmark's 25-value scan) over the teacher's
-own (``teacher_data.teacher_drives`` with the recipe's settings, as the recipe's student was taught) and over the trapezoid's. The
+own (``teacher_data.teacher_drives`` with the recipe's settings, as the recipe's student was taught) and over the trapezoid's
+(``--scan-range`` cuts another k interval into the cells; ``--scan-seed`` draws one uniform k in each
+cell instead of its midpoint), with the k under 0.97 of the teacher's listed. The
 reference is weaker than the benchmark's search, so fractions read higher here; use it to compare
 policies, and report on ``mdr-drive benchmark --blind``.
 
 ``--cycle-scan`` adds the blind benchmark's reference for the critical load at the same k values:
 the best two-action cycle's (``agents.baselines.cycle_critical_load``, its budget; about 6 minutes
 for 24 k on 2 cores), and prints the teacher's and each policy's critical load over it, so one can
-tell whether a shortfall against the benchmark's target is the teacher's or the student's.
+tell whether a shortfall against the benchmark's target is the teacher's or the student's;
+``--cycle-scan-file`` keeps that scan, so another policy is judged on it without searching again:
+
+    python scripts/teacher_check.py --n 1 --seed 1 --scan-ks 20 --scan-range 0 0.15 --scan-seed 7373 --cycle-scan \
+        --cycle-scan-file results/blind/polish_stall_decision/cycle_scan_low_k_seed7373.json agents/pretrained/ppo_generalist
 """
 
 from __future__ import annotations
@@ -43,6 +49,14 @@ def main(argv=None) -> int:
     p.add_argument("--field", type=input_file, default="results/recipe/teacher_field.npz",
                    help="the teacher's drive field (.npz, written by the recipe)")
     p.add_argument("--scan-ks", type=int_range(1), default=24, help="k values of the critical-load scan (-)")
+    p.add_argument("--scan-range", type=float, nargs=2, default=(0.0, 0.6), metavar=("LOW", "HIGH"),
+                   help="k interval of the critical-load scan, cut into --scan-ks equal cells (-)")
+    p.add_argument("--scan-seed", type=int, default=None,
+                   help="draw the scan's k uniformly in each cell with this seed (a decision seed) instead of "
+                        "taking the cells' midpoints")
+    p.add_argument("--cycle-scan-file", type=Path, default=None, metavar="JSON",
+                   help="with --cycle-scan: read the best cycle's scan from this file if it exists (it must hold "
+                        "these k), else compute it and write it there")
     p.add_argument("--cycle-scan", action="store_true",
                    help="also the best two-action cycle's critical load at those k (CMA-ES bisection, as "
                         "the blind benchmark's), and the teacher's and each policy's over it")
@@ -53,8 +67,11 @@ def main(argv=None) -> int:
     p.add_argument("--workers", type=int_range(1), default=None,
                    help="local processes of the cycle scan (default: the cores available)")
     args = p.parse_args(argv)
+    low, high = args.scan_range
+    if not 0.0 <= low < high <= 0.6:
+        p.error(f"--scan-range {low:g} {high:g}: need 0 <= LOW < HIGH <= 0.6 (the training domain's k)")
 
-    from mdr_drive_agents.blind import (CRITICAL_LOAD_TARGET, MOVING_THRESHOLD, draw_points, in_k_cells,
+    from mdr_drive_agents.blind import (CRITICAL_LOAD_TARGET, K_RANGE, MOVING_THRESHOLD, draw_points, in_k_cells,
                                         trapezoid_critical, velocity_statistics)
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import (
@@ -77,7 +94,9 @@ def main(argv=None) -> int:
     learned = {path: policy_velocity(policy, points) for path, policy in policies.items()}
     reference = np.fmax(np.fmax(trap, teacher), np.max(list(learned.values()), axis=0))
     scored = reference >= MOVING_THRESHOLD
-    scan_ks = [float(k) for k in in_k_cells(np.full(args.scan_ks, 0.5))]
+    offsets = (np.full(args.scan_ks, 0.5) if args.scan_seed is None
+               else np.random.default_rng(args.scan_seed).uniform(size=args.scan_ks))
+    scan_ks = [float(round(k, 6)) for k in low + (in_k_cells(offsets) - K_RANGE[0]) * (high - low) / (K_RANGE[1] - K_RANGE[0])]
     crit_trap = trapezoid_critical(scan_ks)
     crit_teacher = critical_loads_grid(scan_ks, lambda pts: teacher_drives(field, pts, teacher_config)[1])
     print(f"{args.n} points of seed {args.seed}; reference: the teacher's 6 x 6 neighbourhood ({args.field}) "
@@ -100,8 +119,11 @@ def main(argv=None) -> int:
         worst = int(np.argmin(to_teacher))
         print(f"| {path} | {velocity_cells(v)} | {to_teacher[worst]:.2f} ({scan_ks[worst]:.4g}), "
               f"{int((to_teacher >= CRITICAL_LOAD_TARGET).sum())} | {to_trapezoid.min():.2f} |")
+    for path, crit in crits.items():
+        print_under(f"{path}: critical load under {CRITICAL_LOAD_TARGET:g} of the teacher's", scan_ks,
+                    np.array([crit[k] / max(crit_teacher[k], 1e-12) for k in scan_ks]))
     if args.cycle_scan:
-        print_cycle_scan(scan_ks, crit_trap, {"the teacher": crit_teacher, **crits}, args.workers)
+        print_cycle_scan(scan_ks, crit_trap, {"the teacher": crit_teacher, **crits}, args.workers, args.cycle_scan_file)
     if args.searched:
         print_teacher_against_search(field, args.searched, teacher_config)
     if len(learned) > 1:  # not a policy: whether the policies fail at the same points or each at its own
@@ -142,17 +164,40 @@ def print_teacher_against_search(field, blind_json, teacher_config, worst: int =
               f"min {r['min']:.3f}, {r['at_target']} at >= {CRITICAL_LOAD_TARGET:g}; under it: {under}")
 
 
-def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers) -> None:
+def print_under(title: str, scan_ks, ratio: np.ndarray) -> None:
+    """One line: ``title``, then each k of ``scan_ks`` whose ``ratio`` is under the target, with it."""
+    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET
+
+    under = [f"{k:.4g} ({r:.3f})" for k, r in zip(scan_ks, ratio) if r < CRITICAL_LOAD_TARGET]
+    print(f"{title}: {', '.join(under) or 'none'}")
+
+
+def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers, scan_file: Path | None = None) -> None:
     """The best two-action cycle's critical load at ``scan_ks`` (the blind benchmark's search and
-    budget), and each entry of ``crits`` ({name: {k: kg}}) over it: its minimum and the k values at
-    >= 0.97 of it."""
+    budget; read from ``scan_file`` if it holds these k, else computed and written there), and each
+    entry of ``crits`` ({name: {k: kg}}) over it: its minimum, the k values at >= 0.97 of it and
+    those under."""
+    import json
+
     from mdr_drive_agents.baselines import CYCLE_SEARCH
     from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, CYCLE_BISECTIONS, cycle_scan_task
+    from mdr_drive_env.files import write_text
     from mdr_drive_env.sweep import Executor
 
-    cycle = np.array(Executor(workers=workers).map(
-        cycle_scan_task, [(k, m, CYCLE_BISECTIONS, CYCLE_SEARCH["budget"]) for k, m in zip(scan_ks, crit_trap)],
-        "critical load of the best cycle per k"))
+    stored = json.loads(scan_file.read_text()) if scan_file is not None and scan_file.exists() else {}
+    if stored and stored.get("k") != list(scan_ks):
+        raise SystemExit(f"teacher_check.py: --cycle-scan-file {scan_file} holds another scan's k values; name a new file")
+    if stored:
+        cycle = np.array(stored["best_cycle_kg"])
+        print(f"\nthe best cycle's critical loads read from {scan_file}")
+    else:
+        cycle = np.array(Executor(workers=workers).map(
+            cycle_scan_task, [(k, m, CYCLE_BISECTIONS, CYCLE_SEARCH["budget"]) for k, m in zip(scan_ks, crit_trap)],
+            "critical load of the best cycle per k"))
+        if scan_file is not None:
+            write_text(scan_file, json.dumps({"k": list(scan_ks), "trapezoid_kg": [float(c) for c in crit_trap],
+                                              "best_cycle_kg": [float(c) for c in cycle],
+                                              "search": {"bisections": CYCLE_BISECTIONS, **CYCLE_SEARCH}}, indent=1))
     print(f"\nCritical load over the best two-action cycle's ({len(scan_ks)} k; "
           f"the cycle's over the trapezoid's: {np.min(cycle / crit_trap):.2f}-{np.max(cycle / crit_trap):.2f})")
     print(f"| drive | min (k) | k values >= {CRITICAL_LOAD_TARGET:g} of {len(scan_ks)} |")
@@ -161,6 +206,9 @@ def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers) -> None:
         ratio = np.array([crit[k] for k in scan_ks]) / np.maximum(cycle, 1e-12)
         worst = int(np.argmin(ratio))
         print(f"| {name} | {ratio[worst]:.3f} ({scan_ks[worst]:.4g}) | {int((ratio >= CRITICAL_LOAD_TARGET).sum())} |")
+    for name, crit in crits.items():
+        print_under(f"{name}: under {CRITICAL_LOAD_TARGET:g} of the best cycle's", scan_ks,
+                    np.array([crit[k] for k in scan_ks]) / np.maximum(cycle, 1e-12))
 
 
 if __name__ == "__main__":

@@ -421,6 +421,34 @@ def test_the_teacher_check_script_compares_critical_loads_with_the_best_cycles(c
     first_table = out.split("Critical load over the best")[0]
     trapezoid_ratio = next(float(line.split("|")[6]) for line in first_table.splitlines() if line.startswith(f"| {policy}"))
     assert float(rows[2][2].split()[0]) == pytest.approx(trapezoid_ratio / 2.0, abs=0.01)  # half its min over the trapezoid's
+    assert f"{policy}: under 0.97 of the best cycle's: 0." in out  # at half the best cycle's, every k is listed
+
+
+def test_the_teacher_check_scan_draws_k_in_its_range_and_keeps_the_cycle_scan(capsys, monkeypatch, tmp_path):
+    import runpy
+
+    from mdr_drive_agents import blind
+
+    root = Path(__file__).parents[1]
+    calls = []
+    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: calls.append(args[0]) or 2.0 * args[1])
+    main = runpy.run_path(str(root / "scripts" / "teacher_check.py"))["main"]
+    policy = str(root / "agents" / "pretrained" / "ppo_generalist")
+    scan = tmp_path / "scan.json"
+    args = ["--n", "2", "--seed", "3", "--scan-ks", "2", "--scan-range", "0.1", "0.2", "--scan-seed", "5",
+            "--cycle-scan", "--cycle-scan-file", str(scan), "--workers", "1", policy]
+    assert main(args) == 0
+    stored = json.loads(scan.read_text())
+    offsets = np.random.default_rng(5).uniform(size=2)
+    assert stored["k"] == calls == [round(0.1 + (i + offsets[i]) * 0.05, 6) for i in range(2)]  # one drawn k per cell
+    assert stored["best_cycle_kg"] == pytest.approx([2.0 * t for t in stored["trapezoid_kg"]])
+    capsys.readouterr()
+    assert main(args) == 0 and len(calls) == 2  # read back, not searched again
+    assert f"read from {scan}" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match="another scan's k"):  # a file of other k values is not overwritten
+        main([a if a != "5" else "6" for a in args])
+    with pytest.raises(SystemExit):
+        main(["--n", "2", "--seed", "3", "--scan-range", "0.3", "0.2", policy])
 
 
 def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_error_blends_them():
