@@ -32,7 +32,6 @@ import numpy as np
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import atomic_path
 
-from .baselines import PUSH_CLAMP
 from .cycles import align_phase
 from .evaluate import open_loop_velocity
 from .field_search import polish_slice, search_new_nodes, search_slice
@@ -75,13 +74,6 @@ class FieldConfig:
             around it, then polished from the three best (``DriveField.refine_load``; empty: none)
             (-, action units, -, -, -). Between load lines 0.12 apart the best drive can change (past
             about 0.6 of the trapezoid's critical load, where it slows steeply with the load).
-        polish_stall: last, (budget, sigma) or empty: on every k line, the two nodes on either side of
-            its stall (the heaviest that moves and the next heavier) play their own, their lighter
-            and k neighbours' drives and the push/clamp cycle, then CMA-ES over two-action cycles runs
-            from the three fastest (``budget`` evaluations each, step ``sigma``) and each keeps a
-            faster drive (``DriveField.polish_stall``) (-, action units). The grid's searches there
-            are weaker than the blind benchmark's critical-load bisection, and the teacher's
-            critical load is the stall node's.
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
@@ -98,7 +90,6 @@ class FieldConfig:
     polish: tuple[tuple[int, float], ...] = ()
     refine_k: tuple = ()
     refine_load: tuple = ()
-    polish_stall: tuple = ()
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -132,11 +123,6 @@ class FieldConfig:
             check_range("refine_load high", self.refine_load[3], self.refine_load[2], self.max_load_fraction)
             if len(self.refine_load) == 5:
                 check_range("refine_load k_max", self.refine_load[4], *self.k_range)
-        if self.polish_stall:
-            if len(self.polish_stall) != 2:
-                raise ValueError(f"polish_stall={self.polish_stall!r} must be (budget, sigma) or empty")
-            check_int("polish_stall budget", self.polish_stall[0], 1)
-            check_range("polish_stall sigma", self.polish_stall[1], 0.0, 1.0, low_open=True)
         if len(self.friction) != 2:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
@@ -198,11 +184,6 @@ class DriveField:
             k_max = float(config.refine_load[4]) if len(config.refine_load) == 5 else None
             field.refine_load(int(budget), float(sigma), (float(low), float(high)), executor=executor, seed=seed + 950_000,
                               k_max=k_max)
-            field.exchange()
-            field.align()
-        if config.polish_stall:
-            field.polish_stall(int(config.polish_stall[0]), float(config.polish_stall[1]), executor=executor,
-                               seed=seed + 970_000)
             field.exchange()
             field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
@@ -359,40 +340,6 @@ class DriveField:
         self.meta["refined_load"] = {"budget": budget, "sigma": sigma, "band": list(band), "k_max": k_max,
                                      "new_nodes": len(cells) * nk, "searched": len(cells) * len(searched)}
         return len(cells) * len(searched)
-
-    def stall_nodes(self) -> list[tuple[int, int]]:
-        """Two nodes (i, j) per k line, on either side of its stall: its heaviest node that moves and
-        the next heavier (the two heaviest if the heaviest moves, the two lightest if none does)."""
-        nodes = []
-        for i, line in enumerate(self.velocities):
-            moving = np.flatnonzero(line > 0.0)
-            first = min(int(moving[-1]) if len(moving) else 0, len(line) - 2)
-            nodes += [(i, first), (i, first + 1)]
-        return nodes
-
-    def polish_stall(self, budget: int, sigma: float, executor=None, seed: int = 0, starts: int = 3) -> int:
-        """At each of :meth:`stall_nodes`: play its own drive, its lighter and its two k neighbours'
-        (aligned to it) and the push/clamp cycle, run CMA-ES over two-action cycles from the ``starts``
-        fastest (``budget`` evaluations each, step ``sigma``; one task per k line on ``executor``) and
-        keep the fastest drive found if it beats the node's own. Returns the nodes changed."""
-        nk, ns = self.velocities.shape
-        lines: dict = {}
-        for i, j in self.stall_nodes():
-            own = self.drives[i, j]
-            trials = [own, align_phase(PUSH_CLAMP, own)] + [align_phase(self.drives[a, b], own) for a, b in
-                                                            ((i, j - 1), (i - 1, j), (i + 1, j)) if 0 <= a < nk and 0 <= b]
-            lines.setdefault(i, []).append(((j, self.point(i, j)[:2]), np.array(trials)))
-        found_d, found_v = search_new_nodes([[(p, t) for (_, p), t in line] for line in lines.values()], budget,
-                                            sigma, starts, seed, self.friction, "teacher: polish stall", executor)
-        changed = 0
-        for (i, line), drives, velocities in zip(lines.items(), found_d, found_v):
-            for ((j, _), _), drive, vel in zip(line, drives, velocities):
-                if vel > self.velocities[i, j] * (1.0 + 1e-3) + 1e-6:
-                    self.drives[i, j], self.velocities[i, j] = drive, vel
-                    changed += 1
-        self.meta["polished_stall"] = {"budget": budget, "sigma": sigma, "nodes": sum(map(len, lines.values())),
-                                       "changed": changed}
-        return changed
 
     def consolidate(self, tolerance: float, passes: int = 4) -> int:
         """Spread drives between grid neighbours so that the teacher's drive changes at fewer places:
