@@ -13,7 +13,7 @@ from .baselines import PUSH_CLAMP, best_cma_run, cma_optimize
 from .evaluate import open_loop_velocity, trapezoid_action
 
 if TYPE_CHECKING:
-    from .drive_field import FieldConfig
+    from .field_config import FieldConfig
 
 
 def search_point(k: float, load: float, previous: np.ndarray | None, config: FieldConfig,

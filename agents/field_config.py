@@ -1,0 +1,115 @@
+"""The teacher's settings: its grid and search budgets (``FieldConfig``), read from the recipe YAML's
+``teacher`` section, and the friction the drives are searched at by default (``PAPER_FRICTION``).
+The field they build is ``agents.drive_field.DriveField``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mdr_drive_env.core.params import check_int, check_range
+
+#: The paper's friction coefficients (mu indenter-slider, mu1 slider-base), the env's defaults.
+PAPER_FRICTION = (0.3, 0.1)
+
+
+@dataclass(frozen=True)
+class FieldConfig:
+    """The teacher's grid and search budgets.
+
+    Attributes:
+        k_values: grid values of the grading exponent k, spread evenly over ``k_range`` (-).
+        k_range: (low, high) of k (-).
+        load_fractions: grid values of the load, spread evenly from 0 to ``max_load_fraction`` times
+            the trapezoid's critical load at each k (-).
+        max_load_fraction: heaviest grid load / the trapezoid's critical load (-).
+        fixed_budget: CMA-ES evaluations of the fixed-action search per point (-).
+        cycle_budget: CMA-ES evaluations of the two-action search per start and point (-).
+        sigma0: CMA-ES initial step size of both searches (action units).
+        consolidate_tolerance: after the search, nodes take their neighbours' most shared drive if it
+            loses at most this fraction of their velocity (``DriveField.consolidate``; 0: off) (-).
+        polish: passes after the search, exchange and consolidation, each (budget, sigma): every node
+            runs a CMA-ES search over two-action cycles from its own drive and from each of its four
+            grid neighbours' drives, ``budget`` evaluations per start with initial step ``sigma``
+            (action units), keeps a faster drive, and the nodes exchange again
+            (``DriveField.polish``; empty: none) (-, action units).
+        refine_k: after the polish passes, (budget, sigma) or (budget, sigma, k_max): a k line
+            between every two (below k_max), each new node started from the best of the
+            interpolation of its two k neighbours' drives and the drives of the six nodes around it,
+            then polished from the three best of them
+            (``DriveField.refine_k``; empty: none) (-, action units). The teacher's drive between two
+            k lines is an interpolation, and where the best drive changes with k (push/clamp cycles
+            past the trapezoid's critical load) it falls short of a search there.
+        refine_load: after the k lines, (budget, sigma, low, high) or (budget, sigma, low, high, k_max):
+            a load line between every two whose midpoint fraction lies in [low, high], on every k line
+            (searched up to k_max, above it each new node a copy of a neighbour's drive), each new node started from the
+            best of the interpolation of its lighter and heavier neighbours' drives and the six nodes
+            around it, then polished from the three best (``DriveField.refine_load``; empty: none)
+            (-, action units, -, -, -). Between load lines 0.12 apart the best drive can change (past
+            about 0.6 of the trapezoid's critical load, where it slows steeply with the load).
+        friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
+            searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
+            paper's friction (0.3, 0.1).
+    """
+
+    k_values: int = 13
+    k_range: tuple[float, float] = (0.0, 0.6)
+    load_fractions: int = 12
+    max_load_fraction: float = 1.3
+    fixed_budget: int = 300
+    cycle_budget: int = 700
+    sigma0: float = 0.25
+    consolidate_tolerance: float = 0.0
+    polish: tuple[tuple[int, float], ...] = ()
+    refine_k: tuple = ()
+    refine_load: tuple = ()
+    friction: tuple[float, float] = PAPER_FRICTION
+
+    def __post_init__(self) -> None:
+        for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1)):
+            check_int(name, getattr(self, name), low)
+        lo, hi = self.k_range
+        if not 0.0 <= lo < hi <= 1.0:
+            raise ValueError(f"k_range={self.k_range!r} must satisfy 0 <= low < high <= 1")
+        check_range("max_load_fraction", self.max_load_fraction, 0.0, 5.0, low_open=True)
+        check_range("consolidate_tolerance", self.consolidate_tolerance, 0.0, 1.0, high_open=True)
+        check_range("sigma0", self.sigma0, 0.0, 1.0, low_open=True)
+        for entry in self.polish:
+            if len(entry) != 2:
+                raise ValueError(f"polish={self.polish!r}: each pass is (budget, sigma)")
+            check_int("polish budget", entry[0], 1)
+            check_range("polish sigma", entry[1], 0.0, 1.0, low_open=True)
+        if self.refine_k:
+            if len(self.refine_k) not in (2, 3):
+                raise ValueError(f"refine_k={self.refine_k!r} must be (budget, sigma), (budget, sigma, k_max) or empty")
+            check_int("refine_k budget", self.refine_k[0], 1)
+            check_range("refine_k sigma", self.refine_k[1], 0.0, 1.0, low_open=True)
+            if len(self.refine_k) == 3:
+                check_range("refine_k k_max", self.refine_k[2], *self.k_range, low_open=True)
+        if self.refine_load:
+            if len(self.refine_load) not in (4, 5):
+                raise ValueError(f"refine_load={self.refine_load!r} must be (budget, sigma, low, high), "
+                                 "(budget, sigma, low, high, k_max) or empty")
+            check_int("refine_load budget", self.refine_load[0], 1)
+            check_range("refine_load sigma", self.refine_load[1], 0.0, 1.0, low_open=True)
+            check_range("refine_load low", self.refine_load[2], 0.0, self.max_load_fraction)
+            check_range("refine_load high", self.refine_load[3], self.refine_load[2], self.max_load_fraction)
+            if len(self.refine_load) == 5:
+                check_range("refine_load k_max", self.refine_load[4], *self.k_range)
+        if len(self.friction) != 2:
+            raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
+        check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
+        check_range("friction mu1", self.friction[1], 0.0, 2.0)
+
+    @property
+    def ks(self) -> np.ndarray:
+        return np.linspace(*self.k_range, self.k_values)
+
+    @property
+    def fractions(self) -> np.ndarray:
+        return np.linspace(0.0, self.max_load_fraction, self.load_fractions)
+
+
+__all__ = ["PAPER_FRICTION", "FieldConfig"]
