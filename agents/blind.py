@@ -107,10 +107,10 @@ def scan_k_values(count: int, seed: int | None = None) -> list[float]:
     return [float(k) for k in np.round(in_k_cells(np.random.default_rng([seed, SCAN_STREAM]).uniform(size=count)), 6)]
 
 
-def in_k_cells(offsets) -> np.ndarray:
-    """One k in each of ``len(offsets)`` equal cells of ``K_RANGE``, at ``offsets`` (0 ... 1) of
-    its cell (0.5: the cells' midpoints)."""
-    low, high = K_RANGE
+def in_k_cells(offsets, k_range: tuple[float, float] = K_RANGE) -> np.ndarray:
+    """One k in each of ``len(offsets)`` equal cells of ``k_range`` (default ``K_RANGE``), at
+    ``offsets`` (0 ... 1) of its cell (0.5: the cells' midpoints)."""
+    low, high = k_range
     offsets = np.asarray(offsets, dtype=np.float64)
     return low + (np.arange(len(offsets)) + offsets) * (high - low) / len(offsets)
 

@@ -70,8 +70,10 @@ def main(argv=None) -> int:
     low, high = args.scan_range
     if not 0.0 <= low < high <= 0.6:
         p.error(f"--scan-range {low:g} {high:g}: need 0 <= LOW < HIGH <= 0.6 (the training domain's k)")
+    if args.cycle_scan_file is not None and not args.cycle_scan:
+        p.error("--cycle-scan-file keeps the best cycle's scan: give --cycle-scan too")
 
-    from mdr_drive_agents.blind import (CRITICAL_LOAD_TARGET, K_RANGE, MOVING_THRESHOLD, draw_points, in_k_cells,
+    from mdr_drive_agents.blind import (CRITICAL_LOAD_TARGET, MOVING_THRESHOLD, draw_points, in_k_cells,
                                         trapezoid_critical, velocity_statistics)
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import (
@@ -96,7 +98,7 @@ def main(argv=None) -> int:
     scored = reference >= MOVING_THRESHOLD
     offsets = (np.full(args.scan_ks, 0.5) if args.scan_seed is None
                else np.random.default_rng(args.scan_seed).uniform(size=args.scan_ks))
-    scan_ks = [float(round(k, 6)) for k in low + (in_k_cells(offsets) - K_RANGE[0]) * (high - low) / (K_RANGE[1] - K_RANGE[0])]
+    scan_ks = [float(round(k, 6)) for k in in_k_cells(offsets, (low, high))]
     crit_trap = trapezoid_critical(scan_ks)
     crit_teacher = critical_loads_grid(scan_ks, lambda pts: teacher_drives(field, pts, teacher_config)[1])
     print(f"{args.n} points of seed {args.seed}; reference: the teacher's 6 x 6 neighbourhood ({args.field}) "

@@ -449,6 +449,8 @@ def test_the_teacher_check_scan_draws_k_in_its_range_and_keeps_the_cycle_scan(ca
         main([a if a != "5" else "6" for a in args])
     with pytest.raises(SystemExit):
         main(["--n", "2", "--seed", "3", "--scan-range", "0.3", "0.2", policy])
+    with pytest.raises(SystemExit):  # a scan file without the scan it keeps
+        main(["--n", "2", "--seed", "3", "--cycle-scan-file", str(scan), policy])
 
 
 def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_error_blends_them():
