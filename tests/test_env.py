@@ -237,6 +237,7 @@ def test_rgb_array_render_shows_a_frame():
 @given(st.lists(st.lists(st.floats(-1, 1), min_size=5, max_size=5), min_size=1, max_size=6),
        st.floats(0.0, 0.95), st.floats(0.0, 0.6))
 @example([[0.0, 0.0, -0.99999, 0.0, 0.515625], [0.0] * 5], 0.5, 0.0)  # contact forces near 1e-14 N: round-off 1e-12
+@example([[0.0] * 5] * 3 + [[0.0, 0.0, 0.0, -0.90625, -0.8203125]], 0.5, 0.0)  # at 6e-29 N: round-off 1e-6 of it
 def test_random_action_sequences_stay_finite_and_obey_coulomb(actions, k, m):
     env = gym.make("MDRDrive-v0", k=k, cargo_mass=m, render_mode="rgb_array")
     obs, _ = env.reset(seed=0)
@@ -246,9 +247,11 @@ def test_random_action_sequences_stay_finite_and_obey_coulomb(actions, k, m):
         assert np.all(np.isfinite(obs)) and np.isfinite(r)
         assert env.observation_space.contains(obs)
         tr = env.unwrapped.last_trace
-        # |Fx| <= mu Fz up to the round-off of summing the springs (relative 1e-12 was exceeded by 1.05e-12
-        # at a contact force of 5e-14 N); a violation of the friction law would be of order 1
-        assert np.all(np.abs(tr[:, K.T_FX]) <= 0.3 * tr[:, K.T_FZ] * (1 + 1e-9))
+        # |Fx| <= mu Fz up to the round-off of summing the springs: relative 1e-9, plus 1e-12 of the
+        # period's largest normal force for contacts that vanish (at Fz = 6e-29 N the ratio was 1 + 1e-6);
+        # a violation of the friction law would be of order 1
+        fz = tr[:, K.T_FZ]
+        assert np.all(np.abs(tr[:, K.T_FX]) <= 0.3 * fz * (1 + 1e-9) + 1e-12 * max(float(fz.max()), 0.0))
         assert info["peak_tangential_force"] <= 0.3 * info["peak_normal_force"] * (1 + 1e-9)
 
 
