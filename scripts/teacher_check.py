@@ -113,17 +113,16 @@ def main(argv=None) -> int:
                 f"{stats['fraction_of_best_mean']:.3f} / {stats['fraction_of_best_min']:.3f} | "
                 f"{stats['points_under_fraction_target']}")
 
-    crits = {}
+    crits, to_teachers = {}, {}
     for path, v in learned.items():
         crit = crits[path] = critical_loads_grid(scan_ks, lambda pts, pol=policies[path]: policy_velocity(pol, pts))
-        to_teacher = np.array([crit[k] / max(crit_teacher[k], 1e-12) for k in scan_ks])
+        to_teacher = to_teachers[path] = np.array([crit[k] / max(crit_teacher[k], 1e-12) for k in scan_ks])
         to_trapezoid = np.array([crit[k] / c for k, c in zip(scan_ks, crit_trap)])
         worst = int(np.argmin(to_teacher))
         print(f"| {path} | {velocity_cells(v)} | {to_teacher[worst]:.2f} ({scan_ks[worst]:.4g}), "
               f"{int((to_teacher >= CRITICAL_LOAD_TARGET).sum())} | {to_trapezoid.min():.2f} |")
-    for path, crit in crits.items():
-        print_under(f"{path}: critical load under {CRITICAL_LOAD_TARGET:g} of the teacher's", scan_ks,
-                    np.array([crit[k] / max(crit_teacher[k], 1e-12) for k in scan_ks]))
+    for path, to_teacher in to_teachers.items():
+        print_under(f"{path}: critical load under {CRITICAL_LOAD_TARGET:g} of the teacher's", scan_ks, to_teacher)
     if args.cycle_scan:
         print_cycle_scan(scan_ks, crit_trap, {"the teacher": crit_teacher, **crits}, args.workers, args.cycle_scan_file)
     if args.searched:
@@ -161,17 +160,21 @@ def print_teacher_against_search(field, blind_json, teacher_config, worst: int =
     scan = stored_scan(res)
     if scan is not None:
         r = critical_load_on_scan(lambda pts: teacher_drives(field, pts, teacher_config)[1], scan)
-        under = ", ".join(f"{k:g} ({v:.3f})" for k, v in r["under"].items()) or "none"
+        under = format_under(r["under"])
         print(f"The teacher's critical load over that benchmark's best cycle's ({len(scan['k'])} k): "
               f"min {r['min']:.3f}, {r['at_target']} at >= {CRITICAL_LOAD_TARGET:g}; under it: {under}")
+
+
+def format_under(under: dict) -> str:
+    """The k values under the critical-load target with their ratios ({k: ratio}), or "none"."""
+    return ", ".join(f"{k:g} ({r:.3f})" for k, r in under.items()) or "none"
 
 
 def print_under(title: str, scan_ks, ratio: np.ndarray) -> None:
     """One line: ``title``, then each k of ``scan_ks`` whose ``ratio`` is under the target, with it."""
     from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET
 
-    under = [f"{k:.4g} ({r:.3f})" for k, r in zip(scan_ks, ratio) if r < CRITICAL_LOAD_TARGET]
-    print(f"{title}: {', '.join(under) or 'none'}")
+    print(f"{title}: {format_under({k: r for k, r in zip(scan_ks, ratio) if r < CRITICAL_LOAD_TARGET})}")
 
 
 def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers, scan_file: Path | None = None) -> None:
@@ -204,13 +207,12 @@ def print_cycle_scan(scan_ks, crit_trap, crits: dict, workers, scan_file: Path |
           f"the cycle's over the trapezoid's: {np.min(cycle / crit_trap):.2f}-{np.max(cycle / crit_trap):.2f})")
     print(f"| drive | min (k) | k values >= {CRITICAL_LOAD_TARGET:g} of {len(scan_ks)} |")
     print("|---|---|---|")
-    for name, crit in crits.items():
-        ratio = np.array([crit[k] for k in scan_ks]) / np.maximum(cycle, 1e-12)
+    ratios = {name: np.array([crit[k] for k in scan_ks]) / np.maximum(cycle, 1e-12) for name, crit in crits.items()}
+    for name, ratio in ratios.items():
         worst = int(np.argmin(ratio))
         print(f"| {name} | {ratio[worst]:.3f} ({scan_ks[worst]:.4g}) | {int((ratio >= CRITICAL_LOAD_TARGET).sum())} |")
-    for name, crit in crits.items():
-        print_under(f"{name}: under {CRITICAL_LOAD_TARGET:g} of the best cycle's", scan_ks,
-                    np.array([crit[k] for k in scan_ks]) / np.maximum(cycle, 1e-12))
+    for name, ratio in ratios.items():
+        print_under(f"{name}: under {CRITICAL_LOAD_TARGET:g} of the best cycle's", scan_ks, ratio)
 
 
 if __name__ == "__main__":
