@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mdr_drive_env.files import json_safe, nan_array, save_figure, write_csv, write_text
+from mdr_drive_env.files import json_safe, nan_array, write_csv, write_text
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from .baselines import CMA_BUDGET, CYCLE_SEARCH, best_cycle, cma_optimize, cycle_critical_load
@@ -48,11 +48,11 @@ from .evaluate import (
     format_velocity,
     load_policy,
     open_loop_velocity,
-    policy_label,
     policy_rollout,
     steady_velocity_of,
     trapezoid_action,
 )
+from .plots import plot_blind
 
 #: The training domain the points are drawn from.
 K_RANGE = (0.0, 0.6)
@@ -196,6 +196,12 @@ def critical_load_on_scan(velocity, scan: dict) -> dict:
             "min": s["critical_load_over_best_cycle_min"],
             "under": {k: r for k, r in ratios.items() if r < CRITICAL_LOAD_TARGET},
             "min_over_trapezoid": min(r for r in s["critical_load_over_trapezoid"] if r is not None)}
+
+
+def format_under(under: dict) -> str:
+    """The k values under the critical-load target with their ratios (``critical_load_on_scan``'s
+    {k: ratio}), as "k (ratio), ...", or "none"."""
+    return ", ".join(f"{k:g} ({r:.3f})" for k, r in under.items()) or "none"
 
 
 def below_trapezoid(trap: np.ndarray, learned: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -358,53 +364,5 @@ def write_outputs(res: dict, out: Path) -> None:
     write_csv(out / "critical_loads.csv", ["k", "trapezoid_kg", "best_cycle_kg", *[f"{n}_kg" for n in names]],
               [(k, crit["trapezoid"][i], crit["best cycle"][i], *(crit[p][i] for p in res["policies"]))
                for i, k in enumerate(crit["k"])])
-    plot(res, out)
-
-
-def plot(res: dict, out: str | Path) -> None:
-    """The two PNG figures of a blind benchmark from its results (``blind.json`` loaded, or ``run``'s
-    return value): ``python -c "import json; from agents import blind; d = 'results/blind/seed7';
-    blind.plot(json.load(open(d + '/blind.json')), d)"`` redraws them without simulating."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out = Path(out)
-    names = [f"policy {i + 1}" for i in range(len(res["policies"]))]
-    crit = res["critical_load_kg"]
-
-    fig, ax = plt.subplots(figsize=(7, 4.2))
-    ax.plot(crit["k"], crit["best cycle"], "-s", ms=3, color="k", label="best two-action cycle found")
-    ax.plot(crit["k"], crit["trapezoid"], "-o", ms=3, color="0.5", label="trapezoid")
-    for i, p in enumerate(res["policies"]):
-        ax.plot(crit["k"], crit[p], ":^", ms=4, color=f"C{i}", label=f"{names[i]}: {policy_label(p)}")
-    ax.set(yscale="log", xlabel="k", ylabel="critical cargo mass (kg)",
-           title=f"critical load vs k (blind benchmark, seed {res['seed']}, fast numerics)")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    save_figure(fig, out / "critical_load_vs_k.png")
-    plt.close(fig)
-
-    best = nan_array([b["velocity"] for b in res["best"]])
-    fig, ax = plt.subplots(figsize=(7, 4.2))
-    ks = np.array([k for k, _ in res["points"]])
-    for i, p in enumerate(res["policies"]):
-        v = nan_array(res["learned"][p])
-        sel = best >= MOVING_THRESHOLD
-        ax.plot(ks[sel], np.nan_to_num(v[sel], nan=0.0) / best[sel], "^", color=f"C{i}",
-                label=f"{names[i]}: {policy_label(p)}")
-    trap = nan_array(res["trapezoid"])
-    sel = best >= MOVING_THRESHOLD
-    ax.plot(ks[sel], np.nan_to_num(trap[sel], nan=0.0) / best[sel], "o", color="0.5", label="trapezoid")
-    ax.axhline(1.0, color="k", lw=0.6)
-    ax.set(xlabel="k", ylabel="velocity / best drive found",
-           title=f"fraction of the best drive at the blind points (seed {res['seed']}; best >= 2 mm/s)")
-    ax.title.set_fontsize(9)
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    save_figure(fig, out / "fraction_of_best.png")
-    plt.close(fig)
+    plot_blind(res, out, MOVING_THRESHOLD)
 

@@ -1,4 +1,5 @@
-"""Figures of the waveform benchmark (PNG): velocity vs k and vs load, critical load, waveforms, heatmap."""
+"""Figures (PNG) of the waveform benchmark (velocity vs k and vs load, critical load, waveforms, heatmap) and
+of the blind benchmark (critical load vs k, fraction of the best drive)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from mdr_drive_env.core.waveform import knots_from_params
+from mdr_drive_env.files import nan_array, save_figure
 
 from .evaluate import ACTION_MAP, policy_label, trapezoid_action
 
@@ -106,3 +108,54 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
         fig.tight_layout()
         fig.savefig(out / "learned_waveforms.png", dpi=120)
         plt.close(fig)
+
+
+def plot_blind(res: dict, out: str | Path, moving_threshold: float) -> None:
+    """The two PNG figures of a blind benchmark (``agents/blind.py``) from its results (``blind.json``
+    loaded, or ``blind.run``'s return value), fractions of the best drive where it moves at least
+    ``moving_threshold`` (m/s): ``python -c "import json; from mdr_drive_agents import blind, plots;
+    d = 'results/blind/seed7'; plots.plot_blind(json.load(open(d + '/blind.json')), d,
+    blind.MOVING_THRESHOLD)"`` redraws them without simulating."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    names = [f"policy {i + 1}" for i in range(len(res["policies"]))]
+    crit = res["critical_load_kg"]
+
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ax.plot(crit["k"], crit["best cycle"], "-s", ms=3, color="k", label="best two-action cycle found")
+    ax.plot(crit["k"], crit["trapezoid"], "-o", ms=3, color="0.5", label="trapezoid")
+    for i, p in enumerate(res["policies"]):
+        ax.plot(crit["k"], crit[p], ":^", ms=4, color=f"C{i}", label=f"{names[i]}: {policy_label(p)}")
+    ax.set(yscale="log", xlabel="k", ylabel="critical cargo mass (kg)",
+           title=f"critical load vs k (blind benchmark, seed {res['seed']}, fast numerics)")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, out / "critical_load_vs_k.png")
+    plt.close(fig)
+
+    best = nan_array([b["velocity"] for b in res["best"]])
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ks = np.array([k for k, _ in res["points"]])
+    for i, p in enumerate(res["policies"]):
+        v = nan_array(res["learned"][p])
+        sel = best >= moving_threshold
+        ax.plot(ks[sel], np.nan_to_num(v[sel], nan=0.0) / best[sel], "^", color=f"C{i}",
+                label=f"{names[i]}: {policy_label(p)}")
+    trap = nan_array(res["trapezoid"])
+    sel = best >= moving_threshold
+    ax.plot(ks[sel], np.nan_to_num(trap[sel], nan=0.0) / best[sel], "o", color="0.5", label="trapezoid")
+    ax.axhline(1.0, color="k", lw=0.6)
+    ax.set(xlabel="k", ylabel="velocity / best drive found",
+           title=f"fraction of the best drive at the blind points (seed {res['seed']}; best >= 2 mm/s)")
+    ax.title.set_fontsize(9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, out / "fraction_of_best.png")
+    plt.close(fig)
+

@@ -97,13 +97,15 @@ def critical_load_target(policy_path: str, scan: dict) -> dict:
 
 
 def critical_table(rows: dict, scans: list[dict]) -> str:
+    from mdr_drive_agents.blind import format_under
+
     lines = ["", "Critical load over the best two-action cycle's, per stored scan: k values at >= 0.97; the minimum; "
              "the k values under 0.97 (ratio); the smallest ratio to the trapezoid's critical load.", "",
              "| policy | " + " | ".join(
                  f"{len(s['k'])}-k scan (seed {s['seed']})" for s in scans) + " |", "|---|" + "---|" * len(scans)]
     for name, results in rows.items():
         cells = [f"{r['at_target']} of {r['scanned']}; {r['min']:.3f}; "
-                 + (", ".join(f"{k:g} ({v:.3f})" for k, v in r["under"].items()) or "none")
+                 + format_under(r["under"])
                  + f"; trapezoid x {r['min_over_trapezoid']:.3f}" for r in results]
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"

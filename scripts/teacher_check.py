@@ -141,7 +141,7 @@ def print_teacher_against_search(field, blind_json, teacher_config, worst: int =
     import json
 
     from mdr_drive_agents.blind import (CRITICAL_LOAD_TARGET, FRACTION_TARGET, MOVING_THRESHOLD, critical_load_on_scan,
-                                        stored_scan, trapezoid_critical)
+                                        format_under, stored_scan, trapezoid_critical)
     from mdr_drive_agents.teacher_data import teacher_drives
 
     res = json.loads(Path(blind_json).read_text())
@@ -165,14 +165,9 @@ def print_teacher_against_search(field, blind_json, teacher_config, worst: int =
               f"min {r['min']:.3f}, {r['at_target']} at >= {CRITICAL_LOAD_TARGET:g}; under it: {under}")
 
 
-def format_under(under: dict) -> str:
-    """The k values under the critical-load target with their ratios ({k: ratio}), or "none"."""
-    return ", ".join(f"{k:g} ({r:.3f})" for k, r in under.items()) or "none"
-
-
 def print_under(title: str, scan_ks, ratio: np.ndarray) -> None:
     """One line: ``title``, then each k of ``scan_ks`` whose ``ratio`` is under the target, with it."""
-    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET
+    from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, format_under
 
     print(f"{title}: {format_under({k: r for k, r in zip(scan_ks, ratio) if r < CRITICAL_LOAD_TARGET})}")
 

@@ -229,3 +229,8 @@ def test_a_stored_scan_needs_its_k_best_cycle_and_trapezoid():
     assert stored_scan({}) is None
     assert stored_scan({"critical_load_kg": {**crit, "best cycle": []}}) is None  # written without the search's cycle
     assert stored_scan({"critical_load_kg": {k: v for k, v in crit.items() if k != "trapezoid"}}) is None
+
+
+def test_the_k_under_the_critical_load_target_are_listed_with_their_ratios():
+    assert blind.format_under({0.0408: 0.9561, 0.25: 0.9}) == "0.0408 (0.956), 0.25 (0.900)"
+    assert blind.format_under({}) == "none"
