@@ -33,6 +33,7 @@ import numpy as np
 from mdr_drive_env.core.params import check_int
 from mdr_drive_env.files import atomic_path
 
+from .baselines import PUSH_CLAMP
 from .cycles import align_phase
 from .evaluate import open_loop_velocity
 from .field_config import PAPER_FRICTION, FieldConfig
@@ -86,6 +87,12 @@ class DriveField:
             k_max = float(config.refine_load[4]) if len(config.refine_load) == 5 else None
             field.refine_load(int(budget), float(sigma), (float(low), float(high)), executor=executor, seed=seed + 950_000,
                               k_max=k_max)
+            field.exchange()
+            field.align()
+        if config.polish_stall:
+            k_max = float(config.polish_stall[2]) if len(config.polish_stall) == 3 else None
+            field.polish_stall(int(config.polish_stall[0]), float(config.polish_stall[1]), executor=executor,
+                               seed=seed + 970_000, k_max=k_max)
             field.exchange()
             field.align()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
@@ -242,6 +249,45 @@ class DriveField:
         self.meta["refined_load"] = {"budget": budget, "sigma": sigma, "band": list(band), "k_max": k_max,
                                      "new_nodes": len(cells) * nk, "searched": len(cells) * len(searched)}
         return len(cells) * len(searched)
+
+    def stall_nodes(self, k_max: float | None = None) -> list[tuple[int, int]]:
+        """Two nodes (i, j) per k line (up to ``k_max``, if given), on either side of its stall: its
+        heaviest node that moves and the next heavier (the two heaviest if the heaviest moves, the two
+        lightest if none does)."""
+        nodes = []
+        for i, line in enumerate(self.velocities):
+            if k_max is not None and self.ks[i] > k_max:
+                continue
+            moving = np.flatnonzero(line > 0.0)
+            first = min(int(moving[-1]) if len(moving) else 0, len(line) - 2)
+            nodes += [(i, first), (i, first + 1)]
+        return nodes
+
+    def polish_stall(self, budget: int, sigma: float, executor=None, seed: int = 0, starts: int = 3,
+                     k_max: float | None = None) -> int:
+        """At each of :meth:`stall_nodes` (``k_max``): play its own drive, its lighter and its two k
+        neighbours' (aligned to it) and the push/clamp cycle, run CMA-ES over two-action cycles from
+        the ``starts`` fastest (``budget`` evaluations each, step ``sigma``; one task per k line on
+        ``executor``) and keep the fastest drive found if it beats the node's own. Returns the nodes
+        changed."""
+        nk, ns = self.velocities.shape
+        lines: dict = {}
+        for i, j in self.stall_nodes(k_max):
+            own = self.drives[i, j]
+            trials = [own, align_phase(PUSH_CLAMP, own)] + [align_phase(self.drives[a, b], own) for a, b in
+                                                            ((i, j - 1), (i - 1, j), (i + 1, j)) if 0 <= a < nk and 0 <= b]
+            lines.setdefault(i, []).append(((j, self.point(i, j)[:2]), np.array(trials)))
+        found_d, found_v = search_new_nodes([[(p, t) for (_, p), t in line] for line in lines.values()], budget,
+                                            sigma, starts, seed, self.friction, "teacher: polish stall", executor)
+        changed = 0
+        for (i, line), drives, velocities in zip(lines.items(), found_d, found_v):
+            for ((j, _), _), drive, vel in zip(line, drives, velocities):
+                if vel > self.velocities[i, j] * (1.0 + 1e-3) + 1e-6:
+                    self.drives[i, j], self.velocities[i, j] = drive, vel
+                    changed += 1
+        self.meta["polished_stall"] = {"budget": budget, "sigma": sigma, "k_max": k_max,
+                                       "nodes": sum(map(len, lines.values())), "changed": changed}
+        return changed
 
     def consolidate(self, tolerance: float, passes: int = 4) -> int:
         """Spread drives between grid neighbours so that the teacher's drive changes at fewer places:

@@ -49,6 +49,13 @@ class FieldConfig:
             around it, then polished from the three best (``DriveField.refine_load``; empty: none)
             (-, action units, -, -, -). Between load lines 0.12 apart the best drive can change (past
             about 0.6 of the trapezoid's critical load, where it slows steeply with the load).
+        polish_stall: last, (budget, sigma) or (budget, sigma, k_max) or empty: on every k line (up to
+            k_max), the two nodes on either side of its stall (the heaviest that moves and the next
+            heavier) play their own, their lighter and k neighbours' drives and the push/clamp cycle,
+            then CMA-ES over two-action cycles runs from the three fastest (``budget`` evaluations
+            each, step ``sigma``) and each keeps a faster drive (``DriveField.polish_stall``) (-,
+            action units, -). The grid's searches there are weaker than the blind benchmark's
+            critical-load bisection, and the teacher's critical load is the stall node's.
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
@@ -65,6 +72,7 @@ class FieldConfig:
     polish: tuple[tuple[int, float], ...] = ()
     refine_k: tuple = ()
     refine_load: tuple = ()
+    polish_stall: tuple = ()
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -98,6 +106,14 @@ class FieldConfig:
             check_range("refine_load high", self.refine_load[3], self.refine_load[2], self.max_load_fraction)
             if len(self.refine_load) == 5:
                 check_range("refine_load k_max", self.refine_load[4], *self.k_range)
+        if self.polish_stall:
+            if len(self.polish_stall) not in (2, 3):
+                raise ValueError(f"polish_stall={self.polish_stall!r} must be (budget, sigma), (budget, sigma, k_max) "
+                                 "or empty")
+            check_int("polish_stall budget", self.polish_stall[0], 1)
+            check_range("polish_stall sigma", self.polish_stall[1], 0.0, 1.0, low_open=True)
+            if len(self.polish_stall) == 3:
+                check_range("polish_stall k_max", self.polish_stall[2], *self.k_range)
         if len(self.friction) != 2:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
