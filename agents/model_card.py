@@ -198,7 +198,7 @@ folder first: a resumed run writes into it; the observation statistics stay as d
   where it is below the trapezoid on a dense grid of the whole domain (no search needed; about a
   minute): narrow rows of load, some going backwards fast. Where those points fall depends on the
   build, and builds of one recipe differ widely: the shipped one was chosen among seeds on decision
-  data (`results/blind/selection_decision`); another `seed` is expected to miss more often
+  data (`results/blind/stall_low_k_decision`); another `seed` is expected to miss more often
   (docs/ablations.md).
 
 ## Evaluation
