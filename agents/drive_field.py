@@ -14,6 +14,9 @@ searched so that neighbours stay neighbours:
 - then every point tries its grid neighbours' drives and keeps a better one (``exchange``), and
   every cycle is written in the phase (which of its two actions comes first) closest to its
   neighbour's, so interpolation does not mix a push period with a clamp period.
+- then the stages ``FieldConfig`` names, each followed by an exchange: polish passes, refinements
+  (a k line, load lines between the grid's) and, last, a stronger search at the nodes either side
+  of each k line's stall (``polish_stall``), where the teacher's critical load is decided.
 
 ``DriveField.candidates(k, load)`` returns, for any point, the bilinear interpolation of the four
 surrounding grid drives and the grid drives around the point (the cell's four corners, or with
@@ -270,7 +273,7 @@ class DriveField:
         the ``starts`` fastest (``budget`` evaluations each, step ``sigma``; one task per k line on
         ``executor``) and keep the fastest drive found if it beats the node's own. Returns the nodes
         changed."""
-        nk, ns = self.velocities.shape
+        nk = len(self.ks)
         lines: dict = {}
         for i, j in self.stall_nodes(k_max):
             own = self.drives[i, j]

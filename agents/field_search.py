@@ -1,6 +1,7 @@
 """The teacher's searches at its grid nodes: CMA-ES (``agents.baselines``) from the starts the drive
 field gives them, one k slice per task so that an executor (``mdr_drive_env.sweep.Executor``) can spread
-the slices over processes or a Ray cluster (``DriveField.search``, ``polish``, ``refine_k``, ``refine_load``).
+the slices over processes or a Ray cluster (``DriveField.search``, ``polish``, ``refine_k``, ``refine_load``,
+``polish_stall``).
 """
 
 from __future__ import annotations

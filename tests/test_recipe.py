@@ -52,6 +52,7 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     field = DriveField.load(out / "teacher_field.npz")
     assert [p["budget"] for p in field.meta["polished"]] == [8]  # the polish ran
     assert np.allclose(field.ks, [0.0, 0.15, 0.3]) and field.meta["refined_k"]["new_nodes"] == 2  # and the refinement
+    assert field.meta["polished_stall"]["k_max"] == 0.15 and field.meta["polished_stall"]["nodes"] == 4  # and the last
 
 
 def test_the_distilled_policy_fine_tunes_with_train_resume(recipe_run):
