@@ -15,6 +15,13 @@ from mdr_drive_env.core.params import check_int, check_range
 PAPER_FRICTION = (0.3, 0.1)
 
 
+def check_search(stage: str, budget, sigma) -> None:
+    """A teacher stage's CMA-ES settings: ``budget`` evaluations (an integer >= 1) and initial step
+    ``sigma`` in (0, 1] (action units); ``ValueError`` naming "<stage> budget" or "<stage> sigma"."""
+    check_int(f"{stage} budget", budget, 1)
+    check_range(f"{stage} sigma", sigma, 0.0, 1.0, low_open=True)
+
+
 @dataclass(frozen=True)
 class FieldConfig:
     """The teacher's grid and search budgets.
@@ -87,21 +94,18 @@ class FieldConfig:
         for entry in self.polish:
             if len(entry) != 2:
                 raise ValueError(f"polish={self.polish!r}: each pass is (budget, sigma)")
-            check_int("polish budget", entry[0], 1)
-            check_range("polish sigma", entry[1], 0.0, 1.0, low_open=True)
+            check_search("polish", *entry)
         if self.refine_k:
             if len(self.refine_k) not in (2, 3):
                 raise ValueError(f"refine_k={self.refine_k!r} must be (budget, sigma), (budget, sigma, k_max) or empty")
-            check_int("refine_k budget", self.refine_k[0], 1)
-            check_range("refine_k sigma", self.refine_k[1], 0.0, 1.0, low_open=True)
+            check_search("refine_k", *self.refine_k[:2])
             if len(self.refine_k) == 3:
                 check_range("refine_k k_max", self.refine_k[2], *self.k_range, low_open=True)
         if self.refine_load:
             if len(self.refine_load) not in (4, 5):
                 raise ValueError(f"refine_load={self.refine_load!r} must be (budget, sigma, low, high), "
                                  "(budget, sigma, low, high, k_max) or empty")
-            check_int("refine_load budget", self.refine_load[0], 1)
-            check_range("refine_load sigma", self.refine_load[1], 0.0, 1.0, low_open=True)
+            check_search("refine_load", *self.refine_load[:2])
             check_range("refine_load low", self.refine_load[2], 0.0, self.max_load_fraction)
             check_range("refine_load high", self.refine_load[3], self.refine_load[2], self.max_load_fraction)
             if len(self.refine_load) == 5:
@@ -110,8 +114,7 @@ class FieldConfig:
             if len(self.polish_stall) not in (2, 3):
                 raise ValueError(f"polish_stall={self.polish_stall!r} must be (budget, sigma), (budget, sigma, k_max) "
                                  "or empty")
-            check_int("polish_stall budget", self.polish_stall[0], 1)
-            check_range("polish_stall sigma", self.polish_stall[1], 0.0, 1.0, low_open=True)
+            check_search("polish_stall", *self.polish_stall[:2])
             if len(self.polish_stall) == 3:
                 check_range("polish_stall k_max", self.polish_stall[2], *self.k_range)
         if len(self.friction) != 2:
@@ -128,4 +131,4 @@ class FieldConfig:
         return np.linspace(0.0, self.max_load_fraction, self.load_fractions)
 
 
-__all__ = ["PAPER_FRICTION", "FieldConfig"]
+__all__ = ["PAPER_FRICTION", "FieldConfig", "check_search"]

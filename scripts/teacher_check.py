@@ -49,7 +49,7 @@ def main(argv=None) -> int:
     p.add_argument("--field", type=input_file, default="results/recipe/teacher_field.npz",
                    help="the teacher's drive field (.npz, written by the recipe)")
     p.add_argument("--scan-ks", type=int_range(1), default=24, help="k values of the critical-load scan (-)")
-    p.add_argument("--scan-range", type=float, nargs=2, default=(0.0, 0.6), metavar=("LOW", "HIGH"),
+    p.add_argument("--scan-range", type=float, nargs=2, default=(0.0, 0.6), metavar=("LOW", "HIGH"),  # blind.K_RANGE
                    help="k interval of the critical-load scan, cut into --scan-ks equal cells (-)")
     p.add_argument("--scan-seed", type=int, default=None,
                    help="draw the scan's k uniformly in each cell with this seed (a decision seed) instead of "
@@ -67,9 +67,12 @@ def main(argv=None) -> int:
     p.add_argument("--workers", type=int_range(1), default=None,
                    help="local processes of the cycle scan (default: the cores available)")
     args = p.parse_args(argv)
+    from mdr_drive_agents.blind import K_RANGE
+
     low, high = args.scan_range
-    if not 0.0 <= low < high <= 0.6:
-        p.error(f"--scan-range {low:g} {high:g}: need 0 <= LOW < HIGH <= 0.6 (the training domain's k)")
+    if not K_RANGE[0] <= low < high <= K_RANGE[1]:
+        p.error(f"--scan-range {low:g} {high:g}: need {K_RANGE[0]:g} <= LOW < HIGH <= {K_RANGE[1]:g} "
+                "(the training domain's k)")
     if args.cycle_scan_file is not None and not args.cycle_scan:
         p.error("--cycle-scan-file keeps the best cycle's scan: give --cycle-scan too")
 
