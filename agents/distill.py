@@ -39,7 +39,7 @@ from .cycles import cycle_action
 from .drive_field import DriveField
 from .evaluate import steady_velocity_of
 from .teacher_data import (around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout,
-                           teacher_drives)
+                           stall_points, teacher_drives)
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
@@ -77,6 +77,10 @@ class DistillConfig:
             hole itself (k +- 0.01, load +- 5 %) (-).
         hole_steps: gradient steps after each hole round (-).
         hole_learning_rate: Adam step size of those steps, decaying linearly to zero (-).
+        stall_probes: besides, points per hole round at loads just around the teacher's stall
+            (``stall_points``), where the critical load is judged; there a probe where the teacher
+            moves and the student does not is a hole too, however slow the teacher (-).
+        stall_band: those probes' loads, as fractions of the teacher's stall load at their k (-).
         huber_delta: 0 fits the squared error; > 0 the Huber loss with this threshold (``edge_loss``)
             (action units).
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
@@ -118,6 +122,8 @@ class DistillConfig:
     hole_neighbours: int = 8
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
+    stall_probes: int = 0
+    stall_band: tuple[float, float] = (0.92, 1.02)
     huber_delta: float = 0.0
     jump_levels: int = 0
     jump_neighbours: int = 6
@@ -128,9 +134,10 @@ class DistillConfig:
         if self.activation not in ("relu", "tanh"):
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
-                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "jump_levels", "jump_neighbours"):
-            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels")
-                      else 1)
+                     "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "jump_levels", "jump_neighbours",
+                     "stall_probes"):
+            check_int(name, getattr(self, name),
+                      0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels", "stall_probes") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -140,6 +147,10 @@ class DistillConfig:
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_shortfall", self.hole_shortfall, 0.0, 1.0, low_open=True)
         check_range("hole_floor", self.hole_floor, 0.0, 0.01)
+        if len(self.stall_band) != 2:
+            raise ValueError(f"stall_band={self.stall_band!r} must be two fractions [low, high]")
+        check_range("stall_band[0]", self.stall_band[0], 0.0, 2.0, low_open=True)
+        check_range("stall_band[1]", self.stall_band[1], self.stall_band[0], 2.0, low_open=True)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
         if not isinstance(self.quantum_centres, bool):
@@ -317,20 +328,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         _print_record(record)
         if on_round is not None:
             on_round(student, record)
-    k_range = (float(field_.ks[0]), float(field_.ks[-1]))
     for h in range(1, config.hole_rounds + 1):
-        t0 = time.perf_counter()
-        holes, probe = find_holes(student, field_, config, rng, friction)
-        loss = None  # no hole found: no fit this round
-        if holes:
-            obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
-                                                   config, seed + 100 + h, student.z_phase_origin)
-            obs_all.append(obs)
-            drive_all.append(sample_drives)
-            loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
-                       seed + 100 + h, progress, learning_rate=config.hole_learning_rate)
-        record = {"hole_round": h, **probe, "samples": int(sum(len(o) for o in obs_all)),
-                  "loss": loss, "wall_time_s": round(time.perf_counter() - t0, 1)}
+        record = hole_round(student, field_, config, h, rng, seed, obs_all, drive_all, friction, progress)
         if val is not None:
             record.update(validation_fraction(student, *val))
         student.history.append(record)
@@ -338,6 +337,26 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         if on_round is not None:
             on_round(student, record)
     return student
+
+
+def hole_round(student: Student, field_: DriveField, config: DistillConfig, h: int, rng: np.random.Generator,
+               seed: int, obs_all: list, drive_all: list, friction=None, progress: bool = True) -> dict:
+    """Hole round ``h`` (module docstring): :func:`find_holes`, the teacher's episodes at and around
+    the holes appended to ``obs_all`` and ``drive_all``, and the fit continued on all of them; returns
+    the round's record."""
+    t0 = time.perf_counter()
+    holes, probe = find_holes(student, field_, config, rng, friction)
+    loss = None  # no hole found: no fit this round
+    if holes:
+        k_range = (float(field_.ks[0]), float(field_.ks[-1]))
+        obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
+                                               config, seed + 100 + h, student.z_phase_origin)
+        obs_all.append(obs)
+        drive_all.append(sample_drives)
+        loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
+                   seed + 100 + h, progress, learning_rate=config.hole_learning_rate)
+    return {"hole_round": h, **probe, "samples": int(sum(len(o) for o in obs_all)),
+            "loss": loss, "wall_time_s": round(time.perf_counter() - t0, 1)}
 
 
 def _print_record(record: dict) -> None:
@@ -355,16 +374,26 @@ def student_velocity(student: Student, points) -> np.ndarray:
 def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator,
                friction=None):
     """The student and the teacher at ``config.hole_probes`` fresh random points (``draw_points``
-    with ``friction``): the points where the student's steady velocity falls short of the teacher's
-    (``config.hole_shortfall``), and the probe statistics (share of holes, the student's mean
-    velocity over the teacher's where it moves)."""
+    with ``friction``) and ``config.stall_probes`` points around the teacher's stall
+    (``stall_points``): the points where the student's steady velocity falls short of the teacher's
+    (``config.hole_shortfall``; at the stall probes, also where the student stalls and the teacher
+    moves), and the probe statistics (share of holes, the student's mean velocity over the
+    teacher's where it moves)."""
     points = draw_points(field_, config.hole_probes, rng, config, friction)
+    if config.stall_probes:
+        if friction is not None:
+            raise ValueError("stall_probes: not with a drawn friction (the field's stall is at one friction)")
+        points += stall_points(field_, config.stall_probes, rng, config.stall_band)
     _, v_teacher = teacher_drives(field_, points, config)
     v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), config.hole_floor)
+    stalled = (v_teacher > 0.0) & ~(v_student > 0.0)
+    stalled[:config.hole_probes] = False
+    short |= stalled
     moving = v_teacher >= 2e-3
     return [p for p, h in zip(points, short) if h], {
         "probes": len(points), "holes": int(short.sum()),
+        **({"stall_holes": int(short[config.hole_probes:].sum())} if config.stall_probes else {}),
         "probe_mean_fraction": float(np.mean(v_student[moving] / v_teacher[moving])) if moving.any() else None}
 
 
@@ -392,5 +421,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "Student", "adam_fit", "distill", "edge_loss", "find_holes", "fit", "make_student",
-           "policy_mean", "save_student", "student_velocity", "validation_fraction"]
+__all__ = ["DistillConfig", "Student", "adam_fit", "distill", "edge_loss", "find_holes", "fit", "hole_round",
+           "make_student", "policy_mean", "save_student", "student_velocity", "validation_fraction"]

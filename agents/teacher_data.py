@@ -9,6 +9,8 @@ teacher's drive there. Where the points come from:
   trapezoid's critical load);
 * ``jump_points`` / ``jump_brackets``: bisection between neighbouring points whose teacher drives
   jump from one optimum to another, so the fit cannot put its blend of the two anywhere in the gap;
+* ``stall_points``: loads just around the teacher's stall at random k, where the critical-load target is
+  judged (the hole rounds' stall probes);
 * ``around``: jittered copies of points where the student fell short of the teacher (the hole rounds).
 
 ``perturb_previous_actions`` adds samples whose previous action is off the cycle, labelled as the
@@ -43,6 +45,32 @@ def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config,
         return [(float(k), float(m)) for k, m in zip(ks, loads)]
     mu, mu1 = rng.uniform(*friction[0], n), rng.uniform(*friction[1], n)
     return [(float(k), float(m * a / PAPER_FRICTION[0]), float(a), float(b)) for k, m, a, b in zip(ks, loads, mu, mu1)]
+
+
+def stall_fractions(field_: DriveField) -> np.ndarray:
+    """Per k line of the field, the load (as a fraction of the trapezoid's critical load) where its
+    drives' velocity crosses zero, linear between the two :meth:`DriveField.stall_nodes` (their last
+    fraction if the whole line moves, 0 if none of it does) (-)."""
+    out = np.empty(len(field_.ks))
+    for i, j in field_.stall_nodes()[::2]:
+        v0, v1 = field_.velocities[i, j], field_.velocities[i, j + 1]
+        f0, f1 = field_.fractions[j], field_.fractions[j + 1]
+        if v0 <= 0.0:
+            out[i] = 0.0
+        elif v1 > 0.0:
+            out[i] = f1
+        else:
+            out[i] = f0 + (f1 - f0) * v0 / (v0 - v1)
+    return out
+
+
+def stall_points(field_: DriveField, n: int, rng: np.random.Generator, band: tuple[float, float]) -> list:
+    """``n`` (k, cargo mass kg) points: k uniform over the field's range, the load uniform in ``band``
+    times the teacher's stall load there (:func:`stall_fractions`, interpolated in k)."""
+    ks = rng.uniform(field_.ks[0], field_.ks[-1], n)
+    stall = np.interp(ks, field_.ks, stall_fractions(field_) * field_.trapezoid_critical)
+    loads = rng.uniform(*band, n) * stall
+    return [(float(k), float(m)) for k, m in zip(ks, loads)]
 
 
 def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0, z_phase_origin: float = 0.0):
@@ -175,4 +203,4 @@ def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float
 
 
 __all__ = ["around", "draw_points", "drive_difference", "jump_brackets", "jump_points", "labelled_episodes",
-           "perturb_previous_actions", "rollout", "teacher_drives"]
+           "perturb_previous_actions", "rollout", "stall_fractions", "stall_points", "teacher_drives"]

@@ -697,3 +697,44 @@ def test_a_hole_is_a_probe_short_of_the_teacher_by_the_share_and_the_floor(monke
     with pytest.raises(ValueError, match="hole_floor"):
         DistillConfig(hole_floor=-1e-3)
 
+
+
+def test_stall_points_lie_in_their_band_around_the_zero_crossing_of_each_k_lines_velocity():
+    from mdr_drive_agents.teacher_data import stall_fractions, stall_points
+
+    field = _synthetic_field(nk=3, ns=4)  # fractions 0, 0.4, 0.8, 1.2; k lines 0, 0.3, 0.6
+    field.trapezoid_critical[:] = [0.02, 0.04, 0.08]
+    field.velocities[:] = [[3.0, 2.0, 1.0, -3.0],     # crosses zero a quarter of the way from 0.8 to 1.2
+                           [-1.0, -2.0, -3.0, -4.0],  # moves nowhere
+                           [3.0, 2.0, 2.0, 1.0]]      # moves everywhere: its heaviest fraction
+    assert np.allclose(stall_fractions(field), [0.9, 0.0, 1.2])
+    points = np.array(stall_points(field, 400, np.random.default_rng(1), (0.9, 1.0)))
+    stall = np.interp(points[:, 0], field.ks, [0.9 * 0.02, 0.0, 1.2 * 0.08])
+    assert np.all((points[:, 0] >= 0.0) & (points[:, 0] <= 0.6))
+    assert np.all(points[:, 1] >= 0.9 * stall - 1e-15) and np.all(points[:, 1] <= stall + 1e-15)
+    assert points[:, 1].max() > 0.95 * 1.2 * 0.08 * 0.95  # the band is filled, not one load
+
+
+def test_at_a_stall_probe_a_student_that_stalls_where_the_teacher_crawls_is_a_hole(monkeypatch):
+    from mdr_drive_agents import distill
+
+    field = _synthetic_field()
+    field.velocities[:] = np.linspace(1.0, -1.0, 5)  # every k line stalls halfway
+    # 2 random probes, then 3 stall probes; the teacher crawls at 0.05 mm/s at the last four
+    teacher = np.array([20e-3, 0.05e-3, 0.05e-3, 0.05e-3, -0.01e-3])
+    student = np.array([20e-3, -0.01e-3, -0.01e-3, 0.04e-3, -0.02e-3])
+    monkeypatch.setattr(field, "best", lambda points, radius=1: (np.zeros((len(points), 2, 5)), teacher[:len(points)]))
+    monkeypatch.setattr(distill, "student_velocity", lambda student_, points: student[:len(points)])
+    config = DistillConfig(hole_probes=2, hole_floor=1e-4, stall_probes=3)
+    found, probe = distill.find_holes(None, field, config, np.random.default_rng(0))
+    # the random probe 1 is no hole (0.06 mm/s under the floor); stall probe 2 is; 3 moves; 4: neither moves
+    assert probe["probes"] == 5 and probe["holes"] == 1 and probe["stall_holes"] == 1 and len(found) == 1
+    no_stall = distill.find_holes(None, field, DistillConfig(hole_probes=2, hole_floor=1e-4), np.random.default_rng(0))
+    assert no_stall[1]["holes"] == 0 and "stall_holes" not in no_stall[1]
+    for bad, match in (((1.0, 0.9), r"stall_band\[1\]"), ((0.0, 1.0), r"stall_band\[0\]"), ((0.9,), "stall_band")):
+        with pytest.raises(ValueError, match=match):
+            DistillConfig(stall_band=bad)
+    with pytest.raises(ValueError, match="stall_probes"):
+        DistillConfig(stall_probes=-1)
+    with pytest.raises(ValueError, match="stall_probes"):
+        distill.find_holes(None, field, config, np.random.default_rng(0), friction=((0.2, 0.4), (0.1, 0.2)))
