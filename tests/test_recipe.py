@@ -45,7 +45,8 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     history = run["distilled_from"]["history"]
     assert len(history) == 3  # the teacher's round, one DAgger round, one hole round
     assert history[0]["samples"] == (16 + history[0]["jump_points"]) * 4  # round 0: random points and bisection
-    assert history[2]["hole_round"] == 1 and history[2]["probes"] == 16 and 0 <= history[2]["holes"] <= 16
+    assert history[2]["hole_round"] == 1 and history[2]["probes"] == 16 + 4 and 0 <= history[2]["holes"] <= 20
+    assert 0 <= history[2]["stall_holes"] <= min(4, history[2]["holes"])  # the stall probes ran (the shipped recipe's)
     assert not (out / ".tasks").exists()
     from mdr_drive_agents.drive_field import DriveField
 
