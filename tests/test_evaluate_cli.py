@@ -139,6 +139,7 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     text = ship(card_dir, card_dir, blind_json).read_text()  # in place: nothing to copy
     assert "runaway (runaway)" in text and "-1170" not in text  # k = 0.2, 0.4 kg runs away
     assert "--seed 99" in text and "mean 0.885, minimum 0.327" in text and "## Limits" in text
+    assert "hole rounds: 1, each with 2,048 probes at 0.75-1.02 of the teacher's stall load" in text  # the shipped recipe's
     second = tmp_path / "blind2.json"
     res = json.loads(blind_json.read_text())
     res["seed"] = 100
@@ -147,6 +148,14 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     text = ship(card_dir, card_dir, [blind_json, second]).read_text()  # one section per report seed
     assert text.count("## Blind results") == 2 and "--seed 99" in text and "--seed 100" in text
     assert "0.937 (at least 0.97 of it at 1 of 2 k)" in text
+
+
+def test_the_model_card_names_stall_probes_only_where_the_hole_rounds_had_them():
+    from mdr_drive_agents.model_card import stall_note
+
+    assert stall_note({"hole_rounds": 1}) == "" and stall_note({"stall_probes": 0, "stall_band": [0.9, 1.0]}) == ""
+    assert stall_note({"stall_probes": 16, "stall_band": [0.9, 1.0]}) == (
+        ", each with 16 probes at 0.9-1 of the teacher's stall load")
 
 
 def test_the_model_cards_blind_command_repeats_a_drawn_scan(tmp_path):
