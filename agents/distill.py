@@ -294,6 +294,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     (e.g. to save the student as it stands)."""
     import torch
 
+    check_stall_probes(config, friction is not None)  # before any work, not after round 0's fit
     torch.set_num_threads(config.torch_threads)
     rng = np.random.default_rng(seed)
     student = make_student(config, seed, env_kwargs or {}, hyperparameters or {})
@@ -371,6 +372,13 @@ def student_velocity(student: Student, points) -> np.ndarray:
     return steady_velocity_of(disp)
 
 
+def check_stall_probes(config: DistillConfig, friction_drawn: bool) -> None:
+    """Stall probes are placed at the drive field's stall, which is at one friction: refused (a
+    ``ValueError`` naming the option) where the episodes' friction is drawn."""
+    if config.stall_probes and friction_drawn:
+        raise ValueError("stall_probes: not with a drawn friction (the field's stall is at one friction)")
+
+
 def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator,
                friction=None):
     """The student and the teacher at ``config.hole_probes`` fresh random points (``draw_points``
@@ -379,10 +387,9 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
     (``config.hole_shortfall``; at the stall probes, also where the student stalls and the teacher
     moves), and the probe statistics (share of holes, the student's mean velocity over the
     teacher's where it moves)."""
+    check_stall_probes(config, friction is not None)
     points = draw_points(field_, config.hole_probes, rng, config, friction)
     if config.stall_probes:
-        if friction is not None:
-            raise ValueError("stall_probes: not with a drawn friction (the field's stall is at one friction)")
         points += stall_points(field_, config.stall_probes, rng, config.stall_band)
     _, v_teacher = teacher_drives(field_, points, config)
     v_student = student_velocity(student, points)
@@ -421,5 +428,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["DistillConfig", "Student", "adam_fit", "distill", "edge_loss", "find_holes", "fit", "hole_round",
+__all__ = ["DistillConfig", "Student", "adam_fit", "check_stall_probes", "distill", "edge_loss", "find_holes", "fit", "hole_round",
            "make_student", "policy_mean", "save_student", "student_velocity", "validation_fraction"]

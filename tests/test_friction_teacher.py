@@ -173,6 +173,19 @@ def test_a_friction_teacher_config_with_a_missing_field_is_one_line(tmp_path, ca
     assert err.count("\n") == 1 and "nowhere.npz" in err and "friction.fields" in err
 
 
+def test_stall_probes_with_a_drawn_friction_are_refused_before_any_work(tmp_path, capsys):
+    from mdr_drive_agents.distill import DistillConfig, distill
+
+    config = yaml.safe_load(TINY.read_text())
+    config["distill"]["stall_probes"] = 4
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    assert friction_teacher.main([str(tmp_path / "config.yaml"), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "stall_probes" in err and not (tmp_path / "out").exists()
+    with pytest.raises(ValueError, match="stall_probes"):  # no field, no student: refused before either is used
+        distill(None, DistillConfig(stall_probes=4), friction=((0.2, 0.4), (0.07, 0.13)))
+
+
 def test_the_probe_check_scores_robust_and_probing_choices_among_the_fields_drives(capsys, tmp_path):
     import runpy
 
