@@ -38,8 +38,8 @@ from tqdm import tqdm
 from .cycles import cycle_action
 from .drive_field import DriveField
 from .evaluate import steady_velocity_of
-from .teacher_data import (around, cliff_points, draw_points, jump_points, labelled_episodes, perturb_previous_actions,
-                           rollout, stall_points, teacher_drives)
+from .teacher_data import (around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout,
+                           stall_points, teacher_drives)
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
@@ -81,9 +81,6 @@ class DistillConfig:
             (``stall_points``), where the critical load is judged; there a probe where the teacher
             moves and the student does not is a hole too, however slow the teacher (-).
         stall_band: those probes' loads, as fractions of the teacher's stall load at their k (-).
-        cliff_probes: besides, points per hole round where the teacher's velocity changes steeply with
-            the load (``cliff_points``: density in load proportional to its slope), judged as the
-            uniform probes are (-).
         huber_delta: 0 fits the squared error; > 0 the Huber loss with this threshold (``edge_loss``)
             (action units).
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
@@ -127,7 +124,6 @@ class DistillConfig:
     hole_learning_rate: float = 3e-4
     stall_probes: int = 0
     stall_band: tuple[float, float] = (0.92, 1.02)
-    cliff_probes: int = 0
     huber_delta: float = 0.0
     jump_levels: int = 0
     jump_neighbours: int = 6
@@ -139,10 +135,9 @@ class DistillConfig:
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
                      "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "jump_levels", "jump_neighbours",
-                     "stall_probes", "cliff_probes"):
+                     "stall_probes"):
             check_int(name, getattr(self, name),
-                      0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels", "stall_probes",
-                                    "cliff_probes") else 1)
+                      0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels", "stall_probes") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -378,41 +373,34 @@ def student_velocity(student: Student, points) -> np.ndarray:
 
 
 def check_stall_probes(config: DistillConfig, friction_drawn: bool) -> None:
-    """Stall and cliff probes are placed by the drive field's stall and velocity slopes, which are at one
-    friction: refused (a ``ValueError`` naming the option) where the episodes' friction is drawn."""
+    """Stall probes are placed at the drive field's stall, which is at one friction: refused (a
+    ``ValueError`` naming the option) where the episodes' friction is drawn."""
     if config.stall_probes and friction_drawn:
         raise ValueError("stall_probes: not with a drawn friction (the field's stall is at one friction)")
-    if config.cliff_probes and friction_drawn:
-        raise ValueError("cliff_probes: not with a drawn friction (the field's velocity slopes are at one friction)")
 
 
 def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator,
                friction=None):
     """The student and the teacher at ``config.hole_probes`` fresh random points (``draw_points``
-    with ``friction``), ``config.cliff_probes`` points where the teacher's velocity changes steeply
-    with the load (``cliff_points``) and ``config.stall_probes`` points around the teacher's stall
+    with ``friction``) and ``config.stall_probes`` points around the teacher's stall
     (``stall_points``): the points where the student's steady velocity falls short of the teacher's
     (``config.hole_shortfall``; at the stall probes, also where the student stalls and the teacher
     moves), and the probe statistics (share of holes, the student's mean velocity over the
     teacher's where it moves)."""
     check_stall_probes(config, friction is not None)
     points = draw_points(field_, config.hole_probes, rng, config, friction)
-    if config.cliff_probes:
-        points += cliff_points(field_, config.cliff_probes, rng)
-    first_stall = len(points)
     if config.stall_probes:
         points += stall_points(field_, config.stall_probes, rng, config.stall_band)
     _, v_teacher = teacher_drives(field_, points, config)
     v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), config.hole_floor)
     stalled = (v_teacher > 0.0) & ~(v_student > 0.0)
-    stalled[:first_stall] = False
+    stalled[:config.hole_probes] = False
     short |= stalled
     moving = v_teacher >= 2e-3
     return [p for p, h in zip(points, short) if h], {
         "probes": len(points), "holes": int(short.sum()),
-        **({"cliff_holes": int(short[config.hole_probes:first_stall].sum())} if config.cliff_probes else {}),
-        **({"stall_holes": int(short[first_stall:].sum())} if config.stall_probes else {}),
+        **({"stall_holes": int(short[config.hole_probes:].sum())} if config.stall_probes else {}),
         "probe_mean_fraction": float(np.mean(v_student[moving] / v_teacher[moving])) if moving.any() else None}
 
 

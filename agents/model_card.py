@@ -56,16 +56,12 @@ def jump_note(distilled: dict) -> str:
     return f" and {', '.join(notes)}" if notes else ""
 
 
-def probe_note(distill: dict) -> str:
-    """The hole rounds' probes besides the uniform ones, if any: where the teacher's velocity changes
-    steeply with the load (``DistillConfig.cliff_probes``) and around its stall load (``stall_probes``)."""
-    notes = []
-    if distill.get("cliff_probes"):
-        notes.append(f"{distill['cliff_probes']:,} probes where the teacher's velocity changes steeply with the load")
-    if distill.get("stall_probes"):
-        low, high = distill["stall_band"]
-        notes.append(f"{distill['stall_probes']:,} probes at {low:g}-{high:g} of the teacher's stall load")
-    return f", each with {' and '.join(notes)}" if notes else ""
+def stall_note(distill: dict) -> str:
+    """The hole rounds' probes around the teacher's stall load (``DistillConfig.stall_probes``), if any."""
+    if not distill.get("stall_probes"):
+        return ""
+    low, high = distill["stall_band"]
+    return f", each with {distill['stall_probes']:,} probes at {low:g}-{high:g} of the teacher's stall load"
 
 
 def training_note(run: dict) -> str:
@@ -82,7 +78,7 @@ def training_note(run: dict) -> str:
                 f"to the teacher's actions on "
                 f"{d['points']:,} random episodes{jump_note(distilled)} (the teacher's neighbourhood radius "
                 f"{d.get('teacher_radius', 1)}; "
-                f"DAgger rounds after it: {d['rounds']}; hole rounds: {d.get('hole_rounds', 0)}{probe_note(d)}); final fit loss "
+                f"DAgger rounds after it: {d['rounds']}; hole rounds: {d.get('hole_rounds', 0)}{stall_note(d)}); final fit loss "
                 f"{loss:.2e}. No PPO update yet ({run['total_timesteps']:,} environment "
                 f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below (measured on the "
                 f"previous build: 200k steps made it worse, docs/ablations.md)")

@@ -11,9 +11,6 @@ teacher's drive there. Where the points come from:
   jump from one optimum to another, so the fit cannot put its blend of the two anywhere in the gap;
 * ``stall_points``: loads just around the teacher's stall at random k, where the critical-load target is
   judged (the hole rounds' stall probes);
-* ``cliff_points``: loads where the teacher's velocity changes steeply with the load (density in load
-  proportional to its slope there), where its drive changes family or falls off an edge (the hole
-  rounds' cliff probes);
 * ``around``: jittered copies of points where the student fell short of the teacher (the hole rounds).
 
 ``perturb_previous_actions`` adds samples whose previous action is off the cycle, labelled as the
@@ -73,26 +70,6 @@ def stall_points(field_: DriveField, n: int, rng: np.random.Generator, band: tup
     ks = rng.uniform(field_.ks[0], field_.ks[-1], n)
     stall = np.interp(ks, field_.ks, stall_fractions(field_) * field_.trapezoid_critical)
     loads = rng.uniform(*band, n) * stall
-    return [(float(k), float(m)) for k, m in zip(ks, loads)]
-
-
-def cliff_points(field_: DriveField, n: int, rng: np.random.Generator) -> list:
-    """``n`` (k, cargo mass kg) points where the teacher's velocity changes steeply with the load: a
-    grid cell (k line i, loads between fractions j and j + 1) drawn with probability proportional to
-    the change of the teacher's forward velocity across it, ``|max(v[i, j + 1], 0) - max(v[i, j], 0)|``,
-    then the load fraction uniform in the cell and k uniform within half the line spacing either side
-    of line i (the load as that fraction of the trapezoid's critical load at the drawn k). So the load's
-    density along each k line is proportional to the slope of the teacher's velocity in it: probes
-    gather where its drive changes family or falls off an edge, where a smooth student errs most."""
-    v = np.maximum(field_.velocities, 0.0)
-    change = np.abs(np.diff(v, axis=1)).ravel()
-    if not change.sum() > 0.0:
-        raise ValueError("cliff_probes: the teacher's velocity does not change with the load anywhere")
-    i, j = np.unravel_index(rng.choice(change.size, n, p=change / change.sum()), (len(field_.ks), len(field_.fractions) - 1))
-    edges = np.r_[field_.ks[0], 0.5 * (field_.ks[1:] + field_.ks[:-1]), field_.ks[-1]]
-    ks = rng.uniform(edges[i], edges[i + 1])
-    fractions = rng.uniform(field_.fractions[j], field_.fractions[j + 1])
-    loads = fractions * np.interp(ks, field_.ks, field_.trapezoid_critical)
     return [(float(k), float(m)) for k, m in zip(ks, loads)]
 
 
@@ -225,5 +202,5 @@ def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float
     return out
 
 
-__all__ = ["around", "cliff_points", "draw_points", "drive_difference", "jump_brackets", "jump_points", "labelled_episodes",
+__all__ = ["around", "draw_points", "drive_difference", "jump_brackets", "jump_points", "labelled_episodes",
            "perturb_previous_actions", "rollout", "stall_fractions", "stall_points", "teacher_drives"]

@@ -150,15 +150,12 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     assert "0.937 (at least 0.97 of it at 1 of 2 k)" in text
 
 
-def test_the_model_card_names_stall_and_cliff_probes_only_where_the_hole_rounds_had_them():
-    from mdr_drive_agents.model_card import probe_note
+def test_the_model_card_names_stall_probes_only_where_the_hole_rounds_had_them():
+    from mdr_drive_agents.model_card import stall_note
 
-    assert probe_note({"hole_rounds": 1}) == "" and probe_note({"stall_probes": 0, "stall_band": [0.9, 1.0]}) == ""
-    assert probe_note({"stall_probes": 16, "stall_band": [0.9, 1.0], "cliff_probes": 0}) == (
+    assert stall_note({"hole_rounds": 1}) == "" and stall_note({"stall_probes": 0, "stall_band": [0.9, 1.0]}) == ""
+    assert stall_note({"stall_probes": 16, "stall_band": [0.9, 1.0]}) == (
         ", each with 16 probes at 0.9-1 of the teacher's stall load")
-    assert probe_note({"stall_probes": 16, "stall_band": [0.9, 1.0], "cliff_probes": 2048}) == (
-        ", each with 2,048 probes where the teacher's velocity changes steeply with the load"
-        " and 16 probes at 0.9-1 of the teacher's stall load")
 
 
 def test_the_model_cards_blind_command_repeats_a_drawn_scan(tmp_path):

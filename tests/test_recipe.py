@@ -716,51 +716,6 @@ def test_stall_points_lie_in_their_band_around_the_zero_crossing_of_each_k_lines
     assert points[:, 1].max() > 0.95 * 1.2 * 0.08 * 0.95  # the band is filled, not one load
 
 
-def test_cliff_points_gather_where_the_teachers_velocity_changes_with_the_load():
-    from mdr_drive_agents.teacher_data import cliff_points
-
-    field = _synthetic_field(nk=3, ns=4)  # fractions 0, 0.4, 0.8, 1.2; k lines 0, 0.3, 0.6
-    field.trapezoid_critical[:] = [0.02, 0.04, 0.08]
-    field.velocities[:] = [[3.0, 3.0, 1.0, 1.0],      # falls by 2 between 0.4 and 0.8 only
-                           [2.0, 2.0, 2.0, 2.0],      # flat: no probe on this line
-                           [1.0, 1.0, -1.0, -5.0]]    # falls by 1 between 0.4 and 0.8, backwards beyond: no weight
-    points = np.array(cliff_points(field, 3000, np.random.default_rng(2)))
-    k, load = points[:, 0], points[:, 1]
-    fraction = load / np.interp(k, field.ks, field.trapezoid_critical)
-    assert np.all((fraction >= 0.4 - 1e-12) & (fraction <= 0.8 + 1e-12))  # only the cells where it changes
-    assert np.all((k <= 0.15) | (k >= 0.45))  # within half a spacing of the lines that change, in the range
-    assert np.all((k >= 0.0) & (k <= 0.6))
-    assert abs(np.mean(k <= 0.15) - 2.0 / 3.0) < 0.03  # in proportion to the change: 2 against 1
-    assert fraction.std() > 0.1  # the cell is filled, not one load
-    field.velocities[:] = 1.0
-    with pytest.raises(ValueError, match="cliff_probes"):
-        cliff_points(field, 10, np.random.default_rng(0))
-
-
-def test_cliff_probes_are_judged_as_the_uniform_probes_and_counted_apart(monkeypatch):
-    from mdr_drive_agents import distill
-
-    field = _synthetic_field()
-    field.velocities[:] = np.linspace(1.0, -1.0, 5)
-    # 2 uniform probes, 2 cliff probes, 1 stall probe; the teacher crawls at 0.05 mm/s at the 2nd cliff
-    # probe and at the stall probe, where the student stalls
-    teacher = np.array([20e-3, 5e-3, 20e-3, 0.05e-3, 0.05e-3])
-    student = np.array([20e-3, 4.4e-3, 15e-3, -0.01e-3, -0.01e-3])
-    monkeypatch.setattr(field, "best", lambda points, radius=1: (np.zeros((len(points), 2, 5)), teacher[:len(points)]))
-    monkeypatch.setattr(distill, "student_velocity", lambda student_, points: student[:len(points)])
-    config = DistillConfig(hole_probes=2, hole_floor=1e-4, cliff_probes=2, stall_probes=1)
-    found, probe = distill.find_holes(None, field, config, np.random.default_rng(0))
-    # uniform 2 short by 0.6 of 5; cliff 1 short by 5 of 20; cliff 2 stalls, but that counts at stall probes only
-    assert probe["probes"] == 5 and probe["holes"] == 3 and len(found) == 3
-    assert probe["cliff_holes"] == 1 and probe["stall_holes"] == 1
-    assert "cliff_holes" not in distill.find_holes(None, field, DistillConfig(hole_probes=2), np.random.default_rng(0))[1]
-    with pytest.raises(ValueError, match="cliff_probes"):
-        DistillConfig(cliff_probes=-1)
-    with pytest.raises(ValueError, match="cliff_probes"):
-        distill.find_holes(None, field, DistillConfig(cliff_probes=2), np.random.default_rng(0),
-                           friction=((0.2, 0.4), (0.1, 0.2)))
-
-
 def test_at_a_stall_probe_a_student_that_stalls_where_the_teacher_crawls_is_a_hole(monkeypatch):
     from mdr_drive_agents import distill
 
