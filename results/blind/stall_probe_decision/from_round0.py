@@ -4,6 +4,9 @@ variant instead of 12).
     python results/blind/stall_probe_decision/from_round0.py round0 runs/round0_s0.pkl
     python results/blind/stall_probe_decision/from_round0.py holes runs/round0_s0.pkl RECIPE.yaml runs/OUT
 
+Both take the teacher's field as an optional last argument (default: the committed
+results/recipe/teacher_field.npz); ``holes`` must be given the one its round 0 was fitted to.
+
 ``round0`` runs the recipe's round 0 (agents/configs/recipe.yaml, its seed, on the committed teacher
 results/recipe/teacher_field.npz) exactly as ``distill.distill`` does and pickles the student's
 weights, its observation statistics, the gathered episodes and the random state after it. ``holes``
@@ -31,12 +34,12 @@ ROUND0_KEYS = ("net_arch", "activation", "points", "periods", "no_load_share", "
                "jump_levels", "jump_neighbours", "jump_threshold", "quantum_centres")
 
 
-def round0(out: str) -> None:
+def round0(out: str, teacher: str = TEACHER) -> None:
     recipe = load_recipe(SHIPPED)
     config, seed = recipe["distill"], recipe["seed"]
     assert config.rounds == 0
     torch.set_num_threads(config.torch_threads)
-    field_ = DriveField.load(TEACHER)
+    field_ = DriveField.load(teacher)
     rng = np.random.default_rng(seed)
     student = make_student(config, seed, recipe["env_kwargs"], recipe["ppo"])
     t0 = time.perf_counter()
@@ -55,10 +58,10 @@ def round0(out: str) -> None:
     with open(out, "wb") as f:
         pickle.dump({"policy": student.model.policy.state_dict(), "obs_rms": student.venv.obs_rms,
                      "obs_all": [obs], "drive_all": [sample_drives], "rng": rng.bit_generator.state,
-                     "record": record}, f)
+                     "record": record, "teacher": teacher}, f)
 
 
-def holes(ckpt: str, recipe_path: str, out: str) -> None:
+def holes(ckpt: str, recipe_path: str, out: str, teacher: str = TEACHER) -> None:
     recipe, shipped = load_recipe(recipe_path), load_recipe(SHIPPED)
     config, seed = recipe["distill"], recipe["seed"]
     differ = [key for key in ROUND0_KEYS if getattr(config, key) != getattr(shipped["distill"], key)]
@@ -67,7 +70,9 @@ def holes(ckpt: str, recipe_path: str, out: str) -> None:
     torch.set_num_threads(config.torch_threads)
     with open(ckpt, "rb") as f:
         state = pickle.load(f)
-    field_ = DriveField.load(TEACHER)
+    if state.get("teacher", TEACHER) != teacher:
+        sys.exit(f"{ckpt}: round 0 was fitted to {state.get('teacher', TEACHER)}, not {teacher}")
+    field_ = DriveField.load(teacher)
     student = make_student(config, seed, recipe["env_kwargs"], recipe["ppo"])
     student.model.policy.load_state_dict(state["policy"])
     student.venv.obs_rms = state["obs_rms"]
@@ -80,7 +85,7 @@ def holes(ckpt: str, recipe_path: str, out: str) -> None:
         record = hole_round(student, field_, config, h, rng, seed, obs_all, drive_all, None, False)
         student.history.append(record)
         print(record, flush=True)
-    teacher = {"teacher": TEACHER, "recipe": recipe_path, "round0_checkpoint": ckpt}
+    teacher = {"teacher": teacher, "recipe": recipe_path, "round0_checkpoint": ckpt}
     save_student(student, Path(out) / "policy", student_record(seed, recipe["env_kwargs"], recipe["ppo"], config,
                                                              student, round(time.perf_counter() - t0, 1),
                                                              " ".join(sys.argv), teacher))
