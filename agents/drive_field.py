@@ -92,6 +92,12 @@ class DriveField:
                               k_max=k_max)
             field.exchange()
             field.align()
+        if config.refine_steep:
+            budget, sigma, low, high, drop = config.refine_steep
+            field.refine_load(int(budget), float(sigma), (float(low), float(high)), executor=executor,
+                              seed=seed + 960_000, min_drop=float(drop), record="refined_steep")
+            field.exchange()
+            field.align()
         if config.polish_stall:
             k_max = float(config.polish_stall[2]) if len(config.polish_stall) == 3 else None
             field.polish_stall(int(config.polish_stall[0]), float(config.polish_stall[1]), executor=executor,
@@ -204,7 +210,8 @@ class DriveField:
         return len(cells) * ns
 
     def refine_load(self, budget: int, sigma: float, band: tuple[float, float], executor=None, seed: int = 0,
-                    starts: int = 3, k_max: float | None = None) -> int:
+                    starts: int = 3, k_max: float | None = None, min_drop: float = 0.0,
+                    record: str = "refined_load") -> int:
         """Insert a load line between every two of the grid's whose midpoint fraction lies in ``band``
         (low, high; load / the trapezoid's critical load), on every k line: each new node plays the
         interpolation of its lighter and heavier neighbours' drives and the drives of the six nodes
@@ -213,10 +220,14 @@ class DriveField:
         fastest drive found or played; one task per k line on ``executor``. Above ``k_max`` (if given)
         the new nodes are not searched: each keeps the faster of its lighter and heavier neighbours'
         drives, so the teacher's drives there stay the grid's. The old nodes are unchanged; the load
-        fractions are no longer evenly spaced. Returns the new nodes searched."""
+        fractions are no longer evenly spaced. With ``min_drop`` > 0, only the cells across which the
+        forward velocity falls by more than ``min_drop`` (m/s) on at least one k line
+        (:meth:`velocity_drops`) get a line. The settings and node counts go to ``meta[record]``.
+        Returns the new nodes searched."""
         nk, ns = self.velocities.shape
         all_mids = 0.5 * (self.fractions[:-1] + self.fractions[1:])
-        cells = [j for j in range(ns - 1) if band[0] <= all_mids[j] <= band[1]]
+        steep = self.velocity_drops().max(axis=0) > min_drop if min_drop > 0.0 else np.ones(ns - 1, dtype=bool)
+        cells = [j for j in range(ns - 1) if band[0] <= all_mids[j] <= band[1] and steep[j]]
         if not cells:
             return 0
         mids = all_mids[cells]
@@ -249,9 +260,16 @@ class DriveField:
         self.fractions = np.insert(self.fractions, at, mids)
         self.drives = np.insert(self.drives, at, new_drives, axis=1)
         self.velocities = np.insert(self.velocities, at, new_velocities, axis=1)
-        self.meta["refined_load"] = {"budget": budget, "sigma": sigma, "band": list(band), "k_max": k_max,
-                                     "new_nodes": len(cells) * nk, "searched": len(cells) * len(searched)}
+        self.meta[record] = {"budget": budget, "sigma": sigma, "band": list(band), "k_max": k_max,
+                             **({"min_drop": min_drop, "fractions": mids.tolist()} if min_drop > 0.0 else {}),
+                             "new_nodes": len(cells) * nk, "searched": len(cells) * len(searched)}
         return len(cells) * len(searched)
+
+    def velocity_drops(self) -> np.ndarray:
+        """Per k line and load cell (n_k, n_s - 1), how much the forward velocity falls from the
+        cell's lighter node to its heavier, ``max(v[i, j], 0) - max(v[i, j + 1], 0)`` (m/s)."""
+        v = np.maximum(self.velocities, 0.0)
+        return v[:, :-1] - v[:, 1:]
 
     def stall_nodes(self, k_max: float | None = None) -> list[tuple[int, int]]:
         """Two nodes (i, j) per k line (up to ``k_max``, if given), on either side of its stall: its

@@ -56,6 +56,12 @@ class FieldConfig:
             around it, then polished from the three best (``DriveField.refine_load``; empty: none)
             (-, action units, -, -, -). Between load lines 0.12 apart the best drive can change (past
             about 0.6 of the trapezoid's critical load, where it slows steeply with the load).
+        refine_steep: after them, (budget, sigma, low, high, drop) or empty: a load line at the
+            midpoint of every cell whose midpoint fraction lies in [low, high] and across which the
+            forward velocity falls by more than ``drop`` (m/s) on at least one k line, searched as
+            ``refine_load``'s (``DriveField.refine_load`` with ``min_drop``) (-, action units, -, -, m/s).
+            Where the best drive falls off an edge within one cell, the teacher between the two nodes
+            plays one of their drives, and a search at the midpoint finds a faster one.
         polish_stall: last, (budget, sigma) or (budget, sigma, k_max) or empty: on every k line (up to
             k_max), the two nodes on either side of its stall (the heaviest that moves and the next
             heavier) play their own, their lighter and k neighbours' drives and the push/clamp cycle,
@@ -79,6 +85,7 @@ class FieldConfig:
     polish: tuple[tuple[int, float], ...] = ()
     refine_k: tuple = ()
     refine_load: tuple = ()
+    refine_steep: tuple = ()
     polish_stall: tuple = ()
     friction: tuple[float, float] = PAPER_FRICTION
 
@@ -110,6 +117,13 @@ class FieldConfig:
             check_range("refine_load high", self.refine_load[3], self.refine_load[2], self.max_load_fraction)
             if len(self.refine_load) == 5:
                 check_range("refine_load k_max", self.refine_load[4], *self.k_range)
+        if self.refine_steep:
+            if len(self.refine_steep) != 5:
+                raise ValueError(f"refine_steep={self.refine_steep!r} must be (budget, sigma, low, high, drop) or empty")
+            check_search("refine_steep", *self.refine_steep[:2])
+            check_range("refine_steep low", self.refine_steep[2], 0.0, self.max_load_fraction)
+            check_range("refine_steep high", self.refine_steep[3], self.refine_steep[2], self.max_load_fraction)
+            check_range("refine_steep drop", self.refine_steep[4], 0.0, 0.1, low_open=True)
         if self.polish_stall:
             if len(self.polish_stall) not in (2, 3):
                 raise ValueError(f"polish_stall={self.polish_stall!r} must be (budget, sigma), (budget, sigma, k_max) "

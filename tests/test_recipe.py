@@ -319,6 +319,34 @@ def test_refine_load_adds_load_lines_in_its_band_and_plays_what_it_records():
             FieldConfig(refine_load=bad)
 
 
+def test_refine_steep_adds_load_lines_only_where_the_velocity_falls_steeply():
+    from mdr_drive_agents.evaluate import open_loop_velocity
+    from mdr_drive_env.sweep import Executor
+
+    field = _synthetic_field(nk=2, ns=4)  # fractions 0, 0.4, 0.8, 1.2
+    field.trapezoid_critical[:] = 0.02
+    field.velocities = np.array([[9e-3, 8e-3, 2e-3, -5e-3],    # falls by 6 mm/s from 0.4 to 0.8, then to a stall
+                                 [9e-3, 7e-3, 5e-3, -1e-3]])   # 2 mm/s, then 5 (backwards counts as a stop)
+    assert np.allclose(field.velocity_drops(), [[1e-3, 6e-3, 2e-3], [2e-3, 2e-3, 5e-3]])
+    ex = Executor(workers=1, progress=False)
+    # 0.2 (1 and 2 mm/s) and 1.0 (5 mm/s, not more) stay cells; 0.6 falls by more than 5 on line 0
+    assert field.refine_load(8, 0.1, (0.1, 1.1), executor=ex, min_drop=5e-3, record="refined_steep") == 2
+    assert np.allclose(field.fractions, [0.0, 0.4, 0.6, 0.8, 1.2])
+    assert field.meta["refined_steep"] == {"budget": 8, "sigma": 0.1, "band": [0.1, 1.1], "k_max": None,
+                                           "min_drop": 5e-3, "fractions": [0.6], "new_nodes": 2, "searched": 2}
+    assert "refined_load" not in field.meta
+    assert np.allclose(open_loop_velocity([field.point(i, 2) for i in range(2)], field.drives[:, 2]),
+                       field.velocities[:, 2])
+    before = field.fractions.copy()
+    assert field.refine_load(8, 0.1, (0.1, 1.1), executor=ex, min_drop=0.05, record="refined_steep") == 0
+    assert np.array_equal(field.fractions, before)
+    for bad, match in (((300, 0.1, 0.6, 1.5), "refine_steep"), ((0, 0.1, 0.6, 1.5, 0.005), "refine_steep budget"),
+                       ((300, 0.1, 1.0, 0.6, 0.005), "refine_steep high"), ((300, 0.1, 0.6, 1.2, 0.0), "refine_steep drop"),
+                       ((300, 0.1, 0.6, 1.2, 5.0), "refine_steep drop")):
+        with pytest.raises(ValueError, match=match):
+            FieldConfig(refine_steep=bad)
+
+
 def test_polish_stall_searches_the_nodes_either_side_of_each_stall_and_plays_what_it_records():
     from mdr_drive_agents.evaluate import open_loop_velocity
     from mdr_drive_env.sweep import Executor
