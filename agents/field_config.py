@@ -112,17 +112,13 @@ class FieldConfig:
             if len(self.refine_load) not in (4, 5):
                 raise ValueError(f"refine_load={self.refine_load!r} must be (budget, sigma, low, high), "
                                  "(budget, sigma, low, high, k_max) or empty")
-            check_search("refine_load", *self.refine_load[:2])
-            check_range("refine_load low", self.refine_load[2], 0.0, self.max_load_fraction)
-            check_range("refine_load high", self.refine_load[3], self.refine_load[2], self.max_load_fraction)
+            self._check_load_lines("refine_load", self.refine_load)
             if len(self.refine_load) == 5:
                 check_range("refine_load k_max", self.refine_load[4], *self.k_range)
         if self.refine_steep:
             if len(self.refine_steep) != 5:
                 raise ValueError(f"refine_steep={self.refine_steep!r} must be (budget, sigma, low, high, drop) or empty")
-            check_search("refine_steep", *self.refine_steep[:2])
-            check_range("refine_steep low", self.refine_steep[2], 0.0, self.max_load_fraction)
-            check_range("refine_steep high", self.refine_steep[3], self.refine_steep[2], self.max_load_fraction)
+            self._check_load_lines("refine_steep", self.refine_steep)
             check_range("refine_steep drop", self.refine_steep[4], 0.0, 0.1, low_open=True)
         if self.polish_stall:
             if len(self.polish_stall) not in (2, 3):
@@ -135,6 +131,13 @@ class FieldConfig:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
         check_range("friction mu1", self.friction[1], 0.0, 2.0)
+
+    def _check_load_lines(self, stage: str, lines: tuple) -> None:
+        """A stage that adds searched load lines, (budget, sigma, low, high, ...): its search and its
+        band of load fractions, within [0, max_load_fraction]."""
+        check_search(stage, *lines[:2])
+        check_range(f"{stage} low", lines[2], 0.0, self.max_load_fraction)
+        check_range(f"{stage} high", lines[3], lines[2], self.max_load_fraction)
 
     @property
     def ks(self) -> np.ndarray:

@@ -206,7 +206,7 @@ folder first: a resumed run writes into it; the observation statistics stay as d
   where it is below the trapezoid on a dense grid of the whole domain (no search needed; about a
   minute): narrow rows of load, some going backwards fast. Where those points fall depends on the
   build, and builds of one recipe differ widely: the shipped one was chosen among student seeds
-  (`results/blind/stall_low_k_decision`), then among hole-round settings
+  (`results/blind/stall_low_k_decision`), then among teacher and hole-round settings
   (`results/blind/stall_probe_decision`, `results/blind/t1_student_decision`), on decision data;
   another `seed` is expected to miss more often (docs/ablations.md).
 

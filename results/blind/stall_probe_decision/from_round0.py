@@ -7,9 +7,9 @@ variant instead of 12).
 Both take the teacher's field as an optional last argument (default: the committed
 results/recipe/teacher_field.npz); ``holes`` must be given the one its round 0 was fitted to.
 
-``round0`` runs the recipe's round 0 (agents/configs/recipe.yaml, its seed, on the committed teacher
-results/recipe/teacher_field.npz) exactly as ``distill.distill`` does and pickles the student's
-weights, its observation statistics, the gathered episodes and the random state after it. ``holes``
+``round0`` runs the recipe's round 0 (agents/configs/recipe.yaml, its seed, on the given teacher)
+exactly as ``distill.distill`` does and pickles the student's weights, its observation statistics,
+the gathered episodes and the random state after it. ``holes``
 continues from there with RECIPE.yaml's distillation settings (round 0's must be the shipped ones:
 checked) through its hole rounds (``distill.hole_round``) and saves the policy in OUT/policy. With
 the shipped recipe it gives the shipped policy (checked, value for value, before any variant).
@@ -70,8 +70,9 @@ def holes(ckpt: str, recipe_path: str, out: str, teacher: str = TEACHER) -> None
     torch.set_num_threads(config.torch_threads)
     with open(ckpt, "rb") as f:
         state = pickle.load(f)
-    if state.get("teacher", TEACHER) != teacher:
-        sys.exit(f"{ckpt}: round 0 was fitted to {state.get('teacher', TEACHER)}, not {teacher}")
+    fitted_to = state.get("teacher", TEACHER)  # checkpoints written before the argument: the default
+    if fitted_to != teacher:
+        sys.exit(f"{ckpt}: round 0 was fitted to {fitted_to}, not {teacher}")
     field_ = DriveField.load(teacher)
     student = make_student(config, seed, recipe["env_kwargs"], recipe["ppo"])
     student.model.policy.load_state_dict(state["policy"])
