@@ -79,33 +79,36 @@ class DriveField:
         for n, (budget, sigma) in enumerate(config.polish):
             field.polish(int(budget), float(sigma), executor=executor, seed=seed + 100_000 * (n + 1))
             field.exchange()
-        field.align()
+        field.align()  # the polish passes exchange after each pass and align once
         if config.refine_k:
             field.refine_k(int(config.refine_k[0]), float(config.refine_k[1]), executor=executor, seed=seed + 900_000,
                            k_max=float(config.refine_k[2]) if len(config.refine_k) == 3 else None)
-            field.exchange()
-            field.align()
+            field.settle()
         if config.refine_load:
             budget, sigma, low, high = config.refine_load[:4]
             k_max = float(config.refine_load[4]) if len(config.refine_load) == 5 else None
             field.refine_load(int(budget), float(sigma), (float(low), float(high)), executor=executor, seed=seed + 950_000,
                               k_max=k_max)
-            field.exchange()
-            field.align()
+            field.settle()
         if config.refine_steep:
             budget, sigma, low, high, drop = config.refine_steep
             field.refine_load(int(budget), float(sigma), (float(low), float(high)), executor=executor,
                               seed=seed + 960_000, min_drop=float(drop), record="refined_steep")
-            field.exchange()
-            field.align()
+            field.settle()
         if config.polish_stall:
             k_max = float(config.polish_stall[2]) if len(config.polish_stall) == 3 else None
             field.polish_stall(int(config.polish_stall[0]), float(config.polish_stall[1]), executor=executor,
                                seed=seed + 970_000, k_max=k_max)
-            field.exchange()
-            field.align()
+            field.settle()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
+
+    def settle(self) -> None:
+        """After a stage adds or changes nodes: offer each node its neighbours' drives
+        (``exchange``), then write every cycle in the phase closest to its neighbours' (``align``), so
+        that interpolating between nodes blends like with like."""
+        self.exchange()
+        self.align()
 
     def point(self, i: int, j: int) -> tuple[float, float, float, float]:
         """(k, load kg, mu, mu1) of grid node (i, j): its point at the field's friction."""
