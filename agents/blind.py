@@ -61,9 +61,10 @@ LOAD_FACTOR = 1.25
 BELOW_TOLERANCE = 0.05e-3
 #: The fraction of the best drive counts only where the best drive moves at least this fast (m/s).
 MOVING_THRESHOLD = 2e-3
-#: The learning issue's targets: the fraction of the best drive at every scored point, and the
-#: critical load over the best two-action cycle's at every scanned k (-).
+#: The learning issue's targets: the fraction of the best drive at every scored point and on
+#: average, and the critical load over the best two-action cycle's at every scanned k (-).
 FRACTION_TARGET = 0.85
+MEAN_FRACTION_TARGET = 0.95
 CRITICAL_LOAD_TARGET = 0.97
 #: Bisection steps of the best cycle's critical-load scan (``cycle_critical_load``).
 CYCLE_BISECTIONS = 8
@@ -172,6 +173,25 @@ def critical_load_statistics(crit: dict, ks) -> dict:
         "critical_load_over_best_cycle_min": min(finite) if finite else None,
         "k_values_at_critical_load_target": sum(r >= CRITICAL_LOAD_TARGET for r in finite),
     }
+
+
+def missed_targets(stats: dict) -> list[str]:
+    """The learning issue's targets one policy's blind statistics (``statistics``) miss, by name;
+    empty when it meets every one: no point below the trapezoid (by more than ``BELOW_TOLERANCE``),
+    the fraction of the best drive at least ``MEAN_FRACTION_TARGET`` on average and
+    ``FRACTION_TARGET`` at every scored point, the critical load at least ``CRITICAL_LOAD_TARGET``
+    of the best cycle's at every scanned k. A statistic with nothing to judge (None: no point where
+    the best drive moves, no k where the best cycle carries a load) misses nothing."""
+    def at_least(value, target):
+        return value is None or value >= target
+
+    checks = {
+        "below the trapezoid": stats["points_below_trapezoid"] == 0,
+        "fraction of the best: mean": at_least(stats["fraction_of_best_mean"], MEAN_FRACTION_TARGET),
+        "fraction of the best: minimum": at_least(stats["fraction_of_best_min"], FRACTION_TARGET),
+        "critical load": at_least(stats["critical_load_over_best_cycle_min"], CRITICAL_LOAD_TARGET),
+    }
+    return [name for name, met in checks.items() if not met]
 
 
 def stored_scan(res: dict) -> dict | None:

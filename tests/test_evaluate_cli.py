@@ -138,16 +138,19 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
         "critical_load_over_best_cycle_min": 0.937, "critical_load_over_trapezoid": [1.188, 1.526]}}}))
     text = ship(card_dir, card_dir, blind_json).read_text()  # in place: nothing to copy
     assert "runaway (runaway)" in text and "-1170" not in text  # k = 0.2, 0.4 kg runs away
-    assert "--seed 99" in text and "mean 0.885, minimum 0.327" in text and "## Limits" in text
+    assert "--seed SEED" in text and "SEED = 99" in text and "## Limits" in text
+    assert "| 99 | 0 | 0.885 | 0.327 (? of 20) | 0.937 (1 of 2) | 1.188-1.526 |" in text  # a file without the count
     assert "hole rounds: 1, each with 2,048 probes at 0.75-1.02 of the teacher's stall load" in text  # the shipped recipe's
     second = tmp_path / "blind2.json"
     res = json.loads(blind_json.read_text())
     res["seed"] = 100
-    res["statistics"][card_dir.as_posix()]["k_values_at_critical_load_target"] = 1
+    res["statistics"][card_dir.as_posix()]["points_under_fraction_target"] = 1
     second.write_text(json.dumps(res))
-    text = ship(card_dir, card_dir, [blind_json, second]).read_text()  # one section per report seed
-    assert text.count("## Blind results") == 2 and "--seed 99" in text and "--seed 100" in text
-    assert "0.937 (at least 0.97 of it at 1 of 2 k)" in text
+    text = ship(card_dir, card_dir, [blind_json, second]).read_text()  # one row per report seed
+    assert text.count("## Blind results") == 1 and "SEED = 99, 100" in text
+    assert "| 100 | 0 | 0.885 | 0.327 (1 of 20) | 0.937 (1 of 2) |" in text
+    assert "All four targets met on 0 of 2 report seeds." in text
+    assert ship(card_dir, card_dir).read_text().count("## Blind results") == 0
 
 
 def test_the_model_card_names_stall_probes_only_where_the_hole_rounds_had_them():
@@ -158,18 +161,38 @@ def test_the_model_card_names_stall_probes_only_where_the_hole_rounds_had_them()
         ", each with 16 probes at 0.9-1 of the teacher's stall load")
 
 
-def test_the_model_cards_blind_command_repeats_a_drawn_scan(tmp_path):
+def test_the_model_cards_blind_record_repeats_each_command_and_counts_the_seeds_that_meet_every_target(tmp_path):
     from mdr_drive_agents.blind import DRAWN_SCAN, EVEN_SCAN
-    from mdr_drive_agents.model_card import blind_section
+    from mdr_drive_agents.model_card import blind_record
 
-    stats = {"points_below_trapezoid": 0, "points_scored": 20, "fraction_of_best_mean": 1.1,
-             "fraction_of_best_min": 0.9, "critical_load_over_best_cycle": [0.99, 1.0],
-             "critical_load_over_best_cycle_min": 0.99, "critical_load_over_trapezoid": [1.2, 1.5]}
-    for scan, flag in ((DRAWN_SCAN, True), (EVEN_SCAN, False), (None, False)):
-        res = {"n": 24, "seed": 99, "policies": ["P"], "statistics": {"P": stats}, **({"scan": scan} if scan else {})}
-        (tmp_path / "blind.json").write_text(json.dumps(res))
-        text = blind_section(tmp_path / "blind.json", "P")
-        assert "--blind 24 --seed 99" in text and ("--scan-draw" in text) == flag
+    clean = {"points_below_trapezoid": 0, "points_scored": 20, "fraction_of_best_mean": 1.1,
+             "fraction_of_best_min": 0.9, "points_under_fraction_target": 0,
+             "critical_load_over_best_cycle": [0.99, 1.0], "critical_load_over_best_cycle_min": 0.99,
+             "k_values_at_critical_load_target": 2, "critical_load_over_trapezoid": [1.2, 1.5]}
+    short = {**clean, "fraction_of_best_min": 0.84, "points_under_fraction_target": 1}
+    files = []
+    for seed, scan, stats in ((97, DRAWN_SCAN, clean), (98, DRAWN_SCAN, short), (99, EVEN_SCAN, clean), (100, None, clean)):
+        res = {"n": 24, "seed": seed, "policies": ["P"], "statistics": {"P": stats}, **({"scan": scan} if scan else {})}
+        files.append(tmp_path / f"{seed}.json")
+        files[-1].write_text(json.dumps(res))
+    text = blind_record(files, "P")
+    assert "`mdr-drive benchmark --blind 24 --seed SEED --scan-draw --policies P` with SEED = 97, 98" in text
+    assert "`mdr-drive benchmark --blind 24 --seed SEED --policies P` with SEED = 99, 100" in text
+    assert "| 98 | 0 | 1.100 | 0.840 (1 of 20) | 0.990 (2 of 2) | 1.200-1.500 | fraction of the best: minimum |" in text
+    assert "| 97 | 0 | 1.100 | 0.900 (0 of 20) | 0.990 (2 of 2) | 1.200-1.500 | none |" in text
+    assert "All four targets met on 3 of 4 report seeds." in text
+
+
+def test_missed_targets_names_each_target_a_policy_misses():
+    from mdr_drive_agents.blind import missed_targets
+
+    met = {"points_below_trapezoid": 0, "fraction_of_best_mean": 0.95, "fraction_of_best_min": 0.85,
+           "critical_load_over_best_cycle_min": 0.97}
+    assert missed_targets(met) == []
+    assert missed_targets({**met, "fraction_of_best_mean": None, "critical_load_over_best_cycle_min": None}) == []
+    assert missed_targets({"points_below_trapezoid": 1, "fraction_of_best_mean": 0.949, "fraction_of_best_min": 0.849,
+                           "critical_load_over_best_cycle_min": 0.969}) == [
+        "below the trapezoid", "fraction of the best: mean", "fraction of the best: minimum", "critical load"]
 
 
 def test_the_model_card_command_explains_itself_and_refuses_a_folder_without_a_policy(tmp_path, capsys):
