@@ -2,6 +2,10 @@
 lighter than each k line's stall pair (k <= 0.15), on the pool of stored blind searches.
 
     python results/blind/stall_side_teacher_decision/teacher_variants.py runs/stall_side_teacher.npz
+    python results/blind/stall_side_teacher_decision/teacher_variants.py runs/stall_side_k025_teacher.npz 0.25
+
+With a second argument K2: also, at 0.15 < k <= K2, each k line's stall pair and the two nodes
+below it.
 """
 import sys
 import time
@@ -31,9 +35,13 @@ if out.exists():
 else:
     variant = DriveField.load(ROOT / "results/recipe/teacher_field.npz")
     lighter = [(i, j - d) for i, j in variant.stall_nodes(K_MAX)[::2] for d in (1, 2) if j - d >= 0]
+    if len(sys.argv) > 2:  # the second variant: the stall pair and the two below it at K_MAX < k <= K2
+        k2 = float(sys.argv[2])
+        lighter += [(i, j + d) for i, j in variant.stall_nodes(k2)[::2] if variant.ks[i] > K_MAX
+                    for d in (-2, -1, 0, 1) if 0 <= j + d < variant.velocities.shape[1]]
     variant.stall_nodes = lambda k_max=None: lighter  # polish_stall's search at these nodes instead
     t0 = time.perf_counter()
-    changed = variant.polish_stall(BUDGET, SIGMA, executor=Executor(progress=False), seed=SEED, k_max=K_MAX)
+    changed = variant.polish_stall(BUDGET, SIGMA, executor=Executor(progress=False), seed=SEED)
     del variant.stall_nodes
     variant.settle()
     print(f"extra search at {len(lighter)} nodes: {changed} changed, {time.perf_counter() - t0:.1f} s")
