@@ -34,17 +34,18 @@ if out.exists():
     print(f"variant read from {out}")
 else:
     variant = DriveField.load(ROOT / "results/recipe/teacher_field.npz")
-    lighter = [(i, j - d) for i, j in variant.stall_nodes(K_MAX)[::2] for d in (1, 2) if j - d >= 0]
+    groups = [[(i, j - d) for i, j in variant.stall_nodes(K_MAX)[::2] for d in (1, 2) if j - d >= 0]]
     if len(sys.argv) > 2:  # the second variant: the stall pair and the two below it at K_MAX < k <= K2
-        k2 = float(sys.argv[2])
-        lighter += [(i, j + d) for i, j in variant.stall_nodes(k2)[::2] if variant.ks[i] > K_MAX
-                    for d in (-2, -1, 0, 1) if 0 <= j + d < variant.velocities.shape[1]]
-    variant.stall_nodes = lambda k_max=None: lighter  # polish_stall's search at these nodes instead
-    t0 = time.perf_counter()
-    changed = variant.polish_stall(BUDGET, SIGMA, executor=Executor(progress=False), seed=SEED)
+        k2 = float(sys.argv[2])  # a group of its own: search_new_nodes wants as many nodes on every line
+        groups.append([(i, j + d) for i, j in variant.stall_nodes(k2)[::2] if variant.ks[i] > K_MAX
+                       for d in (-2, -1, 0, 1) if 0 <= j + d < variant.velocities.shape[1]])
+    t0, changed = time.perf_counter(), 0
+    for n, nodes in enumerate(groups):
+        variant.stall_nodes = lambda k_max=None, nodes=nodes: nodes  # polish_stall's search at these nodes
+        changed += variant.polish_stall(BUDGET, SIGMA, executor=Executor(progress=False), seed=SEED + n)
     del variant.stall_nodes
+    print(f"extra search at {sum(map(len, groups))} nodes: {changed} changed, {time.perf_counter() - t0:.1f} s")
     variant.settle()
-    print(f"extra search at {len(lighter)} nodes: {changed} changed, {time.perf_counter() - t0:.1f} s")
     variant.save(out)
 
 searches = stored_searches(sorted((ROOT / "results/blind").glob("*/blind.json")))
