@@ -363,7 +363,8 @@ def markdown(res: dict) -> str:
                      f"{_f(s['critical_load_over_best_cycle_min'])}, >= {CRITICAL_LOAD_TARGET:g} at "
                      f"{s['k_values_at_critical_load_target']} of {len(s['critical_load_over_best_cycle'])} k; "
                      f"/ trapezoid's: "
-                     f"{min(ratios) if ratios else float('nan'):.3f}-{max(ratios) if ratios else float('nan'):.3f}")
+                     f"{min(ratios) if ratios else float('nan'):.3f}-{max(ratios) if ratios else float('nan'):.3f}; "
+                     f"targets missed: {', '.join(missed_targets(s)) or 'none'}")
     lines += ["", f"wall time {res['wall_time_s']} s"]
     return "\n".join(lines) + "\n"
 

@@ -83,6 +83,8 @@ def test_quick_blind_benchmark_writes_its_report(tmp_path, capsys):
     for name in ("blind.md", "points.csv", "critical_loads.csv", "critical_load_vs_k.png", "fraction_of_best.png"):
         assert (out / name).stat().st_size > 100, name
     assert "Blind benchmark, seed 11" in capsys.readouterr().out
+    missed = blind.missed_targets(stats)  # the report names the targets this policy missed (on 3 points)
+    assert f"targets missed: {', '.join(missed) or 'none'}" in (out / "blind.md").read_text()
 
 
 def test_blind_needs_a_seed_and_a_seed_needs_blind(capsys):
