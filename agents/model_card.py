@@ -134,10 +134,10 @@ def snippet(dst: Path, run: dict) -> str:
     return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(), comment="", make_args='"MDRDrive-v0", k=0.2, cargo_mass=0.1')
 
 
-def blind_command(res: dict, policy_key: str, seed="SEED") -> str:
-    """The command that wrote a blind benchmark's result ``res``, with ``seed`` in place of its seed."""
+def blind_command(res: dict, policy_key: str) -> str:
+    """The command that wrote a blind benchmark's result ``res``, with SEED in place of its seed."""
     draw = " --scan-draw" if scan_of(res) == DRAWN_SCAN else ""
-    return f"mdr-drive benchmark --blind {res['n']} --seed {seed}{draw} --policies {' '.join(res.get('policies', [policy_key]))}"
+    return f"mdr-drive benchmark --blind {res['n']} --seed SEED{draw} --policies {' '.join(res.get('policies', [policy_key]))}"
 
 
 def blind_record(blind_jsons, policy_key: str) -> str:

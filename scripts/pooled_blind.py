@@ -54,6 +54,17 @@ def stored_searches(paths: list[Path]) -> list[dict]:
     return out
 
 
+def pooled_points(searches: list[dict]) -> tuple[list, np.ndarray, np.ndarray]:
+    """The points of all ``searches`` pooled: (k, load kg) tuples, each point's seed and the search's
+    best velocity there (m/s)."""
+    points = [(float(k), float(m)) for res in searches for k, m in res["points"]]
+    seeds = np.concatenate([[res["seed"]] * len(res["points"]) for res in searches])
+    from mdr_drive_env.files import nan_array
+
+    best = np.concatenate([nan_array([b["velocity"] for b in res["best"]]) for res in searches])
+    return points, seeds, best
+
+
 def pooled(policy_path: str, searches: list[dict]) -> dict:
     """The blind velocity statistics of one policy over the points of all ``searches``."""
     from mdr_drive_agents.blind import velocity_statistics

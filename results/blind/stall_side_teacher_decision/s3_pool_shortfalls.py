@@ -11,7 +11,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from pooled_blind import stored_searches  # noqa: E402
+from pooled_blind import pooled_points, stored_searches  # noqa: E402
 
 from mdr_drive_agents.blind import MOVING_THRESHOLD, trapezoid_critical  # noqa: E402
 from mdr_drive_agents.drive_field import DriveField  # noqa: E402
@@ -24,9 +24,7 @@ fields = {"teacher": DriveField.load(ROOT / "results/recipe/teacher_field.npz")}
 if len(sys.argv) > 1:
     fields["variant"] = DriveField.load(sys.argv[1])
 searches = stored_searches(sorted((ROOT / "results/blind").glob("*/blind.json")))
-seeds = np.concatenate([[res["seed"]] * len(res["points"]) for res in searches])
-points = [(float(k), float(m)) for res in searches for k, m in res["points"]]
-best = np.concatenate([[b["velocity"] for b in res["best"]] for res in searches])
+points, seeds, best = pooled_points(searches)
 student = np.asarray(policy_velocity(load_policy(ROOT / "agents/pretrained/ppo_generalist"), points))
 scored = best >= MOVING_THRESHOLD
 under = np.flatnonzero(scored & (student < 0.85 * best))
@@ -36,8 +34,8 @@ played = {name: teacher_drives(f, sub, distill)[1] for name, f in fields.items()
 print(f"{len(under)} of {int(scored.sum())} pooled points where the search moves >= 2 mm/s: S3 under 0.85 of it")
 print("| seed | k | load / trapezoid's critical | search mm/s | S3 | " + " | ".join(played) + " |")
 print("|---|---|---|---|---|" + "---|" * len(played))
-for n, i in enumerate(under[np.argsort([points[i][0] for i in under])]):
-    m = list(under).index(i)
+for m in np.argsort([k for k, _ in sub]):  # by k; m indexes sub, crit and played
+    i = under[m]
     cells = " | ".join(f"{played[name][m] / best[i]:.3f}" for name in played)
     print(f"| {seeds[i]} | {points[i][0]:.4f} | {sub[m][1] / crit[m]:.3f} | {best[i] * 1e3:.2f} | "
           f"{student[i] / best[i]:.3f} | {cells} |")

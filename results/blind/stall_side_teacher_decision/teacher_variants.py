@@ -16,7 +16,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from pooled_blind import stored_searches  # noqa: E402
+from pooled_blind import pooled_points, stored_searches  # noqa: E402
 
 from mdr_drive_agents.blind import MOVING_THRESHOLD, trapezoid_critical  # noqa: E402
 from mdr_drive_agents.drive_field import DriveField  # noqa: E402
@@ -49,10 +49,8 @@ else:
     variant.save(out)
 
 searches = stored_searches(sorted((ROOT / "results/blind").glob("*/blind.json")))
-points = [(float(k), float(m)) for res in searches for k, m in res["points"]]
-best = np.concatenate([[b["velocity"] for b in res["best"]] for res in searches])
+points, _, best = pooled_points(searches)
 scored = best >= MOVING_THRESHOLD
-crit = trapezoid_critical([k for k, _ in points])
 print(f"pool: {len(searches)} stored searches, {len(points)} points, {int(scored.sum())} where the search moves >= 2 mm/s")
 print("| teacher | under 0.85 | under 0.85 at k <= 0.2 | fraction mean | min |")
 print("|---|---|---|---|---|")
@@ -66,6 +64,8 @@ for name, field in (("shipped (T1)", shipped), ("+ stall-side search", variant))
     print(f"| {name} | {len(under)} | {len(low)} | {np.nanmean(frac):.4f} | {np.nanmin(frac):.3f} |")
 print("\nthe points under 0.85 for either (k, load / trapezoid's critical, fraction shipped -> variant):")
 either = np.flatnonzero((rows["shipped (T1)"] < 0.85) | (rows["+ stall-side search"] < 0.85))
-for i in either[np.argsort([points[i][0] for i in either])]:
-    print(f"  k = {points[i][0]:.4f}, {points[i][1] / crit[i]:.3f}: {rows['shipped (T1)'][i]:.3f} -> "
+either = either[np.argsort([points[i][0] for i in either])]
+crit = trapezoid_critical([points[i][0] for i in either])  # only where printed: a bisection per k
+for i, c in zip(either, crit):
+    print(f"  k = {points[i][0]:.4f}, {points[i][1] / c:.3f}: {rows['shipped (T1)'][i]:.3f} -> "
           f"{rows['+ stall-side search'][i]:.3f}")
