@@ -767,3 +767,48 @@ def test_at_a_stall_probe_a_student_that_stalls_where_the_teacher_crawls_is_a_ho
         DistillConfig(stall_probes=-1)
     with pytest.raises(ValueError, match="stall_probes"):
         distill.find_holes(None, field, config, np.random.default_rng(0), friction=((0.2, 0.4), (0.1, 0.2)))
+
+
+def test_bracket_probes_cover_three_times_each_bracket_evenly():
+    from mdr_drive_agents.teacher_data import bracket_probes
+
+    a, b = np.array([[0.30, 0.010], [0.001, 0.020]]), np.array([[0.31, 0.012], [0.004, 0.021]])
+    probes = np.array(bracket_probes((a, b), 8, np.random.default_rng(0), (0.0, 0.6)))
+    assert probes.shape == (16, 2)
+    first = probes[:8]  # on the line through the first bracket's ends, from a - (b - a) to b + (b - a)
+    t = (first - (a[0] - (b[0] - a[0]))) / (3 * (b[0] - a[0]))
+    assert np.allclose(t[:, 0], t[:, 1]) and np.all((t[:, 0] >= 0.0) & (t[:, 0] < 1.0))
+    assert np.allclose(np.diff(t[:, 0]), 1 / 8)  # evenly spaced, one offset per bracket
+    assert probes[8:, 0].min() == 0.0  # k kept in the range: the second bracket's line starts at k = 0
+    assert bracket_probes((a[:0], b[:0]), 8, np.random.default_rng(0), (0.0, 0.6)) == []
+    assert bracket_probes((a, b), 0, np.random.default_rng(0), (0.0, 0.6)) == []
+
+
+def test_jump_probes_come_after_the_random_and_stall_probes_and_count_their_own_holes(monkeypatch):
+    from mdr_drive_agents import distill
+
+    field = _synthetic_field()
+    field.velocities[:] = np.linspace(1.0, -1.0, 5)
+    # 2 random probes, 1 stall probe, then 2 brackets x 2 jump probes; the student is short at one
+    teacher = np.array([20e-3, 20e-3, 0.05e-3, 10e-3, 10e-3, 10e-3, 0.05e-3])
+    student = np.array([20e-3, 20e-3, 0.05e-3, 10e-3, 2e-3, 10e-3, -0.01e-3])
+    monkeypatch.setattr(field, "best", lambda points, radius=1: (np.zeros((len(points), 2, 5)), teacher[:len(points)]))
+    monkeypatch.setattr(distill, "student_velocity", lambda student_, points: student[:len(points)])
+    config = DistillConfig(hole_probes=2, hole_floor=1e-4, stall_probes=1, jump_levels=1, jump_probes=2)
+    brackets = (np.array([[0.1, 0.01], [0.4, 0.02]]), np.array([[0.11, 0.011], [0.41, 0.021]]))
+    found, probe = distill.find_holes(None, field, config, np.random.default_rng(0), brackets=brackets)
+    # a stalled student where the teacher crawls is a hole only at the stall probes, not at jump probes
+    assert probe["probes"] == 7 and probe["jump_probes"] == 4 and probe["jump_holes"] == 1
+    assert probe["stall_holes"] == 0 and probe["holes"] == 1 and len(found) == 1
+    assert abs(found[0][0] - 0.1) < 0.03  # the hole is on the first bracket's line
+    # the random and stall probes are the ones drawn without jump probes (the same rng draws first)
+    without = distill.find_holes(None, field, DistillConfig(hole_probes=2, hole_floor=1e-4, stall_probes=1),
+                                 np.random.default_rng(0))
+    assert "jump_probes" not in without[1] and without[1]["probes"] == 3
+    assert distill.find_holes(None, field, config, np.random.default_rng(0))[1]["probes"] == 3  # no brackets
+    with pytest.raises(ValueError, match="jump_probes=2 needs jump_levels"):
+        DistillConfig(jump_probes=2)
+    with pytest.raises(ValueError, match="jump_probes"):
+        DistillConfig(jump_levels=1, jump_probes=-1)
+    with pytest.raises(ValueError, match="jump_probes"):
+        distill.check_stall_probes(DistillConfig(jump_levels=1, jump_probes=2), True)
