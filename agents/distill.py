@@ -38,7 +38,7 @@ from tqdm import tqdm
 from .cycles import cycle_action
 from .drive_field import DriveField
 from .evaluate import steady_velocity_of
-from .teacher_data import (around, bracket_probes, draw_points, jump_brackets, labelled_episodes, perturb_previous_actions, rollout,
+from .teacher_data import (around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout,
                            stall_points, teacher_drives)
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
@@ -81,18 +81,15 @@ class DistillConfig:
             (``stall_points``), where the critical load is judged; there a probe where the teacher
             moves and the student does not is a hole too, however slow the teacher (-).
         stall_band: those probes' loads, as fractions of the teacher's stall load at their k (-).
-        jump_probes: besides, points per hole round on each bracket round 0's bisection left
-            (``bracket_probes``; needs ``jump_levels``): where the teacher's drive switches family,
-            the student's slow starts lie on slivers random probes miss (-).
         huber_delta: 0 fits the squared error; > 0 the Huber loss with this threshold (``edge_loss``)
             (action units).
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
             the interpolation (``DriveField.best``): 1 the cell's four corners, R the 2R x 2R nodes
             around it (-).
-        jump_levels: bisection levels of ``jump_brackets`` after round 0's teacher episodes: where
+        jump_levels: bisection levels of ``jump_points`` after round 0's teacher episodes: where
             neighbouring points' teacher drives differ, the midpoint's episodes are added, and the
             half holding the jump is bisected again (0: off) (-).
-        jump_neighbours: neighbours of each round 0 point that ``jump_brackets`` compares it with (-).
+        jump_neighbours: neighbours of each round 0 point that ``jump_points`` compares it with (-).
         jump_threshold: two teacher drives differ where a component differs by more than this, in
             their closest cycle phase (action units).
         quantum_centres: label the student with the teacher's actions moved to the centre of the time
@@ -127,7 +124,6 @@ class DistillConfig:
     hole_learning_rate: float = 3e-4
     stall_probes: int = 0
     stall_band: tuple[float, float] = (0.92, 1.02)
-    jump_probes: int = 0
     huber_delta: float = 0.0
     jump_levels: int = 0
     jump_neighbours: int = 6
@@ -139,11 +135,9 @@ class DistillConfig:
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
                      "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "jump_levels", "jump_neighbours",
-                     "stall_probes", "jump_probes"):
-            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels",
-                                                               "stall_probes", "jump_probes") else 1)
-        if self.jump_probes and not self.jump_levels:
-            raise ValueError(f"jump_probes={self.jump_probes!r} needs jump_levels >= 1 (the brackets it probes)")
+                     "stall_probes"):
+            check_int(name, getattr(self, name),
+                      0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels", "stall_probes") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -307,15 +301,14 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     val = None
     if validation_points:
         val = (validation_points, teacher_drives(field_, validation_points, config)[1])
-    obs_all, drive_all, brackets = [], [], None
+    obs_all, drive_all = [], []
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config, friction)
         drives, _ = teacher_drives(field_, points, config)
         extra = []
         if r == 0 and config.jump_levels:
-            extra, extra_drives, (a, b, _, _) = jump_brackets(field_, points, drives, config)
-            brackets = (a, b)
+            extra, extra_drives = jump_points(field_, points, drives, config)
             points, drives = points + extra, np.concatenate([drives, extra_drives]) if extra else drives
         obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r,
                                                student.z_phase_origin, drives=drives)
@@ -337,7 +330,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         if on_round is not None:
             on_round(student, record)
     for h in range(1, config.hole_rounds + 1):
-        record = hole_round(student, field_, config, h, rng, seed, obs_all, drive_all, friction, progress, brackets)
+        record = hole_round(student, field_, config, h, rng, seed, obs_all, drive_all, friction, progress)
         if val is not None:
             record.update(validation_fraction(student, *val))
         student.history.append(record)
@@ -348,13 +341,12 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
 
 
 def hole_round(student: Student, field_: DriveField, config: DistillConfig, h: int, rng: np.random.Generator,
-               seed: int, obs_all: list, drive_all: list, friction=None, progress: bool = True,
-               brackets=None) -> dict:
-    """Hole round ``h`` (module docstring): :func:`find_holes` (with round 0's jump ``brackets``), the teacher's episodes at and around
+               seed: int, obs_all: list, drive_all: list, friction=None, progress: bool = True) -> dict:
+    """Hole round ``h`` (module docstring): :func:`find_holes`, the teacher's episodes at and around
     the holes appended to ``obs_all`` and ``drive_all``, and the fit continued on all of them; returns
     the round's record."""
     t0 = time.perf_counter()
-    holes, probe = find_holes(student, field_, config, rng, friction, brackets)
+    holes, probe = find_holes(student, field_, config, rng, friction)
     loss = None  # no hole found: no fit this round
     if holes:
         k_range = (float(field_.ks[0]), float(field_.ks[-1]))
@@ -381,21 +373,17 @@ def student_velocity(student: Student, points) -> np.ndarray:
 
 
 def check_stall_probes(config: DistillConfig, friction_drawn: bool) -> None:
-    """Stall probes are placed at the drive field's stall, which is at one friction, and jump probes on
-    (k, load) brackets: refused (a ``ValueError`` naming the option) where the episodes' friction is
-    drawn."""
+    """Stall probes are placed at the drive field's stall, which is at one friction: refused (a
+    ``ValueError`` naming the option) where the episodes' friction is drawn."""
     if config.stall_probes and friction_drawn:
         raise ValueError("stall_probes: not with a drawn friction (the field's stall is at one friction)")
-    if config.jump_probes and friction_drawn:
-        raise ValueError("jump_probes: not with a drawn friction (the brackets are (k, load) segments)")
 
 
 def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator,
-               friction=None, brackets=None):
+               friction=None):
     """The student and the teacher at ``config.hole_probes`` fresh random points (``draw_points``
-    with ``friction``), ``config.stall_probes`` points around the teacher's stall
-    (``stall_points``) and ``config.jump_probes`` points across each of the jump ``brackets`` ((a, b)
-    ends, ``bracket_probes``; the random and stall probes are drawn first): the points where the student's steady velocity falls short of the teacher's
+    with ``friction``) and ``config.stall_probes`` points around the teacher's stall
+    (``stall_points``): the points where the student's steady velocity falls short of the teacher's
     (``config.hole_shortfall``; at the stall probes, also where the student stalls and the teacher
     moves), and the probe statistics (share of holes, the student's mean velocity over the
     teacher's where it moves)."""
@@ -403,23 +391,16 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
     points = draw_points(field_, config.hole_probes, rng, config, friction)
     if config.stall_probes:
         points += stall_points(field_, config.stall_probes, rng, config.stall_band)
-    n_bracket = 0
-    if config.jump_probes and brackets is not None:
-        across = bracket_probes(brackets, config.jump_probes, rng, (float(field_.ks[0]), float(field_.ks[-1])))
-        points, n_bracket = points + across, len(across)
     _, v_teacher = teacher_drives(field_, points, config)
     v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), config.hole_floor)
     stalled = (v_teacher > 0.0) & ~(v_student > 0.0)
     stalled[:config.hole_probes] = False
-    if n_bracket:
-        stalled[len(points) - n_bracket:] = False
     short |= stalled
     moving = v_teacher >= 2e-3
     return [p for p, h in zip(points, short) if h], {
         "probes": len(points), "holes": int(short.sum()),
-        **({"stall_holes": int(short[config.hole_probes:len(points) - n_bracket].sum())} if config.stall_probes else {}),
-        **({"jump_probes": n_bracket, "jump_holes": int(short[len(points) - n_bracket:].sum())} if n_bracket else {}),
+        **({"stall_holes": int(short[config.hole_probes:].sum())} if config.stall_probes else {}),
         "probe_mean_fraction": float(np.mean(v_student[moving] / v_teacher[moving])) if moving.any() else None}
 
 

@@ -9,8 +9,6 @@ teacher's drive there. Where the points come from:
   trapezoid's critical load);
 * ``jump_points`` / ``jump_brackets``: bisection between neighbouring points whose teacher drives
   jump from one optimum to another, so the fit cannot put its blend of the two anywhere in the gap;
-* ``bracket_probes``: points across the brackets that bisection leaves, where the hole rounds look for
-  the student's slow starts at the teacher's drive switches;
 * ``stall_points``: loads just around the teacher's stall at random k, where the critical-load target is
   judged (the hole rounds' stall probes);
 * ``around``: jittered copies of points where the student fell short of the teacher (the hole rounds).
@@ -192,24 +190,6 @@ def jump_brackets(field_: DriveField, points, drives: np.ndarray, config):
     return new_points, np.concatenate(new_drives) if new_drives else np.zeros((0, 2, 5)), (a, b, da, db)
 
 
-def bracket_probes(brackets, n: int, rng: np.random.Generator, k_range: tuple[float, float]) -> list:
-    """``n`` (k, load kg) points per bracket of :func:`jump_brackets` (its ends ``a`` and ``b``, (b, 2)
-    each), evenly spaced with one random offset per bracket on the line through its ends, from
-    ``a - (b - a)`` to ``b + (b - a)`` (three times the bracket; k kept in ``k_range``, load >= 0).
-
-    Where the teacher's drive switches family, the student can start in the other family's slow drive
-    on slivers a few 1e-4 of the critical load wide (docs/ablations.md): random probes almost never land
-    in them, probes across the brackets round 0's bisection left do."""
-    a, b = (np.asarray(end, dtype=np.float64).reshape(-1, 2) for end in brackets)
-    if not n or not len(a):
-        return []
-    t = (np.arange(n)[None, :] + rng.uniform(size=(len(a), 1))) / n  # (b, n) in [0, 1)
-    pts = (a - (b - a))[:, None, :] + 3.0 * (b - a)[:, None, :] * t[..., None]
-    ks = np.clip(pts[..., 0].ravel(), *k_range)
-    loads = np.maximum(pts[..., 1].ravel(), 0.0)
-    return [(float(k), float(m)) for k, m in zip(ks, loads)]
-
-
 def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float]) -> list:
     """Each point and ``n`` jittered copies: k +- 0.01 (kept in ``k_range``), load +- 5 % (friction,
     of (k, load, mu, mu1) points, kept)."""
@@ -222,5 +202,5 @@ def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float
     return out
 
 
-__all__ = ["around", "bracket_probes", "draw_points", "drive_difference", "jump_brackets", "jump_points", "labelled_episodes",
+__all__ = ["around", "draw_points", "drive_difference", "jump_brackets", "jump_points", "labelled_episodes",
            "perturb_previous_actions", "rollout", "stall_fractions", "stall_points", "teacher_drives"]

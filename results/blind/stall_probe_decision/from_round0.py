@@ -26,7 +26,7 @@ import torch
 from mdr_drive_agents.distill import fit, hole_round, make_student, save_student
 from mdr_drive_agents.drive_field import DriveField
 from mdr_drive_agents.recipe import load_recipe, student_record
-from mdr_drive_agents.teacher_data import draw_points, jump_brackets, jump_points, labelled_episodes, teacher_drives
+from mdr_drive_agents.teacher_data import draw_points, jump_points, labelled_episodes, teacher_drives
 
 SHIPPED, TEACHER = "agents/configs/recipe.yaml", "results/recipe/teacher_field.npz"
 ROUND0_KEYS = ("net_arch", "activation", "points", "periods", "no_load_share", "load_factor", "steps", "rounds", "batch",
@@ -82,18 +82,8 @@ def holes(ckpt: str, recipe_path: str, out: str, teacher: str = TEACHER) -> None
     student.history.append(state["record"])
     obs_all, drive_all = state["obs_all"], state["drive_all"]
     t0 = time.perf_counter()
-    brackets = None
-    if config.jump_probes:  # round 0's last brackets, as distill keeps them (its points, drawn again)
-        round0_rng = np.random.default_rng(seed)
-        points = draw_points(field_, config.points, round0_rng, config, None)
-        extra, _, (a, b, _, _) = jump_brackets(field_, points, teacher_drives(field_, points, config)[0], config)
-        assert len(extra) == state["record"]["jump_points"], (len(extra), state["record"]["jump_points"])
-        assert round0_rng.bit_generator.state == state["rng"]
-        brackets = (a, b)
-        print(f"round 0's brackets: {len(a)} ({time.perf_counter() - t0:.0f} s, not part of the recipe's time)", flush=True)
-        t0 = time.perf_counter()
     for h in range(1, config.hole_rounds + 1):
-        record = hole_round(student, field_, config, h, rng, seed, obs_all, drive_all, None, False, brackets)
+        record = hole_round(student, field_, config, h, rng, seed, obs_all, drive_all, None, False)
         student.history.append(record)
         print(record, flush=True)
     teacher = {"teacher": teacher, "recipe": recipe_path, "round0_checkpoint": ckpt}
