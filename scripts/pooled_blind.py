@@ -54,33 +54,27 @@ def stored_searches(paths: list[Path]) -> list[dict]:
     return out
 
 
-def pooled_points(searches: list[dict]) -> tuple[list, np.ndarray, np.ndarray]:
-    """The points of all ``searches`` pooled: (k, load kg) tuples, each point's seed and the search's
-    best velocity there (m/s)."""
-    points = [(float(k), float(m)) for res in searches for k, m in res["points"]]
-    seeds = np.concatenate([[res["seed"]] * len(res["points"]) for res in searches])
+def pooled_points(searches: list[dict]) -> tuple[list, np.ndarray, np.ndarray, np.ndarray]:
+    """The points of all ``searches`` pooled: (k, load kg) tuples, each point's seed, the search's
+    best velocity there and the trapezoid's (m/s)."""
     from mdr_drive_env.files import nan_array
 
+    points = [(float(k), float(m)) for res in searches for k, m in res["points"]]
+    seeds = np.concatenate([[res["seed"]] * len(res["points"]) for res in searches])
     best = np.concatenate([nan_array([b["velocity"] for b in res["best"]]) for res in searches])
-    return points, seeds, best
+    trapezoid = np.concatenate([nan_array(res["trapezoid"]) for res in searches])
+    return points, seeds, best, trapezoid
 
 
 def pooled(policy_path: str, searches: list[dict]) -> dict:
-    """The blind velocity statistics of one policy over the points of all ``searches``."""
+    """The blind velocity statistics of one policy over the points of all ``searches`` (one rollout)."""
     from mdr_drive_agents.blind import velocity_statistics
     from mdr_drive_agents.evaluate import load_policy, policy_rollout, steady_velocity_of
-    from mdr_drive_env.files import nan_array
 
-    policy = load_policy(policy_path)
-    trap, best, learned = [], [], []
-    for res in searches:
-        points = [tuple(p) for p in res["points"]]
-        disp, _, runaway = policy_rollout(policy, points)
-        learned.append(steady_velocity_of(disp, runaway=runaway))
-        trap.append(nan_array(res["trapezoid"]))
-        best.append(nan_array([f["velocity"] for f in res["best"]]))
-    stats = velocity_statistics(np.concatenate(trap), np.concatenate(best), np.concatenate(learned))
-    return {"points": int(sum(len(t) for t in trap)), **stats}
+    points, _, best, trapezoid = pooled_points(searches)
+    disp, _, runaway = policy_rollout(load_policy(policy_path), points)
+    stats = velocity_statistics(trapezoid, best, steady_velocity_of(disp, runaway=runaway))
+    return {"points": len(points), **stats}
 
 
 def stored_scans(searches: list[dict]) -> list[dict]:

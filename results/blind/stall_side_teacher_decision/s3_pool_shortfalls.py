@@ -24,7 +24,7 @@ fields = {"teacher": DriveField.load(ROOT / "results/recipe/teacher_field.npz")}
 if len(sys.argv) > 1:
     fields["variant"] = DriveField.load(sys.argv[1])
 searches = stored_searches(sorted((ROOT / "results/blind").glob("*/blind.json")))
-points, seeds, best = pooled_points(searches)
+points, seeds, best, _ = pooled_points(searches)
 student = np.asarray(policy_velocity(load_policy(ROOT / "agents/pretrained/ppo_generalist"), points))
 scored = best >= MOVING_THRESHOLD
 under = np.flatnonzero(scored & (student < 0.85 * best))

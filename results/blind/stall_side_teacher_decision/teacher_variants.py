@@ -49,7 +49,7 @@ else:
     variant.save(out)
 
 searches = stored_searches(sorted((ROOT / "results/blind").glob("*/blind.json")))
-points, _, best = pooled_points(searches)
+points, _, best, _ = pooled_points(searches)
 scored = best >= MOVING_THRESHOLD
 print(f"pool: {len(searches)} stored searches, {len(points)} points, {int(scored.sum())} where the search moves >= 2 mm/s")
 print("| teacher | under 0.85 | under 0.85 at k <= 0.2 | fraction mean | min |")
