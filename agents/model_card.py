@@ -237,7 +237,8 @@ folder first: a resumed run writes into it; the observation statistics stay as d
   evaluate` warns outside the trained k and loads and at other friction coefficients.
 * It observes k and the load: a drive that knows neither needs a sensor-only policy (`MDRDriveSensor-v0`).
 * Its drives are the teacher's: a grid search with a stated budget, polished from each node's
-  neighbours (docs/results.md), not a proven optimum.
+  neighbours (docs/results.md), not a proven optimum; near stall it can be well short of a per-point
+  search, and the network with it (the blind misses in docs/results.md).
 * Where the teacher's best drive jumps from one optimum to another, the network must switch between
   them within a narrow band of k and load; there it can fall between them and stall or go backwards at
   isolated (k, load) points, or, started there, stay in a slower drive (docs/results.md, Limits): check a working point with `mdr-drive
