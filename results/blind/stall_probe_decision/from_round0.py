@@ -4,13 +4,15 @@ variant instead of 12).
     python results/blind/stall_probe_decision/from_round0.py round0 runs/round0_s0.pkl
     python results/blind/stall_probe_decision/from_round0.py holes runs/round0_s0.pkl RECIPE.yaml runs/OUT
 
-Both take the teacher's field as an optional last argument (default: the committed
+Both take the teacher's field as an optional argument after those (default: the committed
 results/recipe/teacher_field.npz); ``holes`` must be given the one its round 0 was fitted to.
+``round0`` takes a recipe after the teacher (default the shipped one; e.g. another ``seed``), and
+``holes`` checks RECIPE.yaml's round 0 against the recipe the checkpoint was fitted with.
 
 ``round0`` runs the recipe's round 0 (agents/configs/recipe.yaml, its seed, on the given teacher)
 exactly as ``distill.distill`` does and pickles the student's weights, its observation statistics,
 the gathered episodes and the random state after it. ``holes``
-continues from there with RECIPE.yaml's distillation settings (round 0's must be the shipped ones:
+continues from there with RECIPE.yaml's distillation settings (round 0's must be the checkpoint's:
 checked) through its hole rounds (``distill.hole_round``) and saves the policy in OUT/policy. With
 the shipped recipe it gives the shipped policy (checked, value for value, before any variant).
 """
@@ -34,8 +36,8 @@ ROUND0_KEYS = ("net_arch", "activation", "points", "periods", "no_load_share", "
                "jump_levels", "jump_neighbours", "jump_threshold", "quantum_centres")
 
 
-def round0(out: str, teacher: str = TEACHER) -> None:
-    recipe = load_recipe(SHIPPED)
+def round0(out: str, teacher: str = TEACHER, recipe_path: str = SHIPPED) -> None:
+    recipe = load_recipe(recipe_path)
     config, seed = recipe["distill"], recipe["seed"]
     assert config.rounds == 0
     torch.set_num_threads(config.torch_threads)
@@ -58,18 +60,19 @@ def round0(out: str, teacher: str = TEACHER) -> None:
     with open(out, "wb") as f:
         pickle.dump({"policy": student.model.policy.state_dict(), "obs_rms": student.venv.obs_rms,
                      "obs_all": [obs], "drive_all": [sample_drives], "rng": rng.bit_generator.state,
-                     "record": record, "teacher": teacher}, f)
+                     "record": record, "teacher": teacher, "recipe": recipe_path}, f)
 
 
 def holes(ckpt: str, recipe_path: str, out: str, teacher: str = TEACHER) -> None:
-    recipe, shipped = load_recipe(recipe_path), load_recipe(SHIPPED)
+    with open(ckpt, "rb") as f:
+        state = pickle.load(f)
+    fitted_with = state.get("recipe", SHIPPED)  # checkpoints written before the argument: the shipped recipe
+    recipe, shipped = load_recipe(recipe_path), load_recipe(fitted_with)
     config, seed = recipe["distill"], recipe["seed"]
     differ = [key for key in ROUND0_KEYS if getattr(config, key) != getattr(shipped["distill"], key)]
     if differ or seed != shipped["seed"] or recipe["env_kwargs"] != shipped["env_kwargs"]:
-        sys.exit(f"{recipe_path}: round 0 differs from the shipped recipe's ({differ or 'seed/env_kwargs'})")
+        sys.exit(f"{recipe_path}: round 0 differs from {fitted_with}'s ({differ or 'seed/env_kwargs'})")
     torch.set_num_threads(config.torch_threads)
-    with open(ckpt, "rb") as f:
-        state = pickle.load(f)
     fitted_to = state.get("teacher", TEACHER)  # checkpoints written before the argument: the default
     if fitted_to != teacher:
         sys.exit(f"{ckpt}: round 0 was fitted to {fitted_to}, not {teacher}")
