@@ -15,6 +15,9 @@ the gathered episodes and the random state after it. ``holes``
 continues from there with RECIPE.yaml's distillation settings (round 0's must be the checkpoint's:
 checked) through its hole rounds (``distill.hole_round``) and saves the policy in OUT/policy. With
 the shipped recipe it gives the shipped policy (checked, value for value, before any variant).
+
+Run one at a time on a 2-core machine: each fit uses the recipe's two torch threads, and two side by
+side took 2,403 s for a round 0 that takes about 565 s alone (side_teacher_seeds_decision).
 """
 import dataclasses
 import pickle
