@@ -19,6 +19,9 @@ cell instead of its midpoint), with the k under 0.97 of the teacher's listed. Th
 reference is weaker than the benchmark's search, so fractions read higher here; use it to compare
 policies, and report on ``mdr-drive benchmark --blind``.
 
+``--worst`` lists each policy's points under 0.85 of the reference or below the trapezoid, worst
+first, with every drive's velocity there (to find a build's bands, then ``scripts/load_line.py``).
+
 ``--cycle-scan`` adds the blind benchmark's reference for the critical load at the same k values:
 the best two-action cycle's (``agents.baselines.cycle_critical_load``, its budget; about 6 minutes
 for 24 k on 2 cores), and prints the teacher's and each policy's critical load over it, so one can
@@ -64,6 +67,9 @@ def main(argv=None) -> int:
                    help="also the teacher (the recipe's neighbourhood) at the points of an earlier blind "
                         "benchmark, as a fraction of that benchmark's per-point search where it moves >= 2 mm/s "
                         "(written by mdr-drive benchmark --blind; its seed must be a decision seed too)")
+    p.add_argument("--worst", action="store_true",
+                   help="also list, per policy, its points under 0.85 of the reference or below the trapezoid, "
+                        "worst first, with the trapezoid's, the teacher's and every policy's velocity (mm/s)")
     p.add_argument("--workers", type=int_range(1), default=None,
                    help="local processes of the cycle scan (default: the cores available)")
     args = p.parse_args(argv)
@@ -91,7 +97,7 @@ def main(argv=None) -> int:
 
     teacher_config = load_recipe(DEFAULT_CONFIG)["distill"]
 
-    points, _ = draw_points(args.n, args.seed)
+    points, point_crit = draw_points(args.n, args.seed)
     trap = open_loop_velocity(points, trapezoid_action())
     field = DriveField.load(args.field)
     _, teacher = field.best(points, radius=3)
@@ -133,6 +139,8 @@ def main(argv=None) -> int:
     if len(learned) > 1:  # not a policy: whether the policies fail at the same points or each at its own
         print(f"| the best of these policies at each point (not a policy) | "
               f"{velocity_cells(np.max(list(learned.values()), axis=0))} | - | - |")
+    if args.worst:
+        print_worst(points, point_crit, trap, teacher, reference, learned)
     return 0
 
 
@@ -166,6 +174,26 @@ def print_teacher_against_search(field, blind_json, teacher_config, worst: int =
         under = format_under(r["under"])
         print(f"The teacher's critical load over that benchmark's best cycle's ({len(scan['k'])} k): "
               f"min {r['min']:.3f}, {r['at_target']} at >= {CRITICAL_LOAD_TARGET:g}; under it: {under}")
+
+
+def print_worst(points, crit: np.ndarray, trap: np.ndarray, teacher: np.ndarray, reference: np.ndarray,
+                learned: dict) -> None:
+    """Per policy, its points under ``FRACTION_TARGET`` of the reference (where that moves >= 2 mm/s)
+    or below the trapezoid (``blind.below_trapezoid``), worst fraction first: k, load (kg and over
+    the trapezoid's critical load ``crit`` there), the trapezoid's, the teacher's and every policy's
+    velocity."""
+    from mdr_drive_agents.blind import FRACTION_TARGET, MOVING_THRESHOLD, below_trapezoid
+
+    for path, v in learned.items():
+        with np.errstate(invalid="ignore", divide="ignore"):
+            fraction = v / reference
+        bad = np.flatnonzero(((reference >= MOVING_THRESHOLD) & (fraction < FRACTION_TARGET)) | below_trapezoid(trap, v)[0])
+        print(f"\n{path}: {len(bad)} points under {FRACTION_TARGET:g} of the reference or below the trapezoid (mm/s)")
+        for i in bad[np.argsort(fraction[bad])]:
+            k, m = points[i]
+            print(f"  k = {k:.4f}, {m:.5f} kg ({m / crit[i]:.3f} of the trapezoid's critical load): trapezoid "
+                  f"{trap[i] * 1e3:.2f}, teacher {teacher[i] * 1e3:.2f}, "
+                  + ", ".join(f"{name} {w[i] * 1e3:.2f}" for name, w in learned.items()))
 
 
 def print_under(title: str, scan_ks, ratio: np.ndarray) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import gymnasium as gym
@@ -452,14 +453,20 @@ def test_the_teacher_check_script_adds_the_per_point_best_of_several_policies(ca
     main = runpy.run_path(str(root / "scripts" / "teacher_check.py"))["main"]
     policies = [str(root / "agents" / "pretrained" / "ppo_generalist"),
                 str(root / "agents" / "pretrained" / "ppo_sensor" / "teacher")]
-    assert main(["--n", "6", "--seed", "3", "--scan-ks", "1", *policies]) == 0
-    rows = [line.split("|") for line in capsys.readouterr().out.splitlines() if line.startswith("| ")][1:]
+    assert main(["--n", "6", "--seed", "3", "--scan-ks", "1", "--worst", *policies]) == 0
+    out = capsys.readouterr().out
+    rows = [line.split("|") for line in out.splitlines() if line.startswith("| ")][1:]
     assert [row[1].strip() for row in rows[:2]] == policies
     assert rows[2][1].strip().startswith("the best of these policies")
     under = [int(row[4]) for row in rows]
     assert under[2] <= min(under[:2])  # at each point the best of them is at least as fast as either
     means = [float(row[3].split("/")[0]) for row in rows]
     assert means[2] >= max(means[:2]) - 1e-12
+    for path, row in zip(policies, rows):  # --worst lists every point under 0.85 or below the trapezoid
+        listed = re.search(rf"\n{re.escape(path)}: (\d+) points under 0.85[^\n]*\n((?:  k = [^\n]*\n)*)", out)
+        count = int(listed[1])
+        assert int(row[4]) <= count <= int(row[4]) + int(row[2].split("(")[0])
+        assert listed[2].count("  k = ") == count
 
 
 def test_the_teacher_check_script_compares_critical_loads_with_the_best_cycles(capsys, monkeypatch):

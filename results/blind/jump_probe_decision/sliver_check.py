@@ -24,14 +24,14 @@ def runs_of(mask: np.ndarray) -> list[tuple[int, int]]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("policies", nargs="+")
-    p.add_argument("--seed", type=int, required=True)
-    p.add_argument("--ks", type=int, default=10)
-    p.add_argument("--loads", type=int, default=2500)
-    p.add_argument("--from", dest="low", type=float, default=0.3)
-    p.add_argument("--to", dest="high", type=float, default=1.25)
-    p.add_argument("--fraction", type=float, default=0.85)
-    p.add_argument("--field", default="results/recipe/teacher_field.npz")
+    p.add_argument("policies", nargs="+", help="policy folders (with model.zip)")
+    p.add_argument("--seed", type=int, required=True, help="seed of the k values (-): a decision seed")
+    p.add_argument("--ks", type=int, default=10, help="k values drawn in [0, 0.6] (-)")
+    p.add_argument("--loads", type=int, default=2500, help="loads per k (-)")
+    p.add_argument("--from", dest="low", type=float, default=0.3, help="lightest load, times the trapezoid's critical load (-)")
+    p.add_argument("--to", dest="high", type=float, default=1.25, help="heaviest load, times the trapezoid's critical load (-)")
+    p.add_argument("--fraction", type=float, default=0.85, help="a point counts under this fraction of the teacher (-)")
+    p.add_argument("--field", default="results/recipe/teacher_field.npz", help="the teacher's drive field (.npz)")
     args = p.parse_args()
 
     from mdr_drive_agents.drive_field import DriveField
