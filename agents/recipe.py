@@ -44,11 +44,13 @@ from .train import ENV_ID, HELD_OUT_POINTS, versions
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "recipe.yaml"
 
 
-def read_sections(path: str | Path, expected: set[str]) -> dict:
-    """A config YAML's top-level sections; ``ValueError`` unless they are exactly ``expected``."""
+def read_sections(path: str | Path, expected: set[str], optional: frozenset[str] = frozenset()) -> dict:
+    """A config YAML's top-level sections; ``ValueError`` unless they are ``expected`` (and any of
+    ``optional``)."""
     data = yaml.safe_load(Path(path).read_text())
-    if set(data) != expected:
-        raise ValueError(f"{path}: sections {sorted(data)} are not {sorted(expected)}")
+    if not expected <= set(data) <= expected | optional:
+        allowed = sorted(expected) + [f"{key} (optional)" for key in sorted(optional)]
+        raise ValueError(f"{path}: sections {sorted(data)} are not {allowed}")
     return data
 
 
@@ -62,10 +64,13 @@ def config_of(cls, section: dict, path: str | Path):
 
 
 def load_recipe(path: str | Path) -> dict:
-    """The recipe YAML as {"seed", "teacher": FieldConfig, "distill": DistillConfig, "ppo", "env_kwargs"};
-    unknown keys are a ``ValueError`` naming them."""
-    data = read_sections(path, {"seed", "teacher", "distill", "ppo", "env_kwargs"})
-    return {"seed": int(data["seed"]), "teacher": config_of(FieldConfig, data["teacher"], path),
+    """The recipe YAML as {"seed", "student_seed", "teacher": FieldConfig, "distill": DistillConfig,
+    "ppo", "env_kwargs"}; unknown keys are a ``ValueError`` naming them. ``seed`` seeds the teacher's
+    search; ``student_seed`` (default: ``seed``) the student's network, episodes and minibatches."""
+    data = read_sections(path, {"seed", "teacher", "distill", "ppo", "env_kwargs"}, frozenset({"student_seed"}))
+    seed = int(data["seed"])
+    return {"seed": seed, "student_seed": int(data.get("student_seed", seed)),
+            "teacher": config_of(FieldConfig, data["teacher"], path),
             "distill": config_of(DistillConfig, data["distill"], path), "ppo": dict(data["ppo"]),
             "env_kwargs": dict(data["env_kwargs"])}
 
@@ -123,7 +128,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     what ``recipe.json`` holds."""
     recipe = load_recipe(config_path)
     out, executor = start_run(out, resume, force, executor, progress)
-    seed, stages = recipe["seed"], {}
+    seed, student_seed, stages = recipe["seed"], recipe["student_seed"], {}
     command = command_line("recipe")
 
     t0 = time.perf_counter()
@@ -148,20 +153,21 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
 
     def save_snapshot(student, round_record: dict) -> None:
         if snapshots and "hole_round" in round_record:
-            record = student_record(seed, recipe["env_kwargs"], recipe["ppo"], recipe["distill"], student,
+            record = student_record(student_seed, recipe["env_kwargs"], recipe["ppo"], recipe["distill"], student,
                                     round(time.perf_counter() - t1, 1), command, teacher_record)
             save_student(student, out / "snapshots" / f"hole_round{round_record['hole_round']}", record)
 
-    student = distill(field, recipe["distill"], seed=seed, env_kwargs=recipe["env_kwargs"],
+    student = distill(field, recipe["distill"], seed=student_seed, env_kwargs=recipe["env_kwargs"],
                       hyperparameters=recipe["ppo"], progress=progress, on_round=save_snapshot)
     stages["student_s"] = round(time.perf_counter() - t1, 1)
-    record = student_record(seed, recipe["env_kwargs"], recipe["ppo"], recipe["distill"], student, stages["student_s"],
+    record = student_record(student_seed, recipe["env_kwargs"], recipe["ppo"], recipe["distill"], student, stages["student_s"],
                             command, teacher_record)
     save_student(student, out / "policy", record)
     stages["total_s"] = round(time.perf_counter() - t0, 1)
     print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
           flush=True)
-    summary = {"config": str(config_path), "command": command, "seed": seed, "stage_wall_time_s": stages,
+    summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
+               "stage_wall_time_s": stages,
                "teacher_loaded_from": None if teacher is None else str(teacher),
                "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
                "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},

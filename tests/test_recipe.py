@@ -165,6 +165,27 @@ def test_the_shipped_teacher_field_counts_as_searched_with_the_shipped_config():
     assert recipe.searched_with_another_config(older, config)
 
 
+def test_the_student_seed_reaches_the_student_alone(recipe_run, tmp_path):
+    import yaml
+    from stable_baselines3 import PPO
+
+    out, first = recipe_run
+    config = yaml.safe_load(TINY.read_text())
+    assert "student_seed" not in config and recipe.load_recipe(TINY)["student_seed"] == config["seed"]
+    (tmp_path / "other_student.yaml").write_text(yaml.safe_dump({**config, "student_seed": config["seed"] + 1}))
+    summary = recipe.run(tmp_path / "other_student.yaml", tmp_path / "other", progress=False,
+                         teacher=out / "teacher_field.npz")
+    assert (summary["seed"], summary["student_seed"], first["student_seed"]) == (config["seed"], config["seed"] + 1,
+                                                                       config["seed"])
+    assert json.loads((tmp_path / "other" / "policy" / "run.json").read_text())["seed"] == config["seed"] + 1
+    a, b = PPO.load(out / "policy" / "model.zip"), PPO.load(tmp_path / "other" / "policy" / "model.zip")
+    assert not all(np.array_equal(x.detach().numpy(), y.detach().numpy())
+                   for x, y in zip(a.policy.parameters(), b.policy.parameters()))
+    (tmp_path / "typo.yaml").write_text(yaml.safe_dump({**config, "student_sed": 3}))
+    with pytest.raises(ValueError, match="student_sed.*student_seed \\(optional\\)"):
+        recipe.load_recipe(tmp_path / "typo.yaml")
+
+
 def test_configs_reject_bad_values_naming_them():
     with pytest.raises(ValueError, match="k_values"):
         FieldConfig(k_values=1)

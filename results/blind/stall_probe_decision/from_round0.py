@@ -6,10 +6,10 @@ variant instead of 12).
 
 Both take the teacher's field as an optional argument after those (default: the committed
 results/recipe/teacher_field.npz); ``holes`` must be given the one its round 0 was fitted to.
-``round0`` takes a recipe after the teacher (default the shipped one; e.g. another ``seed``), and
+``round0`` takes a recipe after the teacher (default the shipped one; e.g. another ``student_seed``), and
 ``holes`` checks RECIPE.yaml's round 0 against the recipe the checkpoint was fitted with.
 
-``round0`` runs the recipe's round 0 (agents/configs/recipe.yaml, its seed, on the given teacher)
+``round0`` runs the recipe's round 0 (agents/configs/recipe.yaml, its student seed, on the given teacher)
 exactly as ``distill.distill`` does and pickles the student's weights, its observation statistics,
 the gathered episodes and the random state after it. ``holes``
 continues from there with RECIPE.yaml's distillation settings (round 0's must be the checkpoint's:
@@ -41,7 +41,7 @@ ROUND0_KEYS = ("net_arch", "activation", "points", "periods", "no_load_share", "
 
 def round0(out: str, teacher: str = TEACHER, recipe_path: str = SHIPPED) -> None:
     recipe = load_recipe(recipe_path)
-    config, seed = recipe["distill"], recipe["seed"]
+    config, seed = recipe["distill"], recipe["student_seed"]
     assert config.rounds == 0
     torch.set_num_threads(config.torch_threads)
     field_ = DriveField.load(teacher)
@@ -71,9 +71,9 @@ def holes(ckpt: str, recipe_path: str, out: str, teacher: str = TEACHER) -> None
         state = pickle.load(f)
     fitted_with = state.get("recipe", SHIPPED)  # checkpoints written before the argument: the shipped recipe
     recipe, shipped = load_recipe(recipe_path), load_recipe(fitted_with)
-    config, seed = recipe["distill"], recipe["seed"]
+    config, seed = recipe["distill"], recipe["student_seed"]
     differ = [key for key in ROUND0_KEYS if getattr(config, key) != getattr(shipped["distill"], key)]
-    if differ or seed != shipped["seed"] or recipe["env_kwargs"] != shipped["env_kwargs"]:
+    if differ or seed != shipped["student_seed"] or recipe["env_kwargs"] != shipped["env_kwargs"]:
         sys.exit(f"{recipe_path}: round 0 differs from {fitted_with}'s ({differ or 'seed/env_kwargs'})")
     torch.set_num_threads(config.torch_threads)
     fitted_to = state.get("teacher", TEACHER)  # checkpoints written before the argument: the default
