@@ -15,6 +15,8 @@ import argparse
 
 import numpy as np
 
+from mdr_drive_agents.blind import FRACTION_TARGET, MOVING_THRESHOLD
+
 
 def runs_of(mask: np.ndarray) -> list[tuple[int, int]]:
     """(start, stop) of each run of consecutive True entries."""
@@ -30,7 +32,7 @@ def main() -> None:
     p.add_argument("--loads", type=int, default=2500, help="loads per k (-)")
     p.add_argument("--from", dest="low", type=float, default=0.3, help="lightest load, times the trapezoid's critical load (-)")
     p.add_argument("--to", dest="high", type=float, default=1.25, help="heaviest load, times the trapezoid's critical load (-)")
-    p.add_argument("--fraction", type=float, default=0.85, help="a point counts under this fraction of the teacher (-)")
+    p.add_argument("--fraction", type=float, default=FRACTION_TARGET, help="a point counts under this fraction of the teacher (-)")
     p.add_argument("--field", default="results/recipe/teacher_field.npz", help="the teacher's drive field (.npz)")
     args = p.parse_args()
 
@@ -46,9 +48,9 @@ def main() -> None:
     points = [(float(k), float(f * c)) for k, c in zip(ks, crit) for f in fractions]
     _, v_teacher = teacher_drives(field, points, load_recipe(DEFAULT_CONFIG)["distill"])
     v_teacher = v_teacher.reshape(args.ks, args.loads)
-    moving = v_teacher >= 2e-3
+    moving = v_teacher >= MOVING_THRESHOLD
     print(f"seed {args.seed}: {args.ks} k values, {args.loads} loads each from {args.low:g} to {args.high:g} of the "
-          f"trapezoid's critical load ({moving.sum()} points where the teacher ({args.field}) moves >= 2 mm/s); "
+          f"trapezoid's critical load ({moving.sum()} points where the teacher ({args.field}) moves >= {MOVING_THRESHOLD * 1e3:g} mm/s); "
           f"k = {', '.join(f'{k:.4f}' for k in ks)}\n")
     print(f"| policy | points under {args.fraction:g} of the teacher | runs | min fraction | mean fraction |")
     print("|---|---|---|---|---|")
