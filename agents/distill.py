@@ -284,15 +284,21 @@ def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: 
 
 def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs: dict | None = None,
             hyperparameters: dict | None = None, validation_points=None, progress: bool = True,
-            friction=None, on_round=None) -> Student:
+            friction=None, on_round=None, checkpoint: str | Path | None = None) -> Student:
     """Fit a new PPO student to the drive field's teacher (module docstring), then ``config.rounds``
     DAgger rounds; prints each stage and, with ``validation_points``, the student's velocity as a
     fraction of the teacher's there. With ``friction`` ((mu low, high), (mu1 low, high)) the episodes'
     friction is drawn too (``draw_points``), ``field_`` is queried at (k, load, mu, mu1) points (a
     ``FrictionField``) and ``env_kwargs`` must give the privileged observation. ``on_round(student,
     record)``, if given, is called after each round and hole round with that round's history record
-    (e.g. to save the student as it stands)."""
+    (e.g. to save the student as it stands). With ``checkpoint`` (a file path), round 0's result is
+    written there, and read from there instead of fitted if it was written for the same teacher and
+    settings (``agents/checkpoint.py``): an interrupted run continues after round 0."""
+    import sys
+
     import torch
+
+    from . import checkpoint as round0_checkpoint
 
     check_stall_probes(config, friction is not None)  # before any work, not after round 0's fit
     torch.set_num_threads(config.torch_threads)
@@ -301,8 +307,19 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     val = None
     if validation_points:
         val = (validation_points, teacher_drives(field_, validation_points, config)[1])
-    obs_all, drive_all = [], []
+    obs_all, drive_all, restored = [], [], None
+    if checkpoint is not None:
+        fitted_for = round0_checkpoint.fingerprint(field_, config, seed, env_kwargs or {}, hyperparameters or {}, friction)
+        restored, why_not = round0_checkpoint.load(checkpoint, fitted_for)
+        if why_not:
+            print(f"distill: {why_not}: round 0 is fitted again", file=sys.stderr, flush=True)
     for r in range(config.rounds + 1):
+        if r == 0 and restored is not None:
+            obs_all, drive_all, record = round0_checkpoint.restore(restored, student, rng)
+            student.history.append(record)
+            print(f"distill: round 0 read from {checkpoint}", flush=True)
+            _print_record(record)
+            continue
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config, friction)
         drives, _ = teacher_drives(field_, points, config)
@@ -327,6 +344,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
             record.update(validation_fraction(student, *val))
         student.history.append(record)
         _print_record(record)
+        if r == 0 and checkpoint is not None:
+            round0_checkpoint.save(checkpoint, student, rng, obs_all, drive_all, record, fitted_for)
         if on_round is not None:
             on_round(student, record)
     for h in range(1, config.hole_rounds + 1):

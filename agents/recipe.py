@@ -13,8 +13,11 @@ Stages (each one's wall time is printed and kept in ``recipe.json``):
    ``run.json``, which ``PPO.load`` + ``VecNormalize.load`` play, ``mdr-drive evaluate`` and
    ``benchmark`` judge, and ``mdr-drive train --resume OUT/policy`` fine-tunes with PPO.
 
-An existing ``OUT`` is refused unless ``--resume`` (teacher tasks reused, the student refitted) or
-``--force``. ``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
+An existing ``OUT`` is refused unless ``--resume`` or ``--force``. ``--resume`` continues an
+interrupted run: the teacher's finished k slices are reused, and so is the student's first fit
+(round 0, about three quarters of the student stage) if it finished, kept in
+``OUT/.tasks/student_round0.pkl`` for the same teacher and settings (``agents/checkpoint.py``); the
+student's hole rounds run again. ``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
 ``teacher_field.npz``), for trying student settings without searching the teacher again.
 ``--snapshots`` also saves the student after each hole round into ``OUT/snapshots/hole_round<H>/``
 (the same files as ``OUT/policy/``), so one run shows what each further hole round changes.
@@ -131,10 +134,10 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     seed, student_seed, stages = recipe["seed"], recipe["student_seed"], {}
     command = command_line("recipe")
 
+    tasks = task_folder(out, resume)
     t0 = time.perf_counter()
     if teacher is None:
-        field = DriveField.search(recipe["teacher"], seed=seed, executor=executor,
-                                  store=TaskStore(task_folder(out, resume) / "teacher"))
+        field = DriveField.search(recipe["teacher"], seed=seed, executor=executor, store=TaskStore(tasks / "teacher"))
     else:
         try:
             field = DriveField.load(teacher)
@@ -158,7 +161,8 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
             save_student(student, out / "snapshots" / f"hole_round{round_record['hole_round']}", record)
 
     student = distill(field, recipe["distill"], seed=student_seed, env_kwargs=recipe["env_kwargs"],
-                      hyperparameters=recipe["ppo"], progress=progress, on_round=save_snapshot)
+                      hyperparameters=recipe["ppo"], progress=progress, on_round=save_snapshot,
+                      checkpoint=tasks / "student_round0.pkl")
     stages["student_s"] = round(time.perf_counter() - t1, 1)
     record = student_record(student_seed, recipe["env_kwargs"], recipe["ppo"], recipe["distill"], student, stages["student_s"],
                             command, teacher_record)
@@ -173,7 +177,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
                "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},
                "teacher_mean_velocity_m_s": float(np.mean(field.velocities))}
     write_text(out / "recipe.json", json.dumps(summary, indent=2))
-    shutil.rmtree(out / ".tasks", ignore_errors=True)  # the teacher is written: its task files are spent
+    shutil.rmtree(tasks, ignore_errors=True)  # the teacher and the student are written: their task files are spent
     return summary
 
 
@@ -196,7 +200,8 @@ def main(argv=None) -> int:
     return run_command(ap.prog, lambda: run(a.config, a.out, executor_from(a), resume=a.resume, force=a.force,
                                             progress=not a.no_progress, teacher=a.teacher,
                                             snapshots=a.snapshots),
-                       f"the teacher's finished slices are kept, continue with --resume --out {a.out}")
+                       f"the teacher's finished slices and the student's first fit are kept, "
+                       f"continue with --resume --out {a.out}")
 
 
 if __name__ == "__main__":

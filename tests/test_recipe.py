@@ -186,6 +186,72 @@ def test_the_student_seed_reaches_the_student_alone(recipe_run, tmp_path):
         recipe.load_recipe(tmp_path / "typo.yaml")
 
 
+def _weights(policy_dir: Path) -> list[np.ndarray]:
+    from stable_baselines3 import PPO
+
+    return [x.detach().numpy() for x in PPO.load(policy_dir / "model.zip").policy.parameters()]
+
+
+def test_an_interrupted_student_stage_resumes_after_its_first_fit_with_the_same_weights(recipe_run, tmp_path,
+                                                                                        monkeypatch, capsys):
+    import pickle
+
+    import yaml
+
+    from mdr_drive_agents import distill
+
+    out, _ = recipe_run
+    teacher = out / "teacher_field.npz"
+    run = tmp_path / "run"
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:  # Ctrl-C in the hole round, after the first fit and the DAgger round
+        m.setattr(distill, "hole_round", interrupt)
+        assert recipe.main([str(TINY), "--out", str(run), "--no-progress", "--teacher", str(teacher)]) == 130
+    assert "first fit are kept" in capsys.readouterr().err
+    saved = run / ".tasks" / "student_round0.pkl"
+    assert saved.exists() and not (run / "policy").exists()
+    fits = []
+    real_fit = distill.fit
+    monkeypatch.setattr(distill, "fit", lambda *a, **k: fits.append(a[3]) or real_fit(*a, **k))
+    recipe.run(TINY, run, progress=False, resume=True, teacher=teacher)
+    assert f"round 0 read from {saved}" in capsys.readouterr().out
+    # the DAgger round and the hole round were fitted, round 0 was not
+    tiny = recipe.load_recipe(TINY)["distill"]
+    assert fits == [tiny.round_steps, tiny.hole_steps]
+    assert not (run / ".tasks").exists()
+    for a, b in zip(_weights(run / "policy"), _weights(out / "policy"), strict=True):  # as the uninterrupted run
+        np.testing.assert_array_equal(a, b)
+    history = json.loads((run / "policy" / "run.json").read_text())["distilled_from"]["history"]
+    assert [h.get("round", h.get("hole_round")) for h in history] == [0, 1, 1]
+
+    # a checkpoint is used only for the round-0 settings and teacher it was fitted with
+    config = yaml.safe_load(TINY.read_text())
+    monkeypatch.setattr(distill, "hole_round", interrupt)
+    assert recipe.main([str(TINY), "--out", str(run), "--no-progress", "--force", "--teacher", str(teacher)]) == 130
+    capsys.readouterr()
+    state = pickle.loads(saved.read_bytes())
+    (tmp_path / "later.yaml").write_text(yaml.safe_dump({**config, "distill": {**config["distill"], "hole_steps": 12}}))
+    (tmp_path / "round0.yaml").write_text(yaml.safe_dump({**config, "distill": {**config["distill"], "steps": 41}}))
+    fits.clear()
+    with pytest.raises(KeyboardInterrupt):  # a later round's setting: round 0 is read
+        recipe.run(tmp_path / "later.yaml", run, progress=False, resume=True, teacher=teacher)
+    assert "round 0 read from" in capsys.readouterr().out and fits == [tiny.round_steps]
+    fits.clear()
+    with pytest.raises(KeyboardInterrupt):  # a round-0 setting: fitted again, and said why
+        recipe.run(tmp_path / "round0.yaml", run, progress=False, resume=True, teacher=teacher)
+    err = capsys.readouterr().err
+    assert "another distill: steps: round 0 is fitted again" in err and fits == [41, tiny.round_steps]
+    assert pickle.loads(saved.read_bytes())["fingerprint"]["distill"]["steps"] == 41 != state["fingerprint"]["distill"]["steps"]
+    saved.write_bytes(b"truncated")
+    fits.clear()
+    with pytest.raises(KeyboardInterrupt):
+        recipe.run(TINY, run, progress=False, resume=True, teacher=teacher)
+    assert "is not a round-0 checkpoint" in capsys.readouterr().err and fits == [tiny.steps, tiny.round_steps]
+
+
 def test_configs_reject_bad_values_naming_them():
     with pytest.raises(ValueError, match="k_values"):
         FieldConfig(k_values=1)
