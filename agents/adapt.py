@@ -47,7 +47,7 @@ from mdr_drive_env.files import write_text
 
 from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
 
-from .distill import Student, save_student
+from .student import Student, save_student
 from .estimator import FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy, teacher_layout
 from .evaluate import Policy, steady_velocity_of
 from .recipe import command_line, config_of, read_sections

@@ -23,27 +23,26 @@ an output beyond the edge costs nothing (SB3 clips the action to the box when ac
 optimal drives use the full stroke or depth in most components, and only the others need to be
 precise (the steady velocity near an optimal drive changes steeply with the action).
 
-The points and the episodes the student is taught on: ``agents/teacher_data.py``.
+The points and the episodes the student is taught on: ``agents/teacher_data.py``; the network, its
+loss and its Adam fit: ``agents/student.py``; round 0 kept for ``--resume``: ``agents/checkpoint.py``.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from .cycles import cycle_action
 from .drive_field import DriveField
 from .evaluate import steady_velocity_of
+from .student import Student, adam_fit, edge_loss, make_student, policy_mean
 from .teacher_data import (around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout,
                            stall_points, teacher_drives)
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
-#: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
-EDGE = 0.999
 
 
 @dataclass(frozen=True)
@@ -157,64 +156,6 @@ class DistillConfig:
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
 
 
-def policy_mean(policy, obs):
-    """The Gaussian mean action of an SB3 PPO policy on (normalised) observations, as a torch tensor
-    (SB3 clips it to the box when acting)."""
-    return policy.get_distribution(obs).distribution.mean
-
-
-def edge_loss(mean, target, huber_delta: float = 0.0):
-    """Squared error, except beyond the box's edge where the target is on it (SB3 clips there).
-
-    With ``huber_delta`` > 0, the Huber loss instead (squared within ``huber_delta`` action units,
-    linear beyond; scaled by ``2 / huber_delta`` so that it agrees with the squared error near zero):
-    where neighbouring samples are labelled with different drives, a squared error is minimised by
-    their mean, a blend that may drive nowhere; a loss linear in large errors by their median, one
-    of the drives."""
-    import torch
-
-    upper, lower = target >= EDGE, target <= -EDGE
-    clipped = torch.where(upper, torch.clamp(mean, max=1.0), torch.where(lower, torch.clamp(mean, min=-1.0), mean))
-    target = torch.clamp(target, -1.0, 1.0)
-    if huber_delta > 0.0:
-        return 2.0 * torch.nn.functional.huber_loss(clipped, target, delta=huber_delta)
-    return torch.mean((clipped - target) ** 2)
-
-
-@dataclass
-class Student:
-    """The PPO model being distilled and its VecNormalize (observation statistics fixed after round 0)."""
-
-    model: object
-    venv: object
-    history: list = field(default_factory=list)
-    #: The z phase at action -1 of the env it acts in (``MDRDrive-v0``'s ``z_phase_origin``).
-    z_phase_origin: float = 0.0
-
-    def act(self, obs: np.ndarray) -> np.ndarray:
-        action, _ = self.model.predict(self.venv.normalize_obs(obs), deterministic=True)
-        return action
-
-
-def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparameters: dict) -> Student:
-    """An untrained PPO MlpPolicy over the batched training env in a VecNormalize."""
-    import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
-
-    from .vec_env import BatchedVecEnv
-
-    hyper = dict(hyperparameters)
-    n_envs = int(hyper.pop("n_envs", 16))
-    venv = VecNormalize(VecMonitor(BatchedVecEnv(n_envs, seed=seed, **env_kwargs)), norm_obs=True, norm_reward=True,
-                        gamma=hyper.get("gamma", 0.99))
-    activation = {"relu": torch.nn.ReLU, "tanh": torch.nn.Tanh}[config.activation]
-    policy_kwargs = {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]}, "activation_fn": activation,
-                     "log_std_init": config.log_std}
-    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs, **hyper)
-    return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)))
-
-
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
         progress: bool = True, learning_rate: float | None = None) -> float:
     """Fit the student's mean action to the teacher's (``cycle_action`` of each sample's drive after
@@ -248,38 +189,6 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
                     config.batch, learning_rate or config.learning_rate, seed, "distill: fit", progress)
     policy.set_training_mode(False)
     return loss
-
-
-def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str,
-             progress: bool = True) -> float:
-    """``steps`` Adam steps, the learning rate decaying linearly to zero; every epoch ``epoch()``
-    gives ``(n, loss_of)``: its sample count and the loss of a minibatch of sample indices, visited
-    in a shuffled order. Returns the last epoch's mean loss."""
-    import torch
-
-    opt = torch.optim.Adam(list(params), lr=learning_rate)
-    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: max(1.0 - s / steps, 0.0))
-    gen = torch.Generator().manual_seed(seed)
-    done, total, seen = 0, 0.0, 0
-    bar = tqdm(total=steps, desc=desc, unit="step", disable=not progress, mininterval=2.0)
-    while done < steps:
-        n, loss_of = epoch()
-        perm = torch.randperm(n, generator=gen)
-        total, seen = 0.0, 0
-        for i in range(0, n, batch):
-            if done >= steps:
-                break
-            idx = perm[i:i + batch]
-            loss = loss_of(idx)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            sched.step()
-            total, seen, done = total + float(loss.detach()) * len(idx), seen + len(idx), done + 1
-            bar.update()
-        bar.set_postfix(loss=f"{total / max(seen, 1):.2e}")
-    bar.close()
-    return total / max(seen, 1)
 
 
 def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs: dict | None = None,
@@ -432,20 +341,5 @@ def validation_fraction(student: Student, points, v_teacher: np.ndarray, moving:
             "val_below_teacher": int((v < v_teacher - 0.05e-3).sum())}
 
 
-def save_student(student: Student, out: str | Path, record: dict) -> None:
-    """model.zip, vecnormalize.pkl and run.json (``record``) into ``out``, each written atomically."""
-    import json
-
-    from mdr_drive_env.files import atomic_path, write_text
-
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out / "model.zip") as tmp:
-        student.model.save(tmp)
-    with atomic_path(out / "vecnormalize.pkl") as tmp:
-        student.venv.save(str(tmp))
-    write_text(out / "run.json", json.dumps(record, indent=2))
-
-
-__all__ = ["DistillConfig", "Student", "adam_fit", "check_stall_probes", "distill", "edge_loss", "find_holes", "fit", "hole_round",
-           "make_student", "policy_mean", "save_student", "student_velocity", "validation_fraction"]
+__all__ = ["DistillConfig", "check_stall_probes", "distill", "find_holes", "fit", "hole_round", "student_velocity",
+           "validation_fraction"]

@@ -11,7 +11,7 @@ import numpy as np
 
 from mdr_drive_env.gym_envs.spaces import ObservationLayout, PrivilegedLayout
 
-from .distill import Student, adam_fit
+from .student import Student, adam_fit
 from .evaluate import Policy
 
 SENSOR_ID = "MDRDriveSensor-v0"
@@ -54,7 +54,7 @@ class Estimator:
 
     def fit(self, x: np.ndarray, y: np.ndarray, steps: int, batch: int, learning_rate: float, seed: int,
             progress: bool = True) -> float:
-        """``steps`` Adam steps (``distill.adam_fit``) of squared error on standardised targets;
+        """``steps`` Adam steps (``student.adam_fit``) of squared error on standardised targets;
         returns the last epoch's loss."""
         import torch
 
@@ -113,7 +113,7 @@ class SensorTeacher:
         :meth:`fit_actions`."""
         import torch
 
-        from .distill import policy_mean
+        from .student import policy_mean
 
         full = self.full_observation(sensed, hidden=privileged[:, self.hidden])
         with torch.no_grad():
@@ -126,15 +126,15 @@ class SensorTeacher:
 
     def fit_actions(self, sensed: np.ndarray, labels: np.ndarray, steps: int, batch: int, learning_rate: float,
                     seed: int, huber_delta: float = 0.05, progress: bool = True) -> float:
-        """Fit the estimator through the frozen teacher: ``steps`` Adam steps (``distill.adam_fit``)
+        """Fit the estimator through the frozen teacher: ``steps`` Adam steps (``student.adam_fit``)
         on the loss between the teacher's mean action on the estimator's guesses and ``labels`` (the
         teacher's action told the truth, :meth:`told_truth`), Huber with ``huber_delta``
-        (``distill.edge_loss``). The guesses then serve the actions rather than the hidden values:
+        (``student.edge_loss``). The guesses then serve the actions rather than the hidden values:
         an entry the sensor cannot tell apart costs what it changes in the drive, not its variance.
         Returns the last epoch's loss."""
         import torch
 
-        from .distill import edge_loss, policy_mean
+        from .student import edge_loss, policy_mean
 
         est, t = self.estimator, self.teacher
         xm, xs, ym, ys = est.scales

@@ -169,7 +169,8 @@ def load_config(path: str | Path) -> dict:
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
         force: bool = False, progress: bool = True) -> dict:
     """Fields, then the student (module docstring), into ``out``; returns what ``friction_teacher.json`` holds."""
-    from .distill import distill, save_student
+    from .distill import distill
+    from .student import save_student
     from .recipe import command_line, start_run, student_record
 
     cfg = load_config(config_path)

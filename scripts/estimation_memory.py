@@ -76,7 +76,7 @@ def main(argv=None) -> int:
 
     import torch
 
-    from mdr_drive_agents.distill import adam_fit
+    from mdr_drive_agents.student import adam_fit
     from mdr_drive_agents.evaluate import Policy
 
     torch.set_num_threads(2)

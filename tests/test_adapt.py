@@ -171,7 +171,7 @@ def test_fitting_the_estimator_through_the_teacher_brings_its_actions_to_the_tol
     import torch
 
     from mdr_drive_agents.adapt import collect, sensor_envs
-    from mdr_drive_agents.distill import edge_loss
+    from mdr_drive_agents.student import edge_loss
     from mdr_drive_agents.estimator import Estimator, SensorTeacher, hidden_entries, teacher_layout
     from mdr_drive_agents.evaluate import Policy
     from mdr_drive_env.gym_envs.spaces import SensorLayout

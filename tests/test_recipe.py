@@ -612,7 +612,7 @@ def test_the_teacher_check_scan_draws_k_in_its_range_and_keeps_the_cycle_scan(ca
 def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_error_blends_them():
     import torch
 
-    from mdr_drive_agents.distill import edge_loss
+    from mdr_drive_agents.student import edge_loss
 
     near, far = torch.tensor([[0.02, -0.03]]), torch.tensor([[0.5, -0.8]])
     zero = torch.zeros(1, 2)

@@ -28,7 +28,8 @@ import time
 from pathlib import Path
 
 from mdr_drive_agents import checkpoint
-from mdr_drive_agents.distill import distill, save_student
+from mdr_drive_agents.distill import distill
+from mdr_drive_agents.student import save_student
 from mdr_drive_agents.drive_field import DriveField
 from mdr_drive_agents.recipe import load_recipe, student_record
 
