@@ -161,6 +161,7 @@ def blind_record(blind_jsons, policy_key: str) -> str:
                     f"{_ratio(s['fraction_of_best_min'])} ({under} of {s['points_scored']}) | "
                     f"{crit} | {_range(over_trap)} | {', '.join(missed) or 'none'} |")
     runs = "\n".join(f"* `{cmd}` with SEED = {', '.join(seeds)}" for cmd, seeds in commands.items())
+    low, high = wilson_interval(clean, len(rows))
     return f"""## Blind results
 
 Random (k, load) points of the training domain, drawn with report seeds no training or selection
@@ -176,8 +177,18 @@ cycle's at every scanned k.
 |---|---|---|---|---|---|---|
 {chr(10).join(rows)}
 
-All four targets met on {clean} of {len(rows)} report seeds.
+All four targets met on {clean} of {len(rows)} report seeds: a fresh seed passes with probability about
+{clean / len(rows):.2f} (95 % Wilson interval {low:.2f}-{high:.2f}).
 """
+
+
+def wilson_interval(passed: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a pass probability from ``passed`` of ``n`` trials (``z`` = 1.96: 95 %)."""
+    if n < 1 or not 0 <= passed <= n:
+        raise ValueError(f"passed={passed} of n={n}: need 0 <= passed <= n and n >= 1")
+    p, z2 = passed / n, z * z
+    centre, half = (p + z2 / (2 * n)) / (1 + z2 / n), z / (1 + z2 / n) * (p * (1 - p) / n + z2 / (4 * n * n)) ** 0.5
+    return max(centre - half, 0.0), min(centre + half, 1.0)
 
 
 def _ratio(x) -> str:

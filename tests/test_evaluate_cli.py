@@ -180,7 +180,21 @@ def test_the_model_cards_blind_record_repeats_each_command_and_counts_the_seeds_
     assert "`mdr-drive benchmark --blind 24 --seed SEED --policies P` with SEED = 99, 100" in text
     assert "| 98 | 0 | 1.100 | 0.840 (1 of 20) | 0.990 (2 of 2) | 1.200-1.500 | fraction of the best: minimum |" in text
     assert "| 97 | 0 | 1.100 | 0.900 (0 of 20) | 0.990 (2 of 2) | 1.200-1.500 | none |" in text
-    assert "All four targets met on 3 of 4 report seeds." in text
+    assert ("All four targets met on 3 of 4 report seeds: a fresh seed passes with probability about\n"
+            "0.75 (95 % Wilson interval 0.30-0.95).") in text
+
+
+def test_the_pass_rates_wilson_interval_has_its_closed_forms_and_refuses_impossible_counts():
+    from mdr_drive_agents.model_card import wilson_interval
+
+    z2 = 1.96 ** 2
+    assert wilson_interval(0, 10) == (0.0, pytest.approx(z2 / (10 + z2)))  # no pass: [0, z^2 / (n + z^2)]
+    assert wilson_interval(10, 10) == (pytest.approx(10 / (10 + z2)), 1.0)
+    low, high = wilson_interval(13, 18)
+    assert low < 13 / 18 < high and high - low < wilson_interval(3, 4)[1] - wilson_interval(3, 4)[0]
+    for passed, n in ((5, 4), (-1, 4), (0, 0)):
+        with pytest.raises(ValueError, match=f"passed={passed} of n={n}"):
+            wilson_interval(passed, n)
 
 
 def test_missed_targets_names_each_target_a_policy_misses():
