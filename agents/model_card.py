@@ -155,10 +155,10 @@ def blind_record(blind_jsons, policy_key: str) -> str:
         commands.setdefault(blind_command(res, policy_key), []).append(str(res["seed"]))
         at_target = sum(r is not None and r >= CRITICAL_LOAD_TARGET for r in s["critical_load_over_best_cycle"])
         crit = "-" if s["critical_load_over_best_cycle_min"] is None else (
-            f"{s['critical_load_over_best_cycle_min']:.3f} ({at_target} of {scanned})")
+            f"{_ratio(s['critical_load_over_best_cycle_min'], CRITICAL_LOAD_TARGET)} ({at_target} of {scanned})")
         under = s.get("points_under_fraction_target", "?")  # not in files written before the key was added
         rows.append(f"| {res['seed']} | {s['points_below_trapezoid']} | {_ratio(s['fraction_of_best_mean'])} | "
-                    f"{_ratio(s['fraction_of_best_min'])} ({under} of {s['points_scored']}) | "
+                    f"{_ratio(s['fraction_of_best_min'], FRACTION_TARGET)} ({under} of {s['points_scored']}) | "
                     f"{crit} | {_range(over_trap)} | {', '.join(missed) or 'none'} |")
     runs = "\n".join(f"* `{cmd}` with SEED = {', '.join(seeds)}" for cmd, seeds in commands.items())
     low, high = wilson_interval(clean, len(rows))
@@ -191,8 +191,15 @@ def wilson_interval(passed: int, n: int, z: float = 1.96) -> tuple[float, float]
     return max(centre - half, 0.0), min(centre + half, 1.0)
 
 
-def _ratio(x) -> str:
-    return "-" if x is None else f"{x:.3f}"
+def _ratio(x, target: float | None = None) -> str:
+    """``x`` to three decimals, or as many more as it takes not to print a miss as ``target`` itself
+    (0.9696 against 0.97, not 0.970)."""
+    if x is None:
+        return "-"
+    digits = 3
+    while target is not None and x < target and float(f"{x:.{digits}f}") >= target and digits < 8:
+        digits += 1
+    return f"{x:.{digits}f}"
 
 
 def _range(values) -> str:
