@@ -149,7 +149,7 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     text = ship(card_dir, card_dir, [blind_json, second]).read_text()  # one row per report seed
     assert text.count("## Blind results") == 1 and "SEED = 99, 100" in text
     assert "| 100 | 0 | 0.885 | 0.327 (1 of 20) | 0.937 (1 of 2) |" in text
-    assert "All four targets met on 0 of 2 report seeds." in text
+    assert "All four targets met on 0 of 2 report seeds: a fresh seed passes with probability about\n0.00 (95 % Wilson interval 0.00-0.66)." in text
     assert ship(card_dir, card_dir).read_text().count("## Blind results") == 0
 
 
