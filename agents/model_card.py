@@ -257,6 +257,9 @@ folder first: a resumed run writes into it; the observation statistics stay as d
 * Its drives are the teacher's: a grid search with a stated budget, polished from each node's
   neighbours (docs/results.md), not a proven optimum; near stall it can be well short of a per-point
   search, and the network with it (the blind misses in docs/results.md).
+* Where the steady velocity is steep in the drive, a small imitation error costs much: at k = 0.24-0.29 the
+  network falls under 0.85 of the teacher over bands of load even where the teacher's drive does not
+  change (1.00-1.04 of the trapezoid's critical load at k = 0.243, `results/blind/s3_record`).
 * Where the teacher's best drive jumps from one optimum to another, the network must switch between
   them within a narrow band of k and load; there it can fall between them and stall or go backwards at
   isolated (k, load) points, or, started there, stay in a slower drive (docs/results.md, Limits): check a working point with `mdr-drive
