@@ -23,7 +23,6 @@ if TYPE_CHECKING:
 EDGE = 0.999
 
 
-
 def policy_mean(policy, obs):
     """The Gaussian mean action of an SB3 PPO policy on (normalised) observations, as a torch tensor
     (SB3 clips it to the box when acting)."""
