@@ -14,7 +14,8 @@ given teacher) and keeps it in the student's round-0 checkpoint (``agents/checkp
 distillation settings through its hole rounds and saves the policy in OUT/policy; it refuses a
 checkpoint fitted with another teacher or other round-0 settings (``checkpoint.LATER_ROUND_KEYS`` are the
 settings a variant may change). With the shipped recipe it gives the shipped policy (``tests/test_recipe.py``
-checks the same continuation at CI size; at full size: policy.pth md5 d2ab3dbb...).
+checks the same continuation at CI size; at full size, ``make train``'s student stage resumed from its
+checkpoint gave policy.pth md5 d2ab3dbb...: ``results/recipe/resume_check.md``).
 
 Checkpoints written by this script before the round-0 checkpoint moved into ``distill`` (git 2ab38f6
 and earlier) have no fingerprint and are refused: fit round 0 again.
