@@ -29,12 +29,14 @@ loss and its Adam fit: ``agents/student.py``; round 0 kept for ``--resume``: ``a
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from . import checkpoint as round0_checkpoint
 from .cycles import cycle_action
 from .drive_field import DriveField
 from .evaluate import steady_velocity_of
@@ -203,11 +205,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     (e.g. to save the student as it stands). With ``checkpoint`` (a file path), round 0's result is
     written there, and read from there instead of fitted if it was written for the same teacher and
     settings (``agents/checkpoint.py``): an interrupted run continues after round 0."""
-    import sys
-
     import torch
-
-    from . import checkpoint as round0_checkpoint
 
     check_stall_probes(config, friction is not None)  # before any work, not after round 0's fit
     torch.set_num_threads(config.torch_threads)

@@ -41,8 +41,8 @@ from mdr_drive_env.files import write_text
 from mdr_drive_env.sweep import Executor, TaskStore, add_executor_arguments, executor_from, task_folder
 
 from .distill import DistillConfig, distill
-from .student import save_student
 from .drive_field import DriveField, FieldConfig
+from .student import save_student
 from .train import ENV_ID, HELD_OUT_POINTS, versions
 
 DEFAULT_CONFIG = Path(__file__).parent / "configs" / "recipe.yaml"
