@@ -82,10 +82,6 @@ class DistillConfig:
             (``stall_points``), where the critical load is judged; there a probe where the teacher
             moves and the student does not is a hole too, however slow the teacher (-).
         stall_band: those probes' loads, as fractions of the teacher's stall load at their k (-).
-        stall_line_loads: 0: the stall probes lie at uniform random points of the band; N > 0: on
-            ``stall_probes // N`` load lines across the band, each at a random k with N loads evenly
-            spaced (``stall_points``). Near stall a student stalls in pockets 0.01-0.02 of the
-            critical load wide, and a critical-load scan stops at the first one (-).
         huber_delta: 0 fits the squared error; > 0 the Huber loss with this threshold (``edge_loss``)
             (action units).
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
@@ -129,7 +125,6 @@ class DistillConfig:
     hole_learning_rate: float = 3e-4
     stall_probes: int = 0
     stall_band: tuple[float, float] = (0.92, 1.02)
-    stall_line_loads: int = 0
     huber_delta: float = 0.0
     jump_levels: int = 0
     jump_neighbours: int = 6
@@ -141,12 +136,9 @@ class DistillConfig:
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
                      "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "jump_levels", "jump_neighbours",
-                     "stall_probes", "stall_line_loads"):
-            check_int(name, getattr(self, name), 0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels",
-                                                               "stall_probes", "stall_line_loads") else 1)
-        if self.stall_line_loads > self.stall_probes:
-            raise ValueError(f"stall_line_loads={self.stall_line_loads!r} must be at most stall_probes="
-                             f"{self.stall_probes!r} (one load line at least)")
+                     "stall_probes"):
+            check_int(name, getattr(self, name),
+                      0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels", "stall_probes") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -324,7 +316,7 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
     check_stall_probes(config, friction is not None)
     points = draw_points(field_, config.hole_probes, rng, config, friction)
     if config.stall_probes:
-        points += stall_points(field_, config.stall_probes, rng, config.stall_band, config.stall_line_loads)
+        points += stall_points(field_, config.stall_probes, rng, config.stall_band)
     _, v_teacher = teacher_drives(field_, points, config)
     v_student = student_velocity(student, points)
     short = v_student < v_teacher - np.maximum(config.hole_shortfall * np.abs(v_teacher), config.hole_floor)

@@ -37,7 +37,7 @@ import numpy as np
 from mdr_drive_env.core.params import check_int
 from mdr_drive_env.files import atomic_path
 
-from .cycles import align_phase, grid_phases
+from .cycles import align_phase
 from .evaluate import open_loop_velocity
 from .field_config import PAPER_FRICTION, FieldConfig
 from .field_refine import GridRefinement
@@ -101,8 +101,6 @@ class DriveField(GridRefinement):
             field.polish_stall(int(config.polish_stall[0]), float(config.polish_stall[1]), executor=executor,
                                seed=seed + 970_000, k_max=k_max)
             field.settle()
-        if config.phases == "grid":
-            field.align_grid()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
 
@@ -222,15 +220,6 @@ class DriveField(GridRefinement):
                 self.drives[i, 0] = align_phase(self.drives[i, 0], self.drives[i - 1, 0])
             for j in range(1, ns):
                 self.drives[i, j] = align_phase(self.drives[i, j], self.drives[i, j - 1])
-
-    def align_grid(self) -> int:
-        """Write every cycle in the phase that agrees best with its neighbours over k and the load
-        (``agents.cycles.grid_phases``); returns the nodes swapped. Velocities do not change: a
-        cycle and its swap are one cycle once running."""
-        swap = grid_phases(self.drives)
-        self.drives[swap] = self.drives[swap][:, ::-1]
-        self.meta["phases_swapped"] = int(swap.sum())
-        return int(swap.sum())
 
     # ------------------------------------------------------------------ queries
     def _cell(self, k: float, load: float):

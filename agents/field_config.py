@@ -14,9 +14,6 @@ from mdr_drive_env.core.params import check_int, check_range
 #: The paper's friction coefficients (mu indenter-slider, mu1 slider-base), the env's defaults.
 PAPER_FRICTION = (0.3, 0.1)
 
-#: How the teacher writes its cycles' phases (``FieldConfig.phases``).
-PHASES = ("along_load", "grid")
-
 
 def check_search(stage: str, budget, sigma) -> None:
     """A teacher stage's CMA-ES settings: ``budget`` evaluations (an integer >= 1) and initial step
@@ -72,14 +69,6 @@ class FieldConfig:
             each, step ``sigma``) and each keeps a faster drive (``DriveField.polish_stall``) (-,
             action units, -). The grid's searches there are weaker than the blind benchmark's
             critical-load bisection, and the teacher's critical load is the stall node's.
-        phases: the phase (which of its two actions comes first, the action an episode starts with)
-            each cycle is written in: "along_load", after every stage each k line's cycles in the
-            phase closest to the lighter node's (``DriveField.align``), or "grid": so, and after the
-            last stage every cycle in the phase that agrees best with its neighbours over k and the
-            load (``DriveField.align_grid``, ``agents.cycles.grid_phases``); the searches are the
-            same. Along the load alone, one new drive on a k line flips every heavier node of that
-            line against its k neighbours holding the same cycles, and the student is taught
-            opposite first actions between them.
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
@@ -98,7 +87,6 @@ class FieldConfig:
     refine_load: tuple = ()
     refine_steep: tuple = ()
     polish_stall: tuple = ()
-    phases: str = "along_load"
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -139,8 +127,6 @@ class FieldConfig:
             check_search("polish_stall", *self.polish_stall[:2])
             if len(self.polish_stall) == 3:
                 check_range("polish_stall k_max", self.polish_stall[2], *self.k_range)
-        if self.phases not in PHASES:
-            raise ValueError(f"phases={self.phases!r} must be one of {', '.join(PHASES)}")
         if len(self.friction) != 2:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
@@ -162,4 +148,4 @@ class FieldConfig:
         return np.linspace(0.0, self.max_load_fraction, self.load_fractions)
 
 
-__all__ = ["PAPER_FRICTION", "PHASES", "FieldConfig", "check_search"]
+__all__ = ["PAPER_FRICTION", "FieldConfig", "check_search"]

@@ -70,9 +70,7 @@ def stall_note(distill: dict) -> str:
     if not distill.get("stall_probes"):
         return ""
     low, high = distill["stall_band"]
-    lines = distill.get("stall_line_loads") or 0
-    layout = f" on {distill['stall_probes'] // lines} load lines of {lines}" if lines else ""
-    return f", each with {distill['stall_probes']:,} probes{layout} at {low:g}-{high:g} of the teacher's stall load"
+    return f", each with {distill['stall_probes']:,} probes at {low:g}-{high:g} of the teacher's stall load"
 
 
 def training_note(run: dict) -> str:

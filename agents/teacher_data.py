@@ -64,24 +64,12 @@ def stall_fractions(field_: DriveField) -> np.ndarray:
     return out
 
 
-def stall_points(field_: DriveField, n: int, rng: np.random.Generator, band: tuple[float, float],
-                 line_loads: int = 0) -> list:
+def stall_points(field_: DriveField, n: int, rng: np.random.Generator, band: tuple[float, float]) -> list:
     """``n`` (k, cargo mass kg) points: k uniform over the field's range, the load uniform in ``band``
-    times the teacher's stall load there (:func:`stall_fractions`, interpolated in k). With
-    ``line_loads`` > 0, ``n // line_loads`` load lines instead, each at a uniform k with
-    ``line_loads`` loads evenly spaced over ``band`` (all shifted by one uniform fraction of the
-    spacing): a pocket where a student stalls, narrower in load than the spacing of uniform probes
-    but wider than a line's, lies between no two of its loads."""
-    low_k, high_k = field_.ks[0], field_.ks[-1]
-    if line_loads:
-        lines = n // line_loads
-        ks = np.repeat(rng.uniform(low_k, high_k, lines), line_loads)
-        spacing = (band[1] - band[0]) / line_loads
-        fractions = (band[0] + spacing * (np.arange(line_loads) + rng.uniform(0.0, 1.0, (lines, 1)))).ravel()
-    else:
-        ks = rng.uniform(low_k, high_k, n)
+    times the teacher's stall load there (:func:`stall_fractions`, interpolated in k)."""
+    ks = rng.uniform(field_.ks[0], field_.ks[-1], n)
     stall = np.interp(ks, field_.ks, stall_fractions(field_) * field_.trapezoid_critical)
-    loads = (fractions if line_loads else rng.uniform(*band, n)) * stall
+    loads = rng.uniform(*band, n) * stall
     return [(float(k), float(m)) for k, m in zip(ks, loads)]
 
 

@@ -841,36 +841,6 @@ def test_stall_points_lie_in_their_band_around_the_zero_crossing_of_each_k_lines
     assert points[:, 1].max() > 0.95 * 1.2 * 0.08 * 0.95  # the band is filled, not one load
 
 
-
-def test_stall_probes_on_load_lines_cross_the_band_evenly_at_one_k_each():
-    from mdr_drive_agents.teacher_data import stall_fractions, stall_points
-
-    field = _synthetic_field(nk=3, ns=4)
-    field.trapezoid_critical[:] = [0.02, 0.04, 0.08]
-    field.velocities[:] = [[3.0, 2.0, 1.0, -3.0], [3.0, 2.0, 1.0, -1.0], [3.0, 2.0, 2.0, 1.0]]
-    band = (0.85, 1.0)
-    points = np.array(stall_points(field, 70, np.random.default_rng(2), band, line_loads=16)).reshape(4, 16, 2)
-    for line in points:  # 70 // 16 = 4 lines of 16 loads; each at one k, evenly spaced, inside the band
-        assert np.all(line[:, 0] == line[0, 0])
-        stall = np.interp(line[0, 0], field.ks, stall_fractions(field) * field.trapezoid_critical)
-        fractions = line[:, 1] / stall
-        assert np.allclose(np.diff(fractions), (band[1] - band[0]) / 16)
-        assert band[0] <= fractions[0] and fractions[-1] <= band[1]
-    assert len(np.unique(points[:, 0, 0])) == 4
-    # uniform probes (the default) draw as they always did: k, then the load fraction
-    rng, again = np.random.default_rng(5), np.random.default_rng(5)
-    ks = again.uniform(0.0, 0.6, 50)
-    expected = again.uniform(*band, 50) * np.interp(ks, field.ks, stall_fractions(field) * field.trapezoid_critical)
-    assert np.allclose(np.array(stall_points(field, 50, rng, band))[:, 1], expected)
-
-
-def test_stall_line_loads_is_checked_against_the_probes():
-    assert DistillConfig(stall_probes=64, stall_line_loads=32).stall_line_loads == 32
-    with pytest.raises(ValueError, match="stall_line_loads=65"):
-        DistillConfig(stall_probes=64, stall_line_loads=65)
-    with pytest.raises(ValueError, match="stall_line_loads"):
-        DistillConfig(stall_probes=64, stall_line_loads=-1)
-
 def test_at_a_stall_probe_a_student_that_stalls_where_the_teacher_crawls_is_a_hole(monkeypatch):
     from mdr_drive_agents import distill
 
