@@ -6,7 +6,8 @@
 
 On the load line FRACTION (of the trapezoid's critical load) at each k given, the node's drive and
 velocity become the reference teacher's; then the phases are written over the grid again
-(``DriveField.align_grid``). Prints the nodes written back.
+(``DriveField.align_grid``, retired since: run it at git 6b0fa6c-c3774fd). Prints the nodes
+written back.
 """
 import sys
 
