@@ -30,7 +30,6 @@ from .evaluate import (  # noqa: F401  (CRITICAL_GRID, first_stall, upper_mass: 
     first_stall,
     format_velocity,
     load_policy,
-    policy_path,
     open_loop_velocity,
     policy_rollout,
     policy_velocity,
@@ -38,6 +37,7 @@ from .evaluate import (  # noqa: F401  (CRITICAL_GRID, first_stall, upper_mass: 
     trapezoid_action,
     upper_mass,
 )
+from .evaluate_cli import policy_path
 
 GRID_KS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
 GRID_MASSES = (0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5)

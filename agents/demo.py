@@ -41,7 +41,7 @@ PLOT_MASSES = tuple(np.round(np.linspace(0.0, 0.8, 41), 3))
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import output_dir
 
-    from .evaluate import policy_path
+    from .evaluate_cli import policy_path
 
     p.add_argument("--out", default="results/demo", type=output_dir, help="output folder")
     p.add_argument("--policy", default=str(PRETRAINED), type=policy_path,

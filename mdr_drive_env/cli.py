@@ -300,9 +300,9 @@ def cmd_bench(a: argparse.Namespace) -> int:
 #: Subcommands implemented in agents/: (name, help, description).
 AGENT_COMMANDS = (
     ("train", "train a waveform policy (needs the train extra)",
-     "Train PPO or SAC on MDRDrive-v0 (agents/train.py); see docs/results.md."),
+     "Train PPO or SAC on MDRDrive-v0 (agents/train.py, its options agents/train_cli.py); see docs/results.md."),
     ("evaluate", "a trained policy against the trapezoid at one point",
-     "Steady velocity of a policy and of the paper's trapezoid (agents/evaluate.py)."),
+     "Steady velocity of a policy and of the paper's trapezoid (agents/evaluate_cli.py)."),
     ("benchmark", "learned vs trapezoid vs CMA-ES over k and load",
      "The waveform benchmark (agents/benchmark.py); writes results/benchmark/."),
     ("demo", "the README's demo (make demo)",
@@ -310,9 +310,13 @@ AGENT_COMMANDS = (
 )
 
 
+#: The module of an agents/ subcommand where it is not the command's name.
+AGENT_MODULES = {"evaluate": "evaluate_cli", "train": "train_cli"}
+
+
 def _agents_arguments(p: argparse.ArgumentParser, module: str) -> None:
     try:
-        mod = __import__(f"mdr_drive_agents.{module}", fromlist=["add_arguments"])
+        mod = __import__(f"mdr_drive_agents.{AGENT_MODULES.get(module, module)}", fromlist=["add_arguments"])
     except ImportError as e:  # the train extra is missing
         p.set_defaults(_import_error=str(e))
         return
@@ -324,7 +328,7 @@ def _agents_main(module: str, a: argparse.Namespace) -> int:
         print(f"mdr-drive {module} needs the train extra (pip install -e '.[train]'): {a._import_error}",
               file=sys.stderr)
         return 2
-    return __import__(f"mdr_drive_agents.{module}", fromlist=["main"]).main(a)
+    return __import__(f"mdr_drive_agents.{AGENT_MODULES.get(module, module)}", fromlist=["main"]).main(a)
 
 
 def build_parser() -> argparse.ArgumentParser:
