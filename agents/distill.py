@@ -82,10 +82,6 @@ class DistillConfig:
             (``stall_points``), where the critical load is judged; there a probe where the teacher
             moves and the student does not is a hole too, however slow the teacher (-).
         stall_band: those probes' loads, as fractions of the teacher's stall load at their k (-).
-        robust_labels: empty, or (dk, ds, low): at points loaded at least ``low`` times the teacher's
-            stall load at their k, the label is the candidate drive with the best minimum velocity
-            over the point and its neighbours at k +- dk and the load times 1 +- ds
-            (``teacher_data.robust_best``), not the best at the point (-, -, -).
         huber_delta: 0 fits the squared error; > 0 the Huber loss with this threshold (``edge_loss``)
             (action units).
         teacher_radius: the grid neighbourhood whose drives the teacher plays at a point besides
@@ -129,7 +125,6 @@ class DistillConfig:
     hole_learning_rate: float = 3e-4
     stall_probes: int = 0
     stall_band: tuple[float, float] = (0.92, 1.02)
-    robust_labels: tuple = ()
     huber_delta: float = 0.0
     jump_levels: int = 0
     jump_neighbours: int = 6
@@ -157,12 +152,6 @@ class DistillConfig:
             raise ValueError(f"stall_band={self.stall_band!r} must be two fractions [low, high]")
         check_range("stall_band[0]", self.stall_band[0], 0.0, 2.0, low_open=True)
         check_range("stall_band[1]", self.stall_band[1], self.stall_band[0], 2.0, low_open=True)
-        if self.robust_labels:
-            if len(self.robust_labels) != 3:
-                raise ValueError(f"robust_labels={self.robust_labels!r} must be (dk, ds, low) or empty")
-            check_range("robust_labels dk", self.robust_labels[0], 0.0, 0.05, low_open=True)
-            check_range("robust_labels ds", self.robust_labels[1], 0.0, 0.2, low_open=True)
-            check_range("robust_labels low", self.robust_labels[2], 0.0, 2.0)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
         if not isinstance(self.quantum_centres, bool):

@@ -116,55 +116,8 @@ def perturb_previous_actions(obs: np.ndarray, drives: np.ndarray, rng: np.random
 
 def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
     """The recipe's teacher at ``points``: drives (n, 2, 5) and velocities (n,) m/s from
-    ``field_.best`` with ``config.teacher_radius``; with ``config.robust_labels`` (dk, ds, low), at
-    the points loaded at least ``low`` times the teacher's stall load, the drive of
-    :func:`robust_best` instead."""
-    drives, velocities = field_.best(points, radius=config.teacher_radius)
-    if not config.robust_labels or not len(points):
-        return drives, velocities
-    if not isinstance(field_, DriveField):
-        raise ValueError("robust_labels: only with a drive field at one friction")
-    dk, ds, low = config.robust_labels
-    ks, loads = np.array([p[0] for p in points], dtype=float), np.array([p[1] for p in points], dtype=float)
-    stall = np.interp(ks, field_.ks, stall_fractions(field_) * field_.trapezoid_critical)
-    near = np.flatnonzero(loads >= low * stall)
-    if len(near):
-        drives[near], velocities[near] = robust_best(field_, [points[i] for i in near], config.teacher_radius, dk, ds)
-    return drives, velocities
-
-
-def robust_best(field_: DriveField, points, radius: int, dk: float, ds: float,
-                prefer_interpolation: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
-    """Per (k, load kg) point, of the teacher's candidate drives (``DriveField.candidates``), the one
-    whose smallest steady velocity over the point and its four neighbours (k +- ``dk`` within the
-    field's k range, the load times 1 +- ``ds``) is largest, the interpolation unless another is
-    better by more than ``prefer_interpolation`` (relative); returns the drives (n, 2, 5) and their
-    velocities at the points (n,) m/s. Near a switch between two drive families the best drive at
-    the point can be one that collapses a few thousandths of k away, and a student that puts the
-    switch a little off plays it there; the best minimum leaves it that room."""
-    from .evaluate import open_loop_velocity
-
-    points = field_.with_friction(points)
-    cands = [field_.candidates(p[0], field_.field_load(p), radius) for p in points]
-    shifts = ((0.0, 1.0), (-dk, 1.0), (dk, 1.0), (0.0, 1.0 - ds), (0.0, 1.0 + ds))
-    play_points, play_drives = [], []
-    for p, c in zip(points, cands):
-        for shift, factor in shifts:
-            k = float(np.clip(p[0] + shift, field_.ks[0], field_.ks[-1]))
-            play_points += [(k, p[1] * factor, p[2], p[3])] * len(c)
-            play_drives.append(c)
-    v = open_loop_velocity(play_points, np.concatenate(play_drives))
-    drives, velocities, start = [], [], 0
-    for c in cands:
-        vc = v[start:start + len(shifts) * len(c)].reshape(len(shifts), len(c))
-        worst = vc.min(axis=0)
-        pick = int(np.argmax(worst))
-        if worst[pick] <= worst[0] + prefer_interpolation * abs(worst[0]):
-            pick = 0
-        drives.append(c[pick])
-        velocities.append(vc[0, pick])
-        start += vc.size
-    return np.array(drives), np.array(velocities)
+    ``field_.best`` with ``config.teacher_radius``."""
+    return field_.best(points, radius=config.teacher_radius)
 
 
 def labelled_episodes(field_: DriveField, points, act, config, seed: int, z_phase_origin: float = 0.0,
@@ -250,4 +203,4 @@ def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float
 
 
 __all__ = ["around", "draw_points", "drive_difference", "jump_brackets", "jump_points", "labelled_episodes",
-           "perturb_previous_actions", "robust_best", "rollout", "stall_fractions", "stall_points", "teacher_drives"]
+           "perturb_previous_actions", "rollout", "stall_fractions", "stall_points", "teacher_drives"]

@@ -841,32 +841,6 @@ def test_stall_points_lie_in_their_band_around_the_zero_crossing_of_each_k_lines
     assert points[:, 1].max() > 0.95 * 1.2 * 0.08 * 0.95  # the band is filled, not one load
 
 
-
-def test_robust_labels_near_stall_take_the_drive_that_holds_beside_the_point(monkeypatch):
-    from mdr_drive_agents import drive_field, evaluate
-    from mdr_drive_agents.drive_field import DriveField
-    from mdr_drive_agents.teacher_data import teacher_drives
-
-    drive_a, drive_b = np.full((2, 5), 0.1), np.full((2, 5), 0.9)  # k line 0.2 holds A, k line 0.3 holds B
-    field = DriveField([0.2, 0.3], [0.0, 1.2], [0.05, 0.05], np.array([[drive_a] * 2, [drive_b] * 2]), np.ones((2, 2)))
-
-    def velocity(points, drives):  # B: 3 mm/s from k = 0.25, backwards below; A: 2 mm/s; their blends: 0
-        code, k = np.asarray(drives)[:, 0, 0], np.array([p[0] for p in points])
-        return np.where(code > 0.8, np.where(k >= 0.25, 3e-3, -1e-3), np.where(code < 0.2, 2e-3, 0.0))
-
-    monkeypatch.setattr(drive_field, "open_loop_velocity", velocity)
-    monkeypatch.setattr(evaluate, "open_loop_velocity", velocity)
-    points = [(0.252, 0.05), (0.252, 0.01)]  # the teacher's stall load is 1.2 x 0.05 = 0.06 kg
-    plain = teacher_drives(field, points, DistillConfig())
-    assert np.allclose(plain[0][:, 0, 0], 0.9) and np.allclose(plain[1], 3e-3)  # B, the best at the point
-    robust = teacher_drives(field, points, DistillConfig(robust_labels=(0.005, 0.02, 0.75)))
-    assert np.allclose(robust[0][:, 0, 0], [0.1, 0.9])  # near stall A, which holds at k = 0.247; lighter B
-    assert np.allclose(robust[1], [2e-3, 3e-3])  # velocities at the points themselves
-    with pytest.raises(ValueError, match="robust_labels dk"):
-        DistillConfig(robust_labels=(0.0, 0.02, 0.75))
-    with pytest.raises(ValueError, match="robust_labels"):
-        DistillConfig(robust_labels=(0.005, 0.02))
-
 def test_at_a_stall_probe_a_student_that_stalls_where_the_teacher_crawls_is_a_hole(monkeypatch):
     from mdr_drive_agents import distill
 
