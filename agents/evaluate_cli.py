@@ -19,14 +19,14 @@ from mdr_drive_env.core import DriveParams
 from .evaluate import (
     ACTION_MAP,
     AVERAGE_PERIODS,
+    EVAL_PERIODS,
+    OBSERVATION_KEYS,
+    Policy,
     critical_loads_grid,
     env_rollout,
-    EVAL_PERIODS,
     format_velocity,
-    OBSERVATION_KEYS,
     open_loop_displacements,
     open_loop_velocity,
-    Policy,
     policy_rollout,
     policy_velocity,
     steady_velocity_of,
@@ -56,9 +56,8 @@ def policy_path(text: str) -> str:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli import add_variant_argument
-    from mdr_drive_env.cli_args import folder_with
 
-    p.add_argument("--policy", required=True, type=folder_with("model.zip"),
+    p.add_argument("--policy", required=True, type=policy_path,
                    help="folder with model.zip and vecnormalize.pkl")
     p.add_argument("--k", type=float, nargs="+", required=True, metavar="K",
                    help="grading exponent(s) k, in [0, 1); several values pair with --cargo-mass (-)")

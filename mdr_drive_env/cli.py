@@ -314,21 +314,26 @@ AGENT_COMMANDS = (
 AGENT_MODULES = {"evaluate": "evaluate_cli", "train": "train_cli"}
 
 
-def _agents_arguments(p: argparse.ArgumentParser, module: str) -> None:
+def _agents_module(command: str):
+    """The agents/ module that implements ``command`` (``AGENT_MODULES``, else the command's name)."""
+    return __import__(f"mdr_drive_agents.{AGENT_MODULES.get(command, command)}", fromlist=["main"])
+
+
+def _agents_arguments(p: argparse.ArgumentParser, command: str) -> None:
     try:
-        mod = __import__(f"mdr_drive_agents.{AGENT_MODULES.get(module, module)}", fromlist=["add_arguments"])
+        mod = _agents_module(command)
     except ImportError as e:  # the train extra is missing
         p.set_defaults(_import_error=str(e))
         return
     mod.add_arguments(p)
 
 
-def _agents_main(module: str, a: argparse.Namespace) -> int:
+def _agents_main(command: str, a: argparse.Namespace) -> int:
     if getattr(a, "_import_error", None):
-        print(f"mdr-drive {module} needs the train extra (pip install -e '.[train]'): {a._import_error}",
+        print(f"mdr-drive {command} needs the train extra (pip install -e '.[train]'): {a._import_error}",
               file=sys.stderr)
         return 2
-    return __import__(f"mdr_drive_agents.{AGENT_MODULES.get(module, module)}", fromlist=["main"]).main(a)
+    return _agents_module(command).main(a)
 
 
 def build_parser() -> argparse.ArgumentParser:
