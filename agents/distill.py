@@ -67,9 +67,6 @@ class DistillConfig:
         perturbed_share: share of the samples whose previous action is perturbed in each epoch (-).
         log_std: the policy's log standard deviation after distillation (for PPO fine-tuning) (-).
         torch_threads: torch threads of the fit (-).
-        bf16_share: share of each fit's Adam steps (the first ones) whose matrix products run in
-            bfloat16 (``torch.autocast``; the weights, the optimiser and the last steps stay float32):
-            about twice as fast on CPUs with AVX-512 BF16 or AMX, slower on CPUs without (0: off) (-).
         hole_rounds: rounds that look for where the student falls short of the teacher and add the
             teacher's episodes there (module docstring) (-).
         hole_probes: random points per hole round where the student and the teacher drive (-).
@@ -118,7 +115,6 @@ class DistillConfig:
     perturbed_share: float = 0.5
     log_std: float = -3.0
     torch_threads: int = 1
-    bf16_share: float = 0.0
     teacher_radius: int = 1
     hole_rounds: int = 0
     hole_probes: int = 4096
@@ -147,7 +143,6 @@ class DistillConfig:
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
         check_range("perturbed_share", self.perturbed_share, 0.0, 1.0)
-        check_range("bf16_share", self.bf16_share, 0.0, 1.0)
         check_range("load_factor", self.load_factor, 0.0, 5.0, low_open=True)
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
@@ -193,8 +188,7 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
 
     policy.set_training_mode(True)
     loss = adam_fit([*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()], epoch, steps,
-                    config.batch, learning_rate or config.learning_rate, seed, "distill: fit", progress,
-                    bf16_share=config.bf16_share)
+                    config.batch, learning_rate or config.learning_rate, seed, "distill: fit", progress)
     policy.set_training_mode(False)
     return loss
 

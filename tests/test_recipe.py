@@ -266,8 +266,6 @@ def test_configs_reject_bad_values_naming_them():
         DistillConfig(huber_delta=-1.0)
     with pytest.raises(ValueError, match="jump_levels"):
         DistillConfig(jump_levels=-1)
-    with pytest.raises(ValueError, match=r"bf16_share=1\.5 is outside the allowed range \[0, 1\]"):
-        DistillConfig(bf16_share=1.5)
     with pytest.raises(ValueError, match="jump_threshold"):
         DistillConfig(jump_threshold=0.0)
     with pytest.raises(ValueError, match="polish"):
@@ -654,30 +652,6 @@ class _StepTeacher:
         b = np.where(np.arange(len(k)) % 2 == 0, 1, 0)  # every other B written in the swapped phase
         drives = np.where(((k >= 0.3) & self.jump)[:, None, None], np.where(b[:, None, None], self.B, self.B[::-1]), self.A)
         return drives, np.zeros(len(k))
-
-
-def test_a_fit_runs_its_first_steps_in_bfloat16_and_the_rest_in_float32():
-    import torch
-
-    from mdr_drive_agents.student import adam_fit
-
-    torch.manual_seed(0)
-    net = torch.nn.Sequential(torch.nn.Linear(3, 32), torch.nn.ReLU(), torch.nn.Linear(32, 1))
-    x = torch.randn(512, 3)
-    y = (x[:, :1] > 0).float()
-    dtypes = []
-
-    def loss_of(idx):
-        out = net(x[idx])
-        dtypes.append(out.dtype)
-        return torch.mean((out.float() - y[idx]) ** 2)
-
-    first = float(torch.mean((net(x) - y) ** 2))
-    last = adam_fit(net.parameters(), lambda: (len(x), loss_of), 40, 64, 1e-2, 0, "test", progress=False,
-                    bf16_share=0.75)
-    assert dtypes == [torch.bfloat16] * 30 + [torch.float32] * 10
-    assert all(p.dtype == torch.float32 for p in net.parameters())  # the weights stay float32
-    assert last < first
 
 
 def test_drive_difference_compares_cycles_in_their_closest_phase():
