@@ -187,6 +187,20 @@ def test_ranges_are_sampled_inside_their_bounds():
     assert info["k"] == 0.6 and info["cargo_mass"] == 0.0 and info["load_force"] == 0.0
 
 
+def test_a_finer_time_quantum_keeps_the_coarse_waveforms_and_adds_those_between():
+    coarse = gym.make("MDRDrive-v0").unwrapped.action_map
+    fine = gym.make("MDRDrive-v0", time_quantum=5e-6).unwrapped.action_map
+    assert (coarse.quanta, fine.quanta) == (200, 400)
+    centres = coarse.quantum_centre(np.random.default_rng(0).uniform(-1, 1, (50, 5)))
+    np.testing.assert_array_equal(fine.to_params_batch(centres), coarse.to_params_batch(centres))
+    between = centres.copy()
+    between[:, 1] += 0.4 * 2.0 / (200 * 0.9)  # 0.4 of a coarse rise quantum up: 0.8 of a fine one
+    inside = (centres[:, 1] > -0.9) & (centres[:, 1] < 0.9)
+    rise = coarse.to_params_batch(centres)[inside, 1]
+    np.testing.assert_array_equal(coarse.to_params_batch(between)[inside, 1], rise)  # the same coarse quantum
+    np.testing.assert_allclose(fine.to_params_batch(between)[inside, 1] - rise, 5e-6, atol=1e-12)  # the next fine one
+
+
 @pytest.mark.parametrize("kwargs,name", [
     ({"k": 1.0}, "k"), ({"k": (0.5, 0.1)}, "k"), ({"cargo_mass": -0.1}, "cargo_mass"),
     ({"max_periods": 0}, "max_periods"), ({"x_amplitude_max": 0.0}, "x_amplitude_max"),
@@ -194,6 +208,7 @@ def test_ranges_are_sampled_inside_their_bounds():
     ({"numerics": "exact"}, "numerics"), ({"min_rise_fraction": 0.6}, "min_rise_fraction"),
     ({"poisson_ratio": 0.7}, "poisson_ratio"), ({"render_mode": "ascii"}, "render_mode"),
     ({"z_phase_origin": 1.0}, "z_phase_origin"), ({"z_phase_origin": -0.1}, "z_phase_origin"),
+    ({"time_quantum": 3e-6}, "time_quantum"), ({"time_quantum": 0.0}, "time_quantum"),
 ])
 @pytest.mark.filterwarnings("ignore:.*render_mode='ascii'.*:UserWarning")  # gym.make's own warning
 def test_bad_arguments_raise_naming_the_argument(kwargs, name):

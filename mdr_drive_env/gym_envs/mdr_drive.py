@@ -15,7 +15,7 @@ from ..core.materials import normal_force_analytic
 from ..core.params import VARIANTS
 from ..core.waveform import PAPER_X, PAPER_Z, Waveform
 from .sensor import SensorHistory
-from .spaces import ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, sample_range
+from .spaces import ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, check_time_quantum, sample_range
 
 
 #: The observation modes (``observation=``) and their layouts; the sensor layout depends on ``history``.
@@ -89,8 +89,13 @@ class MDRDriveEnv(gym.Env):
     at action 0 and the seam half a period away. A policy's ``run.json`` keeps the value it was
     trained with, and ``mdr-drive evaluate`` plays it in such an env.
 
-    Rise fractions and the phase are quantised to 10 µs (1/200 of T), so corners fall on the time
-    steps of every numerics preset. Actions outside the box are clipped; a non-finite action raises
+    Rise fractions and the phase are quantised to ``time_quantum`` (default 10 µs, 1/200 of T), so
+    corners fall on the time steps of every numerics preset. The steady velocity is then a step
+    function of the action: near the critical load one quantum can decide whether the slider moves,
+    so a policy whose output is off by a few thousandths of the box can stall where the drive it
+    imitates moves. ``time_quantum=5e-6`` halves the steps (any multiple of the numerics time step
+    that divides the period is allowed; a policy's ``run.json`` keeps it, and ``mdr-drive evaluate``
+    plays it in such an env). Actions outside the box are clipped; a non-finite action raises
     ``ValueError``. ``env.unwrapped.trapezoid_action()`` is the paper's waveform (Fig. 2) exactly.
 
     Waveforms stay continuous across period boundaries: x starts and ends every period at 0; if a
@@ -198,7 +203,7 @@ class MDRDriveEnv(gym.Env):
     ``"as-published"``: h_N doubled, the hypothesis about the paper's code), ``numerics`` (preset name: ``"fast"``, the default node
     solver, see docs/performance.md; ``"default"`` or ``"paper"`` for the reference solver), ``period`` (s), ``max_periods``,
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
-    ``max_rise_fraction``, ``z_phase_origin`` (fraction of T, in [0, 1)), ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
+    ``max_rise_fraction``, ``z_phase_origin`` (fraction of T, in [0, 1)), ``time_quantum`` (s), ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
     (``"full"``, the default, ``"sensor"`` or ``"privileged"``), ``history`` (periods in the sensor observation),
     ``sensor_forces`` (bool), ``load_step_period`` (int or (low, high), or None), ``render_mode``
     (``"rgb_array"`` or ``"human"``). ``friction_coefficient`` and ``base_friction_coefficient`` take
@@ -207,8 +212,8 @@ class MDRDriveEnv(gym.Env):
     ## Version History
 
     * v0: initial version; later within v0: the sensor observation, friction ranges, load steps,
-      ``MDRDriveSensor-v0``, the privileged observation and ``z_phase_origin`` (the full observation,
-      the action map and the defaults are unchanged).
+      ``MDRDriveSensor-v0``, the privileged observation, ``z_phase_origin`` and ``time_quantum`` (the
+      full observation, the action map and the defaults are unchanged).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -237,6 +242,7 @@ class MDRDriveEnv(gym.Env):
         min_rise_fraction: float = 0.05,
         max_rise_fraction: float = 0.95,
         z_phase_origin: float = 0.0,
+        time_quantum: float = 1e-5,
         reward_scale: float = 30e-6,
         actuation_penalty: float = 0.0,
         reward_floor: float | None = None,
@@ -278,10 +284,11 @@ class MDRDriveEnv(gym.Env):
         self.reward_scale = float(reward_scale)
         self.actuation_penalty = float(actuation_penalty)
         self.render_mode = render_mode
+        check_time_quantum(time_quantum, self.numerics.time_step, period)
         self.action_map = ActionMap(period=float(period), x_amplitude_max=x_amplitude_max,
                                     z_amplitude_max=z_amplitude_max, min_rise_fraction=min_rise_fraction,
                                     max_rise_fraction=max_rise_fraction, time_step=self.numerics.time_step,
-                                    z_phase_origin=z_phase_origin)
+                                    time_quantum=float(time_quantum), z_phase_origin=z_phase_origin)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(ActionMap.SIZE,), dtype=np.float32)
         if observation not in OBSERVATIONS:
             raise ValueError(f"observation={observation!r} is not one of {list(OBSERVATIONS)}")

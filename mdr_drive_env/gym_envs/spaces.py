@@ -203,6 +203,15 @@ def _divides(small: float, big: float) -> bool:
     return round(n) >= 1 and abs(n - round(n)) < 1e-6 * n
 
 
+def check_time_quantum(time_quantum: float, time_step: float, period: float) -> None:
+    """Raise ``ValueError`` naming ``time_quantum`` (s) unless it is a multiple of the numerics
+    ``time_step`` (s) that divides the ``period`` (s)."""
+    check_range("time_quantum", time_quantum, 0.0, period, low_open=True)
+    if not (_divides(time_step, time_quantum) and _divides(time_quantum, period)):
+        raise ValueError(f"time_quantum={time_quantum!r} must be a multiple of the numerics time step "
+                         f"{time_step!r} s that divides the period {period!r} s")
+
+
 class ObservationLayout:
     """Names and bounds of the observation entries (see the env docstring for units and scales)."""
 
