@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .evaluate import ACTION_MAP, open_loop_velocity, trapezoid_action
+from .evaluate import ACTION_MAP, TIME_QUANTUM, open_loop_velocity, trapezoid_action
 
 #: Default CMA-ES budget: steady-velocity evaluations per point (each one 30 simulated periods).
 CMA_BUDGET = 480
@@ -34,7 +34,8 @@ class CMAResult:
 
 
 def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize: int = CMA_POPSIZE,
-                 seed: int = 0, sigma0: float = 0.5, cycle: int = 1, x0=None, friction=None) -> CMAResult:
+                 seed: int = 0, sigma0: float = 0.5, cycle: int = 1, x0=None, friction=None,
+                 time_quantum: float = TIME_QUANTUM) -> CMAResult:
     """Maximise the steady velocity over open-loop drives in [-1, 1]^5.
 
     ``cycle = 1`` searches fixed actions (one waveform every period); ``cycle = p`` searches cycles
@@ -42,6 +43,7 @@ def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize:
     or a (p, 5) cycle; default: the trapezoid every period), and the result is never worse than
     the trapezoid. ``action`` is (5,) for ``cycle = 1``, else (p, 5). ``friction``: (mu, mu1), the
     indenter-slider and slider-base friction coefficients (default: the paper's 0.3, 0.1).
+    ``time_quantum`` (s): the env's quantum of rises and the z phase (``open_loop_velocity``).
     """
     import cma
 
@@ -50,10 +52,10 @@ def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize:
         "bounds": [-1.0, 1.0], "popsize": popsize, "maxfevals": budget, "seed": seed + 1, "verbose": -9})
     point = [(k, cargo_mass) if friction is None else (k, cargo_mass, *friction)]
     best_x = np.tile(trapezoid_action(), (cycle, 1)).astype(np.float64)  # never worse than the trapezoid
-    best_v, evals = float(open_loop_velocity(point, best_x[None])[0]), 1
+    best_v, evals = float(open_loop_velocity(point, best_x[None], time_quantum=time_quantum)[0]), 1
     while not es.stop():
         xs = np.clip(np.array(es.ask()), -1.0, 1.0)
-        v = open_loop_velocity(point * len(xs), xs.reshape(len(xs), cycle, 5))
+        v = open_loop_velocity(point * len(xs), xs.reshape(len(xs), cycle, 5), time_quantum=time_quantum)
         evals += len(xs)
         es.tell(list(xs), list(-v))
         i = int(np.argmax(v))
@@ -64,42 +66,43 @@ def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize:
 
 
 def best_cma_run(k: float, cargo_mass: float, starts, budget: int, popsize: int, sigma0: float, cycle: int = 1,
-                 seed: int = 0, friction=None) -> CMAResult:
+                 seed: int = 0, friction=None, time_quantum: float = TIME_QUANTUM) -> CMAResult:
     """The best of CMA-ES runs from each of ``starts`` (an action, a (cycle, 5) cycle, or None for the
-    trapezoid), run i seeded ``seed + i``; ``friction`` as :func:`cma_optimize`."""
+    trapezoid), run i seeded ``seed + i``; ``friction`` and ``time_quantum`` as :func:`cma_optimize`."""
     runs = [cma_optimize(k, cargo_mass, budget, popsize=popsize, seed=seed + i, sigma0=sigma0, cycle=cycle, x0=x0,
-                         friction=friction)
+                         friction=friction, time_quantum=time_quantum)
             for i, x0 in enumerate(starts)]
     return max(runs, key=lambda r: r.velocity)
 
 
 def best_cycle(k: float, cargo_mass: float, starts=(None, PUSH_CLAMP), budget: int = CYCLE_SEARCH["budget"],
-               seed: int = 0, friction=None) -> CMAResult:
+               seed: int = 0, friction=None, time_quantum: float = TIME_QUANTUM) -> CMAResult:
     """The best two-action cycle found by CMA-ES runs from each of ``starts`` (None: the trapezoid
-    every period), ``CYCLE_SEARCH`` settings, ``budget`` evaluations per start; ``friction`` as
-    :func:`cma_optimize`."""
+    every period), ``CYCLE_SEARCH`` settings, ``budget`` evaluations per start; ``friction`` and
+    ``time_quantum`` as :func:`cma_optimize`."""
     return best_cma_run(k, cargo_mass, starts, budget, popsize=CYCLE_SEARCH["popsize"],
-                        sigma0=CYCLE_SEARCH["sigma0"], cycle=2, seed=seed, friction=friction)
+                        sigma0=CYCLE_SEARCH["sigma0"], cycle=2, seed=seed, friction=friction, time_quantum=time_quantum)
 
 
 def cycle_critical_load(k: float, trapezoid_critical: float, iterations: int = 8,
-                        budget: int = CYCLE_SEARCH["budget"]) -> tuple[float, np.ndarray]:
+                        budget: int = CYCLE_SEARCH["budget"], time_quantum: float = TIME_QUANTUM) -> tuple[float, np.ndarray]:
     """Critical load (kg) of the best two-action cycle found, by bisection on the load from the
     trapezoid's critical load up, re-optimising the cycle at every trial load (starts: the
     push/clamp cycle and the best cycle so far). The bracket's upper end starts at 1.8x the
-    trapezoid's and doubles while the cycle still moves there. Returns (load, its cycle)."""
+    trapezoid's and doubles while the cycle still moves there. Returns (load, its cycle).
+    ``time_quantum`` as :func:`cma_optimize`."""
     lo = trapezoid_critical
     if lo <= 0.0:
         return 0.0, np.tile(trapezoid_action(), (2, 1))
-    best = best_cycle(k, lo, (PUSH_CLAMP,), budget)
+    best = best_cycle(k, lo, (PUSH_CLAMP,), budget, time_quantum=time_quantum)
     if best.velocity <= 0.0:  # the trapezoid itself moves here, so a search never ends below it
         return 0.0, best.action
     cycle, hi = best.action, 1.8 * lo
-    while (trial := best_cycle(k, hi, (PUSH_CLAMP, cycle), budget)).velocity > 0.0:
+    while (trial := best_cycle(k, hi, (PUSH_CLAMP, cycle), budget, time_quantum=time_quantum)).velocity > 0.0:
         lo, cycle, hi = hi, trial.action, 2.0 * hi
     for _ in range(iterations):
         mid = 0.5 * (lo + hi)
-        trial = best_cycle(k, mid, (PUSH_CLAMP, cycle), budget)
+        trial = best_cycle(k, mid, (PUSH_CLAMP, cycle), budget, time_quantum=time_quantum)
         if trial.velocity > 0.0:
             lo, cycle = mid, trial.action
         else:

@@ -13,7 +13,10 @@ evenly spaced, the same for every seed, or with ``--scan-draw`` drawn with the s
 in each of ``--scan-ks`` equal cells (``scan_k_values``), so that the critical-load target too is
 judged on k values no decision saw.
 Every velocity follows the evaluation protocol of ``agents.evaluate`` (30 periods, mean of the
-last 10, runaways marked).
+last 10, runaways marked). The searches quantise their drives to the time quantum the policies act
+at (their run.json's ``time_quantum``, default 10 us; policies with different quanta are refused),
+so a policy is compared with drives of its own action units; the trapezoid's corners lie on every
+quantum.
 
 Statistics, per policy: points below the trapezoid by more than ``BELOW_TOLERANCE`` where either
 moves; the fraction of the best drive, only where the best drive moves at least
@@ -43,11 +46,13 @@ from .baselines import CMA_BUDGET, CYCLE_SEARCH, best_cycle, cma_optimize, cycle
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
+    TIME_QUANTUM,
     critical_loads_grid,
     csv_velocity,
     format_velocity,
     load_policy,
     open_loop_velocity,
+    play_time_quantum,
     policy_rollout,
     steady_velocity_of,
     trapezoid_action,
@@ -118,15 +123,18 @@ def in_k_cells(offsets, k_range: tuple[float, float] = K_RANGE) -> np.ndarray:
 
 def best_drive(args) -> dict:
     """The best drive found at one point: CMA-ES over fixed actions and over two-action cycles.
-    ``args``: (k, cargo mass, fixed budget, cycle budget), optionally with (mu, mu1) last."""
-    k, m, fixed_budget, cycle_budget, *friction = args
-    friction = tuple(friction) or None
-    fixed = cma_optimize(k, m, fixed_budget, friction=friction)
-    cyc = best_cycle(k, m, budget=cycle_budget, friction=friction)
+    ``args``: (k, cargo mass, fixed budget, cycle budget), then optionally (mu, mu1), then optionally
+    the time quantum (s) the drives are quantised to (default ``TIME_QUANTUM``)."""
+    k, m, fixed_budget, cycle_budget, *rest = args
+    friction = tuple(rest[:2]) if len(rest) >= 2 else None
+    time_quantum = float(rest[-1]) if len(rest) in (1, 3) else TIME_QUANTUM
+    fixed = cma_optimize(k, m, fixed_budget, friction=friction, time_quantum=time_quantum)
+    cyc = best_cycle(k, m, budget=cycle_budget, friction=friction, time_quantum=time_quantum)
     best = cyc if cyc.velocity > fixed.velocity else fixed
     actions = np.asarray(best.action).reshape(1, -1, 5)
     point = (k, m) if friction is None else (k, m, *friction)
-    velocity = float(open_loop_velocity([point], actions, mark_runaway=True)[0])  # NaN if the load runs away
+    velocity = float(open_loop_velocity([point], actions, mark_runaway=True,  # NaN if the load runs away
+                                        time_quantum=time_quantum)[0])
     return {"velocity": velocity, "kind": "two-action cycle" if best is cyc else "fixed action",
             "action": np.asarray(best.action).tolist(), "fixed_velocity": fixed.velocity,
             "cycle_velocity": cyc.velocity, "evaluations": fixed.evaluations + cyc.evaluations}
@@ -149,8 +157,11 @@ def reusable_search(path: str | Path, res: dict, scan_ks: int) -> dict:
 
 
 def cycle_scan_task(args) -> float:
-    k, m_trap, iterations, budget = args
-    return cycle_critical_load(k, m_trap, iterations, budget)[0]
+    """The best cycle's critical load (kg) at one k. ``args``: (k, the trapezoid's critical load kg,
+    bisection steps, cycle budget), optionally with the time quantum (s) last."""
+    k, m_trap, iterations, budget, *time_quantum = args
+    return cycle_critical_load(k, m_trap, iterations, budget, time_quantum=float(time_quantum[0]) if time_quantum
+                               else TIME_QUANTUM)[0]
 
 
 def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: dict, ks) -> dict:
@@ -279,6 +290,10 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
                             "cycle_critical_load_bisection_steps": iterations},
                  "protocol": f"fast numerics; mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}",
                  "scan": DRAWN_SCAN if scan_draw else EVEN_SCAN, "policies": list(policies)}
+    loaded = [load_policy(p) for p in policies]
+    time_quantum = play_time_quantum(loaded)  # the search runs in the action units the policies act in
+    if time_quantum != TIME_QUANTUM:  # files of the default quantum stay reusable
+        res["search"]["time_quantum_s"] = time_quantum
     previous = reusable_search(reuse, res, scan_ks) if reuse else None
     if previous:
         res["search_reused_from"] = str(reuse)
@@ -288,11 +303,10 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     else:
         points, _ = draw_points(n, seed)
         trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
-        found = executor.map(best_drive, [(k, m, fixed_budget, cycle_budget) for k, m in points],
+        found = executor.map(best_drive, [(k, m, fixed_budget, cycle_budget, time_quantum) for k, m in points],
                              "best drive per point", store=TaskStore(tasks / "best_drive"))
     res["points"], res["trapezoid"], res["best"] = points, trap.tolist(), found
     best_v = nan_array([f["velocity"] for f in found])
-    loaded = [load_policy(p) for p in policies]
     learned = {}
     for path, pol in zip(policies, loaded):
         disp, _, runaway = policy_rollout(pol, points)
@@ -305,7 +319,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
         ks = scan_k_values(scan_ks, seed if scan_draw else None)
         crit_trap = trapezoid_critical(ks)
         crit_cycle = executor.map(cycle_scan_task,
-                                  [(k, m, iterations, cycle_budget) for k, m in zip(ks, crit_trap)],
+                                  [(k, m, iterations, cycle_budget, time_quantum) for k, m in zip(ks, crit_trap)],
                                   "critical load of the best cycle per k", store=TaskStore(tasks / "cycle_scan"))
     crit = {"k": ks, "trapezoid": crit_trap.tolist(), "best cycle": crit_cycle}
     for path, pol in zip(policies, loaded):

@@ -235,7 +235,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
             extra, extra_drives = jump_points(field_, points, drives, config)
             points, drives = points + extra, np.concatenate([drives, extra_drives]) if extra else drives
         obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r,
-                                               student.z_phase_origin, drives=drives)
+                                               student.z_phase_origin, student.time_quantum, drives=drives)
         obs_all.append(obs)
         drive_all.append(sample_drives)
         if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
@@ -277,7 +277,7 @@ def hole_round(student: Student, field_: DriveField, config: DistillConfig, h: i
     if holes:
         k_range = (float(field_.ks[0]), float(field_.ks[-1]))
         obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
-                                               config, seed + 100 + h, student.z_phase_origin)
+                                               config, seed + 100 + h, student.z_phase_origin, student.time_quantum)
         obs_all.append(obs)
         drive_all.append(sample_drives)
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
@@ -294,7 +294,8 @@ def _print_record(record: dict) -> None:
 def student_velocity(student: Student, points) -> np.ndarray:
     """The student's steady velocity (m/s) at each (k, load kg) or (k, load kg, mu, mu1) point, closed
     loop over 30 periods."""
-    _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30, z_phase_origin=student.z_phase_origin)
+    _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30, z_phase_origin=student.z_phase_origin,
+                         time_quantum=student.time_quantum)
     return steady_velocity_of(disp)
 
 

@@ -13,6 +13,7 @@ with the slider (``mdr_drive_env.core.analysis.is_runaway``) has no steady veloc
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 from pathlib import Path
 
@@ -33,6 +34,16 @@ SENSOR_PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_sensor"
 EVAL_PERIODS = 30
 AVERAGE_PERIODS = 10
 ACTION_MAP = ActionMap()
+#: The env's default time quantum of rises and the z phase (s): the action units every search and
+#: teacher uses unless told otherwise.
+TIME_QUANTUM = ACTION_MAP.time_quantum
+
+
+@functools.lru_cache(maxsize=None)
+def action_map_at(time_quantum: float = TIME_QUANTUM) -> ActionMap:
+    """``ACTION_MAP`` with rises and the z phase quantised to ``time_quantum`` (s) instead
+    (``MDRDrive-v0``'s ``time_quantum``)."""
+    return dataclasses.replace(ACTION_MAP, time_quantum=float(time_quantum))
 
 
 #: The fastest backward x stroke any action can make (m/s): full amplitude over the shortest fall.
@@ -83,15 +94,17 @@ def trapezoid_action() -> np.ndarray:
 
 
 def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS,
-                       mark_runaway: bool = False, variant: str = "as-specified") -> np.ndarray:
+                       mark_runaway: bool = False, variant: str = "as-specified",
+                       time_quantum: float = TIME_QUANTUM) -> np.ndarray:
     """Steady velocity (m/s) of open-loop drives, one per (k, cargo mass) point, batched in one call per period.
 
     ``actions`` is one action (5,), one per point (n, 5), or a cycle of p actions per point
     (n, p, 5) played in turn (period t uses action t mod p), e.g. p = 2 alternates two waveforms.
     ``mark_runaway``: NaN where the load runs away with the slider (for tables); without it the
-    mean is returned there too (a large negative number, as optimisers want).
+    mean is returned there too (a large negative number, as optimisers want). ``time_quantum`` (s):
+    the actions' rises and z phase are quantised to it (``action_map_at``).
     """
-    disp, runaway = open_loop_displacements(points, actions, periods, variant)
+    disp, runaway = open_loop_displacements(points, actions, periods, variant, time_quantum)
     return steady_velocity_of(disp, average, runaway if mark_runaway else None)
 
 
@@ -105,7 +118,8 @@ def point_params(point, variant: str = "as-specified") -> DriveParams:
     return params
 
 
-def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, variant: str = "as-specified"):
+def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, variant: str = "as-specified",
+                            time_quantum: float = TIME_QUANTUM):
     """Per-period displacements (periods, n) (m) of open-loop drives (see :func:`open_loop_velocity`;
     ``points`` as :func:`point_params` takes them) and whether each ran away (n,)."""
     actions = np.asarray(actions, dtype=np.float64)
@@ -117,9 +131,10 @@ def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, varian
     params = [point_params(point, variant) for point in points]
     for i, p in enumerate(params):
         sim.set_params(i, p)
+    action_map = action_map_at(time_quantum)
     cycle = [np.array([[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
-                       for p in (ACTION_MAP.to_params(a) for a in actions[:, j])]) for j in range(actions.shape[1])]
-    disp = np.array([sim.step(cycle[t % len(cycle)], ACTION_MAP.period)[:, K.O_DISPLACEMENT].copy()
+                       for p in (action_map.to_params(a) for a in actions[:, j])]) for j in range(actions.shape[1])]
+    disp = np.array([sim.step(cycle[t % len(cycle)], action_map.period)[:, K.O_DISPLACEMENT].copy()
                      for t in range(periods)])
     return disp, runaway_of(disp, sim.out[:, K.O_PEAK_FZ], params)
 
@@ -228,8 +243,18 @@ def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = 
 #: Keys of a policy's env kwargs (run.json) that shape its observation, and that set what its actions
 #: mean: evaluation builds the same env.
 OBSERVATION_KEYS = ("observation", "history", "sensor_forces")
-ACTION_KEYS = ("z_phase_origin",)
+ACTION_KEYS = ("z_phase_origin", "time_quantum")
 PLAY_KEYS = OBSERVATION_KEYS + ACTION_KEYS
+
+
+def play_time_quantum(policies) -> float:
+    """The time quantum (s) that ``policies`` (``Policy`` objects) act at, their run.json's
+    ``time_quantum`` (default ``TIME_QUANTUM``): a search that references them runs at it. Raises
+    ``ValueError`` if they differ."""
+    quanta = {float(p.play_kwargs.get("time_quantum", TIME_QUANTUM)) for p in policies if isinstance(p, Policy)}
+    if len(quanta) > 1:
+        raise ValueError(f"the policies act at different time quanta {sorted(quanta)} s: benchmark them apart")
+    return quanta.pop() if quanta else TIME_QUANTUM
 
 
 def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS, load_step=None,

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from tqdm import tqdm
 
+from .evaluate import TIME_QUANTUM
+
 if TYPE_CHECKING:
     from .distill import DistillConfig
 
@@ -56,6 +58,8 @@ class Student:
     history: list = field(default_factory=list)
     #: The z phase at action -1 of the env it acts in (``MDRDrive-v0``'s ``z_phase_origin``).
     z_phase_origin: float = 0.0
+    #: The time quantum (s) of that env's rises and z phase (``MDRDrive-v0``'s ``time_quantum``).
+    time_quantum: float = TIME_QUANTUM
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         action, _ = self.model.predict(self.venv.normalize_obs(obs), deterministic=True)
@@ -78,7 +82,8 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
     policy_kwargs = {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]}, "activation_fn": activation,
                      "log_std_init": config.log_std}
     model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs, **hyper)
-    return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)))
+    return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)),
+                   time_quantum=float(env_kwargs.get("time_quantum", TIME_QUANTUM)))
 
 
 def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str,

@@ -27,7 +27,7 @@ from mdr_drive_env import ENV_ID  # importing the package registers the env
 
 from .cycles import align_phase, cycle_action
 from .drive_field import PAPER_FRICTION, DriveField
-from .evaluate import ACTION_MAP
+from .evaluate import ACTION_MAP, TIME_QUANTUM
 from mdr_drive_env.gym_envs.spaces import shift_phase_origin
 
 
@@ -73,15 +73,16 @@ def stall_points(field_: DriveField, n: int, rng: np.random.Generator, band: tup
     return [(float(k), float(m)) for k, m in zip(ks, loads)]
 
 
-def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0, z_phase_origin: float = 0.0):
+def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0, z_phase_origin: float = 0.0,
+            time_quantum: float = TIME_QUANTUM):
     """Play at each (k, load kg) point, or (k, load kg, mu, mu1) point in the privileged observation:
     the teacher's drive (``act`` None) or ``act(obs) -> actions``, in the action units of an env with
-    ``z_phase_origin`` (``drives`` too). Returns the observations (periods * n, 14 or 16), the
-    teacher's drive of each observation's episode (periods * n, 2, 5) and the displacements
-    (periods, n) m."""
+    ``z_phase_origin`` (``drives`` too) and ``time_quantum`` (s). Returns the observations (periods *
+    n, 14 or 16), the teacher's drive of each observation's episode (periods * n, 2, 5) and the
+    displacements (periods, n) m."""
     n = len(points)
     options = {"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]}
-    kwargs = {"z_phase_origin": z_phase_origin}
+    kwargs = {"z_phase_origin": z_phase_origin, "time_quantum": time_quantum}
     if len(points[0]) == 4:
         kwargs["observation"] = "privileged"
         options.update(friction_coefficient=[p[2] for p in points], base_friction_coefficient=[p[3] for p in points])
@@ -121,17 +122,21 @@ def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
 
 
 def labelled_episodes(field_: DriveField, points, act, config, seed: int, z_phase_origin: float = 0.0,
+                      time_quantum: float = TIME_QUANTUM,
                       drives: np.ndarray | None = None):
     """Episodes of ``config.periods`` periods at ``points``, played by the teacher (``act`` None) or by
     ``act``: their observations and each one's teacher drive (``rollout``; the teacher's drive at each
     point from :func:`teacher_drives` unless ``drives`` (n, 2, 5) gives them), all in the action
-    units of an env with ``z_phase_origin`` (the field's drives are in the default units, origin 0)."""
+    units of an env with ``z_phase_origin`` (the field's drives are in the default units, origin 0),
+    played in an env with ``time_quantum`` (s). With ``config.quantum_centres`` the labels sit at the
+    centres of the default quantum, whose waveforms every quantum dividing it plays alike."""
     if drives is None:
         drives, _ = teacher_drives(field_, points, config)
     if config.quantum_centres:
         drives = ACTION_MAP.quantum_centre(drives)
     drives = shift_phase_origin(drives, 0.0, z_phase_origin)
-    obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed, z_phase_origin=z_phase_origin)
+    obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed, z_phase_origin=z_phase_origin,
+                                    time_quantum=time_quantum)
     return obs, sample_drives
 
 

@@ -50,6 +50,33 @@ def test_a_drawn_scan_leaves_the_points_is_recorded_and_a_reused_search_must_hav
     assert "its scan's k values are drawn with the seed" in capsys.readouterr().err
 
 
+def test_the_search_runs_at_the_time_quantum_the_policies_act_at_and_mixed_quanta_are_refused(tmp_path, monkeypatch):
+    import shutil
+
+    from mdr_drive_agents.evaluate import load_policy, open_loop_velocity
+
+    fine = tmp_path / "fine"
+    shutil.copytree(PRETRAINED, fine)
+    run = json.loads((fine / "run.json").read_text())
+    run["env_kwargs"]["time_quantum"] = 5e-6
+    (fine / "run.json").write_text(json.dumps(run))
+    assert load_policy(fine).play_kwargs["time_quantum"] == 5e-6  # evaluation plays it in that env
+    searched, scanned = [], []
+    monkeypatch.setattr(blind, "best_drive", lambda args: searched.append(args) or {"velocity": 1e-3, "kind": "fixed action"})
+    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: scanned.append(args) or 2.0 * args[1])
+    res = blind.run([str(fine)], 2, seed=5, out=tmp_path / "a", quick=True, workers=1)
+    assert res["search"]["time_quantum_s"] == 5e-6
+    assert all(a[-1] == 5e-6 for a in searched + scanned) and len(searched) == 2
+    with pytest.raises(ValueError, match="different time quanta"):
+        blind.run([str(fine), str(PRETRAINED)], 2, seed=5, out=tmp_path / "b", quick=True, workers=1)
+    # a drive between two 10 us quanta of its rise plays a waveform of its own at 5 us, one on them does not
+    on = np.array([[0.5, 0.2 + 2.0 / 180, 0.8, 0.1, 0.3]])
+    off = on + np.array([[0.0, 0.8 / 180, 0.0, 0.0, 0.0]])  # 0.4 of a 10 us quantum: the same 10 us rise
+    point = [(0.2, 0.1)]
+    assert open_loop_velocity(point, off)[0] == open_loop_velocity(point, on)[0]
+    assert open_loop_velocity(point, off, time_quantum=5e-6)[0] != open_loop_velocity(point, on, time_quantum=5e-6)[0]
+
+
 def test_statistics_on_known_numbers():
     trap = np.array([10e-3, 5e-3, -1e-3, np.nan, 1e-3])
     best = np.array([20e-3, 10e-3, 4e-3, 1e-3, 1.5e-3])

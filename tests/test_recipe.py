@@ -654,6 +654,26 @@ class _StepTeacher:
         return drives, np.zeros(len(k))
 
 
+def test_a_student_in_a_finer_time_quantum_env_is_played_and_probed_there():
+    from mdr_drive_agents.distill import DistillConfig, student_velocity
+    from mdr_drive_agents.student import make_student
+    from mdr_drive_agents.teacher_data import rollout
+
+    student = make_student(DistillConfig(net_arch=(8,)), 0, {"time_quantum": 5e-6}, {"n_envs": 2, "n_steps": 8, "batch_size": 16})
+    assert student.time_quantum == 5e-6
+    assert student.venv.venv.get_attr("action_map")[0].time_quantum == 5e-6
+    on = np.array([0.5, 0.2 + 2.0 / 180, 0.8, 0.1, 0.3])
+    off = on + np.array([0.0, 0.8 / 180, 0.0, 0.0, 0.0])  # 0.4 of a 10 us rise quantum: a 5 us one apart
+    point = [(0.2, 0.1)]
+    coarse = [rollout(point, np.zeros((1, 2, 5)), lambda obs, a=a: a[None], 6)[2] for a in (on, off)]
+    fine = [rollout(point, np.zeros((1, 2, 5)), lambda obs, a=a: a[None], 6, time_quantum=5e-6)[2] for a in (on, off)]
+    np.testing.assert_array_equal(coarse[0], coarse[1])
+    assert not np.array_equal(fine[0], fine[1])
+    student.act = lambda obs: np.tile(off, (len(obs), 1))  # the hole round measures it in its own env
+    np.testing.assert_allclose(student_velocity(student, point)[0],
+                               rollout(point, np.zeros((1, 2, 5)), student.act, 30, time_quantum=5e-6)[2][-10:].mean() / 2e-3)
+
+
 def test_drive_difference_compares_cycles_in_their_closest_phase():
     from mdr_drive_agents.teacher_data import drive_difference
 
