@@ -28,6 +28,7 @@ from .blind import (
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
+    TIME_QUANTUM,
     Policy,
     format_velocity,
     open_loop_velocity,
@@ -125,13 +126,19 @@ def snippet(dst: Path, run: dict) -> str:
                               make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, max_periods=30, '
                                         "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
                                         "base_friction_coefficient=0.1")
+    # its actions mean what they mean in an env with its seam of the z phase and its time quantum
     origin = run["env_kwargs"].get("z_phase_origin", 0.0)
-    if origin:  # its actions mean what they mean in an env with its seam of the z phase
-        return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(),
-                              comment=f"# z_phase_origin={origin:g}: the env it was trained in (phase 0 at action "
-                                      f"{2 * ((1 - origin) % 1) - 1:g}), as in its run.json\n",
-                              make_args=f'"MDRDrive-v0", k=0.2, cargo_mass=0.1, z_phase_origin={origin:g}')
-    return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(), comment="", make_args='"MDRDrive-v0", k=0.2, cargo_mass=0.1')
+    quantum = run["env_kwargs"].get("time_quantum", TIME_QUANTUM)
+    args, notes = [], []
+    if origin:
+        args.append(f"z_phase_origin={origin:g}")
+        notes.append(f"z_phase_origin={origin:g} (phase 0 at action {2 * ((1 - origin) % 1) - 1:g})")
+    if quantum != TIME_QUANTUM:
+        args.append(f"time_quantum={quantum:g}")
+        notes.append(f"time_quantum={quantum:g} (rises and the z phase in {quantum * 1e6:g} us steps)")
+    comment = f"# {' and '.join(notes)}: the env it was trained in, as in its run.json\n" if notes else ""
+    return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(), comment=comment,
+                          make_args=", ".join(['"MDRDrive-v0", k=0.2, cargo_mass=0.1', *args]))
 
 
 def blind_command(res: dict, policy_key: str) -> str:

@@ -153,6 +153,18 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     assert ship(card_dir, card_dir).read_text().count("## Blind results") == 0
 
 
+def test_the_model_card_snippet_builds_the_env_the_policy_acts_in():
+    from pathlib import Path
+
+    from mdr_drive_agents.model_card import snippet
+
+    plain = {"env_id": "MDRDrive-v0", "env_kwargs": {"k": [0.0, 0.6]}}
+    assert 'gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1)' in snippet(Path("p"), plain)
+    fine = snippet(Path("p"), {**plain, "env_kwargs": {"time_quantum": 5e-6, "z_phase_origin": 0.5}})
+    assert 'gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1, z_phase_origin=0.5, time_quantum=5e-06)' in fine
+    assert "in 5 us steps" in fine and "phase 0 at action 0" in fine
+
+
 def test_the_model_card_names_stall_probes_only_where_the_hole_rounds_had_them():
     from mdr_drive_agents.model_card import stall_note
 
