@@ -21,7 +21,9 @@ from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
     OBSERVATION_KEYS,
+    TIME_QUANTUM,
     Policy,
+    action_map_at,
     critical_loads_grid,
     env_rollout,
     format_velocity,
@@ -110,12 +112,13 @@ def trained_range_warnings(run: dict, points, friction: dict | None = None) -> l
     return warnings
 
 
-def _velocity_record(k, m, variant, learned, trapezoid, last_action) -> dict:
+def _velocity_record(k, m, variant, learned, trapezoid, last_action, time_quantum: float = TIME_QUANTUM) -> dict:
+    """One point's JSON record; the last action's waveform as the policy's env quantises it (s)."""
     return {"k": k, "cargo_mass": m, "variant": variant,
             "learned_mean_velocity": None if np.isnan(learned) else float(learned),
             "trapezoid_mean_velocity": None if np.isnan(trapezoid) else float(trapezoid),
             "learned_runaway": bool(np.isnan(learned)), "trapezoid_runaway": bool(np.isnan(trapezoid)),
-            "learned_waveform_last_period": ACTION_MAP.to_params(last_action)._asdict(),
+            "learned_waveform_last_period": action_map_at(time_quantum).to_params(last_action)._asdict(),
             "protocol": f"mean over periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}, m/s"}
 
 
@@ -179,7 +182,8 @@ def main(args: argparse.Namespace) -> int:
             disp_trap, runaway_trap = open_loop_displacements(points, trapezoid_action(), variant=args.variant)
             trapezoid = steady_velocity_of(disp_trap, runaway=runaway_trap)
             v_learned, v_trap = disp / ACTION_MAP.period, disp_trap / ACTION_MAP.period
-        records = [_velocity_record(k, m, args.variant, lv, tv, acts[-1, i])
+        quantum = float(env_kwargs.get("time_quantum", TIME_QUANTUM))
+        records = [_velocity_record(k, m, args.variant, lv, tv, acts[-1, i], quantum)
                    for i, ((k, m), lv, tv) in enumerate(zip(points, learned, trapezoid))]
         for i, r in enumerate(records):
             r["learned_period_velocity"] = v_learned[:, i].tolist()

@@ -153,6 +153,17 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     assert ship(card_dir, card_dir).read_text().count("## Blind results") == 0
 
 
+def test_evaluate_reports_the_last_waveform_as_the_policys_env_quantises_it():
+    import numpy as np
+
+    from mdr_drive_agents.evaluate_cli import _velocity_record
+
+    action = np.array([0.5, 0.2 + 2.8 / 180, 0.8, 0.1, 0.3])  # 0.4 of a 10 us quantum past a centre
+    rise = [_velocity_record(0.2, 0.1, "as-specified", 1e-3, 1e-3, action, q)["learned_waveform_last_period"]["x_rise_time"]
+            for q in (1e-5, 5e-6)]
+    assert abs(rise[1] - rise[0]) == pytest.approx(5e-6)
+
+
 def test_the_model_card_snippet_builds_the_env_the_policy_acts_in():
     from pathlib import Path
 
