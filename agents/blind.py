@@ -159,9 +159,9 @@ def reusable_search(path: str | Path, res: dict, scan_ks: int) -> dict:
 def cycle_scan_task(args) -> float:
     """The best cycle's critical load (kg) at one k. ``args``: (k, the trapezoid's critical load kg,
     bisection steps, cycle budget), optionally with the time quantum (s) last."""
-    k, m_trap, iterations, budget, *time_quantum = args
-    return cycle_critical_load(k, m_trap, iterations, budget, time_quantum=float(time_quantum[0]) if time_quantum
-                               else TIME_QUANTUM)[0]
+    k, m_trap, iterations, budget, *rest = args
+    time_quantum = float(rest[0]) if rest else TIME_QUANTUM
+    return cycle_critical_load(k, m_trap, iterations, budget, time_quantum=time_quantum)[0]
 
 
 def statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray, crit: dict, ks) -> dict:
