@@ -55,11 +55,14 @@ def test_the_search_runs_at_the_time_quantum_the_policies_act_at_and_mixed_quant
 
     from mdr_drive_agents.evaluate import load_policy, open_loop_velocity
 
-    fine = tmp_path / "fine"
-    shutil.copytree(PRETRAINED, fine)
-    run = json.loads((fine / "run.json").read_text())
-    run["env_kwargs"]["time_quantum"] = 5e-6
-    (fine / "run.json").write_text(json.dumps(run))
+    fine, coarse = tmp_path / "fine", tmp_path / "coarse"
+    for folder, quantum in ((fine, 5e-6), (coarse, None)):
+        shutil.copytree(PRETRAINED, folder)
+        run = json.loads((folder / "run.json").read_text())
+        run["env_kwargs"].pop("time_quantum", None)
+        if quantum:
+            run["env_kwargs"]["time_quantum"] = quantum
+        (folder / "run.json").write_text(json.dumps(run))
     assert load_policy(fine).play_kwargs["time_quantum"] == 5e-6  # evaluation plays it in that env
     searched, scanned = [], []
     monkeypatch.setattr(blind, "best_drive", lambda args: searched.append(args) or {"velocity": 1e-3, "kind": "fixed action"})
@@ -68,7 +71,7 @@ def test_the_search_runs_at_the_time_quantum_the_policies_act_at_and_mixed_quant
     assert res["search"]["time_quantum_s"] == 5e-6
     assert all(a[-1] == 5e-6 for a in searched + scanned) and len(searched) == 2
     with pytest.raises(ValueError, match="different time quanta"):
-        blind.run([str(fine), str(PRETRAINED)], 2, seed=5, out=tmp_path / "b", quick=True, workers=1)
+        blind.run([str(fine), str(coarse)], 2, seed=5, out=tmp_path / "b", quick=True, workers=1)
     # a drive between two 10 us quanta of its rise plays a waveform of its own at 5 us, one on them does not
     on = np.array([[0.5, 0.2 + 2.0 / 180, 0.8, 0.1, 0.3]])
     off = on + np.array([[0.0, 0.8 / 180, 0.0, 0.0, 0.0]])  # 0.4 of a 10 us quantum: the same 10 us rise
