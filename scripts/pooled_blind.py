@@ -35,10 +35,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def stored_searches(paths: list[Path]) -> list[dict]:
-    """The blind.json files at ``paths`` searched with the blind benchmark's budgets, one per (seed,
-    size): the first of each in sorted path order."""
+def stored_searches(paths: list[Path], time_quantum: float | None = None) -> list[dict]:
+    """The blind.json files at ``paths`` searched with the blind benchmark's budgets, at
+    ``time_quantum`` (s; default the env's, ``TIME_QUANTUM``), one per (seed, size): the first of
+    each in sorted path order."""
     from mdr_drive_agents.blind import CMA_BUDGET, CYCLE_SEARCH
+    from mdr_drive_agents.evaluate import TIME_QUANTUM
+
+    time_quantum = TIME_QUANTUM if time_quantum is None else time_quantum
 
     seen, out = set(), []
     for path in sorted(paths):
@@ -48,6 +52,8 @@ def stored_searches(paths: list[Path]) -> list[dict]:
         search = res.get("search", {})
         if (search.get("fixed_action_cma_evaluations"), search.get("two_action_cycle_cma_evaluations_per_start")) != (
                 CMA_BUDGET, CYCLE_SEARCH["budget"]) or (res["seed"], res["n"]) in seen:
+            continue
+        if search.get("time_quantum_s", TIME_QUANTUM) != time_quantum:  # other action units: another reference
             continue
         seen.add((res["seed"], res["n"]))
         out.append({"path": path, **res})
@@ -148,9 +154,12 @@ def main(argv=None) -> int:
 
     def go() -> int:
         paths = [Path(f) for f in a.searches] if a.searches else list((ROOT / "results" / "blind").glob("*/blind.json"))
-        searches = stored_searches(paths)
+        from mdr_drive_agents.evaluate import load_policy, play_time_quantum
+
+        quantum = play_time_quantum([load_policy(policy) for policy in a.policies])
+        searches = stored_searches(paths, quantum)
         if not searches:
-            raise ValueError("no stored blind search with the benchmark's budgets among --searches")
+            raise ValueError(f"no stored blind search with the benchmark's budgets at {quantum:g} s among --searches")
         text = table({policy: pooled(policy, searches) for policy in a.policies}, searches)
         if a.critical_load:
             scans = stored_scans(searches)

@@ -45,8 +45,8 @@ def test_a_drawn_scan_leaves_the_points_is_recorded_and_a_reused_search_must_hav
     monkeypatch.setattr(blind, "cycle_scan_task", lambda args: pytest.fail("searched again"))
     assert main(["benchmark", "--blind", "2", "--seed", "5", "--quick", "--scan-draw", "--policies", str(PRETRAINED),
                  "--reuse-search", str(first / "blind.json"), "--out", str(tmp_path / "second")]) == 0
-    assert main(["benchmark", "--blind", "2", "--seed", "5", "--quick", "--reuse-search", str(first / "blind.json"),
-                 "--out", str(tmp_path / "third")]) == 2
+    assert main(["benchmark", "--blind", "2", "--seed", "5", "--quick", "--policies", str(PRETRAINED),
+                 "--reuse-search", str(first / "blind.json"), "--out", str(tmp_path / "third")]) == 2
     assert "its scan's k values are drawn with the seed" in capsys.readouterr().err
 
 
@@ -211,8 +211,12 @@ def test_the_pooled_script_repeats_the_benchmarks_statistics_once_per_stored_sea
 
     root = Path(__file__).parents[1]
     script = runpy.run_path(str(root / "scripts" / "pooled_blind.py"))
-    stored = root / "results" / "blind" / "seed20261124" / "blind.json"
-    policy = str(root / "agents" / "pretrained" / "ppo_generalist")
+    stored = root / "results" / "blind" / "seed20261124" / "blind.json"  # searched at the default 10 us
+    policy = str(tmp_path / "coarse")  # the shipped network, acting at the default quantum
+    shutil.copytree(root / "agents" / "pretrained" / "ppo_generalist", policy)
+    run = json.loads((Path(policy) / "run.json").read_text())
+    run["env_kwargs"].pop("time_quantum", None)
+    (Path(policy) / "run.json").write_text(json.dumps(run))
     res = blind.run([policy], 24, 20261124, tmp_path / "bench", reuse=stored, workers=1)
     copy = tmp_path / "copy" / "blind.json"  # the same seed and size again: counted once
     copy.parent.mkdir()
@@ -222,6 +226,7 @@ def test_the_pooled_script_repeats_the_benchmarks_statistics_once_per_stored_sea
     (tmp_path / "other.json").write_text(json.dumps(other))
     searches = script["stored_searches"]([stored, copy, tmp_path / "other.json"])
     assert len(searches) == 1 and searches[0]["path"] in (stored, copy)
+    assert script["stored_searches"]([stored, copy], 5e-6) == []  # a 5 us policy is not judged on 10 us searches
     pooled = script["pooled"](policy, searches)
     assert pooled["points"] == 24
     for key, value in res["statistics"][policy].items():

@@ -41,7 +41,7 @@ def test_told_velocities_play_the_teacher_at_the_draws_friction():
     assert v.shape == (2, 3) and np.all(np.isfinite(v))
     assert not np.allclose(v[0], v[1])  # another friction, another response to the same told loads
     # each entry is the single env's run of the teacher told that load, at the draw's friction
-    env = gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.05, friction_coefficient=0.22, max_periods=12)
+    env = gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.05, friction_coefficient=0.22, max_periods=12, **teacher.play_kwargs)
     obs, _ = env.reset(seed=1)
     told = told_entries(np.array([0.2]), TOLD_RATIOS[1:2], np.array([env.unwrapped.force_ref]))[0]
     structure = ObservationLayout.structure
