@@ -15,7 +15,7 @@ from ..core.materials import normal_force_analytic
 from ..core.params import VARIANTS
 from ..core.waveform import PAPER_X, PAPER_Z, Waveform
 from .sensor import SensorHistory
-from .spaces import ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, check_time_quantum, sample_range
+from .spaces import ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, sample_range
 
 
 #: The observation modes (``observation=``) and their layouts; the sensor layout depends on ``history``.
@@ -284,7 +284,6 @@ class MDRDriveEnv(gym.Env):
         self.reward_scale = float(reward_scale)
         self.actuation_penalty = float(actuation_penalty)
         self.render_mode = render_mode
-        check_time_quantum(time_quantum, self.numerics.time_step, period)
         self.action_map = ActionMap(period=float(period), x_amplitude_max=x_amplitude_max,
                                     z_amplitude_max=z_amplitude_max, min_rise_fraction=min_rise_fraction,
                                     max_rise_fraction=max_rise_fraction, time_step=self.numerics.time_step,

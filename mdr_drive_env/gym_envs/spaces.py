@@ -57,10 +57,12 @@ class ActionMap:
         check_range("max_rise_fraction", self.max_rise_fraction, self.min_rise_fraction, 1.0, high_open=True)
         check_range("period", self.period, 0.0, 1.0, low_open=True)
         check_range("z_phase_origin", self.z_phase_origin, 0.0, 1.0, high_open=True)
-        if not _divides(self.time_quantum, self.period):
-            raise ValueError(f"period={self.period!r} must be a multiple of the time quantum {self.time_quantum!r} s")
+        check_range("time_quantum", self.time_quantum, 0.0, self.period, low_open=True)
         if not _divides(self.time_step, self.time_quantum):
-            raise ValueError(f"the numerics time step {self.time_step!r} s must divide {self.time_quantum!r} s")
+            raise ValueError(f"time_quantum={self.time_quantum!r} must be a multiple of the numerics time step "
+                             f"{self.time_step!r} s")
+        if not _divides(self.time_quantum, self.period):
+            raise ValueError(f"period={self.period!r} must be a multiple of time_quantum={self.time_quantum!r} s")
         edge = min(self.min_rise_fraction, 1.0 - self.max_rise_fraction) * self.period
         if edge < 10 * self.time_step:
             raise ValueError(f"min_rise_fraction/max_rise_fraction allow an edge of {edge!r} s, "
@@ -201,15 +203,6 @@ class WaveformParams(NamedTuple):
 def _divides(small: float, big: float) -> bool:
     n = big / small
     return round(n) >= 1 and abs(n - round(n)) < 1e-6 * n
-
-
-def check_time_quantum(time_quantum: float, time_step: float, period: float) -> None:
-    """Raise ``ValueError`` naming ``time_quantum`` (s) unless it is a multiple of the numerics
-    ``time_step`` (s) that divides the ``period`` (s)."""
-    check_range("time_quantum", time_quantum, 0.0, period, low_open=True)
-    if not (_divides(time_step, time_quantum) and _divides(time_quantum, period)):
-        raise ValueError(f"time_quantum={time_quantum!r} must be a multiple of the numerics time step "
-                         f"{time_step!r} s that divides the period {period!r} s")
 
 
 class ObservationLayout:
