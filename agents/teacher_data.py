@@ -32,12 +32,16 @@ from mdr_drive_env.gym_envs.spaces import shift_phase_origin
 
 
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config,
-                friction=None) -> list:
-    """``n`` (k, cargo mass kg) points: k uniform over the field's range, the load uniform from 0 to
+                friction=None, k_range: tuple[float, float] | None = None) -> list:
+    """``n`` (k, cargo mass kg) points: k uniform over the field's range (or ``k_range``, clipped
+    to it), the load uniform from 0 to
     ``load_factor`` times the trapezoid's critical load (interpolated from the field's grid), a
     share without load. With ``friction`` ((mu low, high), (mu1 low, high)): (k, cargo mass kg, mu,
     mu1) points, mu and mu1 uniform, the load scaled by mu / 0.3 (the same load over mu F_ref)."""
-    ks = rng.uniform(field_.ks[0], field_.ks[-1], n)
+    low, high = field_.ks[0], field_.ks[-1]
+    if k_range is not None:
+        low, high = max(low, k_range[0]), min(high, k_range[1])
+    ks = rng.uniform(low, high, n)
     crit = np.interp(ks, field_.ks, field_.trapezoid_critical)
     loads = rng.uniform(0.0, config.load_factor, n) * crit
     loads[rng.uniform(size=n) < config.no_load_share] = 0.0

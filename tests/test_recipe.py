@@ -884,3 +884,40 @@ def test_at_a_stall_probe_a_student_that_stalls_where_the_teacher_crawls_is_a_ho
         DistillConfig(stall_probes=-1)
     with pytest.raises(ValueError, match="stall_probes"):
         distill.find_holes(None, field, config, np.random.default_rng(0), friction=((0.2, 0.4), (0.1, 0.2)))
+
+
+def test_focus_points_add_round_0_episodes_in_their_k_band_and_leave_the_default_draw_unchanged(monkeypatch):
+    from mdr_drive_agents import distill as distill_module
+    from mdr_drive_agents.teacher_data import draw_points
+
+    teacher = _StepTeacher()
+    config = DistillConfig(load_factor=1.7, no_load_share=0.0)
+    band = draw_points(teacher, 200, np.random.default_rng(1), config, k_range=(0.22, 0.32))
+    ks = np.array([p[0] for p in band])
+    assert ks.min() >= 0.22 and ks.max() <= 0.32 and ks.max() - ks.min() > 0.08
+    loads = np.array([p[1] for p in band])
+    assert loads.min() >= 0.0 and loads.max() <= 1.7 * 0.1 and loads.max() > 0.15  # loads drawn as for `points`
+    clipped = draw_points(teacher, 50, np.random.default_rng(1), config, k_range=(0.5, 0.9))  # clipped to the field
+    assert max(p[0] for p in clipped) <= 0.6
+    a = draw_points(teacher, 20, np.random.default_rng(2), config)
+    assert a == draw_points(teacher, 20, np.random.default_rng(2), config, k_range=None)
+
+    seen = []  # the points round 0 asks the teacher about
+    real = distill_module.teacher_drives
+    monkeypatch.setattr(distill_module, "teacher_drives", lambda f, pts, c: (seen.append(list(pts)), real(f, pts, c))[1])
+    tiny = dict(net_arch=(8,), points=12, periods=2, steps=2, batch=8)
+    hyper = {"n_envs": 2, "n_steps": 8, "batch_size": 16}
+    plain = distill_module.distill(teacher, DistillConfig(**tiny), 0, hyperparameters=hyper, progress=False)
+    focused = distill_module.distill(teacher, DistillConfig(**tiny, focus_points=6, focus_k=(0.22, 0.32)), 0,
+                                     hyperparameters=hyper, progress=False)
+    assert [len(s) for s in seen] == [12, 18]
+    assert seen[1][:12] == seen[0]  # the uniform draw is the same; the band's points follow it
+    assert all(0.22 <= p[0] <= 0.32 for p in seen[1][12:])
+    assert plain.history[0]["samples"] == 12 * 2 and focused.history[0]["samples"] == 18 * 2
+
+
+@pytest.mark.parametrize("bad, name", [({"focus_points": -1}, "focus_points"), ({"focus_k": (0.3, 0.2)}, "focus_k[1]"),
+                                       ({"focus_k": (0.1,)}, "focus_k"), ({"focus_k": (-0.1, 0.2)}, "focus_k[0]")])
+def test_a_bad_focus_option_is_an_error_naming_it(bad, name):
+    with pytest.raises(ValueError, match=re.escape(name)):
+        DistillConfig(**bad)
