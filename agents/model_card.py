@@ -54,13 +54,17 @@ def evaluation_table(policy_dir: str | Path) -> str:
 
 
 def jump_note(distilled: dict) -> str:
-    """The first round's bisection of the teacher's jumps and the labels' quantum centres, where used."""
+    """The first round's bisection of the teacher's jumps, its focus episodes and the labels' quantum
+    centres, where used."""
     d = distilled["distill"]
     notes = []
     if d.get("jump_levels"):
         added = next((r.get("jump_points") for r in distilled.get("history") or [] if r.get("round") == 0), None)
         notes.append(f"{added:,} more" if added is not None else "more")
         notes[-1] += f" bisecting where its drive jumps ({d['jump_levels']} levels)"
+    if d.get("focus_points"):
+        low, high = d["focus_k"]
+        notes.append(f"{d['focus_points']:,} more at k = {low:g}-{high:g}")
     if d.get("quantum_centres"):
         notes.append("labels at the centres of their time quanta")
     return f" and {', '.join(notes)}" if notes else ""
@@ -274,8 +278,9 @@ folder first: a resumed run writes into it; the observation statistics stay as d
   where it is below the trapezoid on a dense grid of the whole domain (no search needed; about a
   minute): narrow rows of load, some going backwards fast. Where those points fall depends on the
   build, and builds of one recipe differ widely: the shipped one was chosen among student seeds
-  (`results/blind/stall_low_k_decision`), then among teacher and hole-round settings
-  (`results/blind/stall_probe_decision`, `results/blind/t1_student_decision`), on decision data;
+  (`results/blind/stall_low_k_decision`), then among teacher, hole-round, quantum and data settings
+  (`results/blind/stall_probe_decision`, `results/blind/t1_student_decision`,
+  `results/blind/quantum_decision`, `results/blind/focus_band_decision`), on decision data;
   another `seed` is expected to miss more often (docs/ablations.md).
 
 ## Evaluation

@@ -184,6 +184,19 @@ def test_the_model_card_names_stall_probes_only_where_the_hole_rounds_had_them()
         ", each with 16 probes at 0.9-1 of the teacher's stall load")
 
 
+def test_the_model_card_names_the_first_rounds_extra_episodes_only_where_the_recipe_had_them():
+    from mdr_drive_agents.model_card import jump_note
+
+    d = {"jump_levels": 5, "focus_points": 1024, "focus_k": [0.22, 0.34], "quantum_centres": True}
+    history = [{"round": 0, "jump_points": 6764}]
+    assert jump_note({"distill": d, "history": history}) == (
+        " and 6,764 more bisecting where its drive jumps (5 levels), 1,024 more at k = 0.22-0.34,"
+        " labels at the centres of their time quanta")
+    assert jump_note({"distill": {**d, "focus_points": 0}, "history": history}) == (
+        " and 6,764 more bisecting where its drive jumps (5 levels), labels at the centres of their time quanta")
+    assert jump_note({"distill": {}}) == ""
+
+
 def test_the_model_cards_blind_record_repeats_each_command_and_counts_the_seeds_that_meet_every_target(tmp_path):
     from mdr_drive_agents.blind import DRAWN_SCAN, EVEN_SCAN
     from mdr_drive_agents.model_card import blind_record
