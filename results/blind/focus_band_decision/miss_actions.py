@@ -1,4 +1,6 @@
-"""Q1's record misses: teacher label vs Q1's played cycle, velocity along the line between (5 us env)."""
+"""Q1's record misses: teacher label vs Q1's played cycle, velocity along the line between (5 us env).
+
+Ran on Q1 (agents/pretrained/ppo_generalist before F1 shipped: `git show 263ed8d:agents/pretrained/ppo_generalist/FILE`)."""
 import numpy as np
 from mdr_drive_agents.drive_field import DriveField
 from mdr_drive_agents.teacher_data import teacher_drives
