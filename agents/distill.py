@@ -41,8 +41,8 @@ from .cycles import cycle_action
 from .drive_field import DriveField
 from .evaluate import steady_velocity_of
 from .student import Student, adam_fit, edge_loss, make_student, policy_mean
-from .teacher_data import (around, draw_points, jump_points, labelled_episodes, perturb_previous_actions, rollout,
-                           stall_points, teacher_drives)
+from .teacher_data import (around, clipped_k_range, draw_points, jump_points, labelled_episodes,
+                           perturb_previous_actions, rollout, stall_points, teacher_drives)
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
 
@@ -218,6 +218,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     import torch
 
     check_stall_probes(config, friction is not None)  # before any work, not after round 0's fit
+    if config.focus_points:
+        clipped_k_range(field_, config.focus_k)  # a band outside the teacher's k: an error before any work
     torch.set_num_threads(config.torch_threads)
     rng = np.random.default_rng(seed)
     student = make_student(config, seed, env_kwargs or {}, hyperparameters or {})

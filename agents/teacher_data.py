@@ -31,6 +31,16 @@ from .evaluate import ACTION_MAP, TIME_QUANTUM
 from mdr_drive_env.gym_envs.spaces import shift_phase_origin
 
 
+def clipped_k_range(field_: DriveField, k_range: tuple[float, float] | None = None) -> tuple[float, float]:
+    """The field's k range, or ``k_range`` clipped to it; a ``ValueError`` if they do not overlap."""
+    low, high = float(field_.ks[0]), float(field_.ks[-1])
+    if k_range is None:
+        return low, high
+    if k_range[0] > high or k_range[1] < low:
+        raise ValueError(f"k range {list(k_range)} lies outside the teacher's k range [{low:g}, {high:g}]")
+    return max(low, k_range[0]), min(high, k_range[1])
+
+
 def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config,
                 friction=None, k_range: tuple[float, float] | None = None) -> list:
     """``n`` (k, cargo mass kg) points: k uniform over the field's range (or ``k_range``, clipped
@@ -38,9 +48,7 @@ def draw_points(field_: DriveField, n: int, rng: np.random.Generator, config,
     ``load_factor`` times the trapezoid's critical load (interpolated from the field's grid), a
     share without load. With ``friction`` ((mu low, high), (mu1 low, high)): (k, cargo mass kg, mu,
     mu1) points, mu and mu1 uniform, the load scaled by mu / 0.3 (the same load over mu F_ref)."""
-    low, high = field_.ks[0], field_.ks[-1]
-    if k_range is not None:
-        low, high = max(low, k_range[0]), min(high, k_range[1])
+    low, high = clipped_k_range(field_, k_range)
     ks = rng.uniform(low, high, n)
     crit = np.interp(ks, field_.ks, field_.trapezoid_critical)
     loads = rng.uniform(0.0, config.load_factor, n) * crit

@@ -899,6 +899,8 @@ def test_focus_points_add_round_0_episodes_in_their_k_band_and_leave_the_default
     assert loads.min() >= 0.0 and loads.max() <= 1.7 * 0.1 and loads.max() > 0.15  # loads drawn as for `points`
     clipped = draw_points(teacher, 50, np.random.default_rng(1), config, k_range=(0.5, 0.9))  # clipped to the field
     assert max(p[0] for p in clipped) <= 0.6
+    with pytest.raises(ValueError, match=r"k range \[0.7, 0.9\] lies outside the teacher's k range \[0, 0.6\]"):
+        draw_points(teacher, 5, np.random.default_rng(1), config, k_range=(0.7, 0.9))
     a = draw_points(teacher, 20, np.random.default_rng(2), config)
     assert a == draw_points(teacher, 20, np.random.default_rng(2), config, k_range=None)
 
@@ -914,6 +916,10 @@ def test_focus_points_add_round_0_episodes_in_their_k_band_and_leave_the_default
     assert seen[1][:12] == seen[0]  # the uniform draw is the same; the band's points follow it
     assert all(0.22 <= p[0] <= 0.32 for p in seen[1][12:])
     assert plain.history[0]["samples"] == 12 * 2 and focused.history[0]["samples"] == 18 * 2
+    with pytest.raises(ValueError, match="lies outside the teacher's k range"):  # before any work
+        distill_module.distill(teacher, DistillConfig(**tiny, focus_points=6, focus_k=(0.7, 0.9)), 0,
+                               hyperparameters=hyper, progress=False)
+    assert len(seen) == 2
 
 
 @pytest.mark.parametrize("bad, name", [({"focus_points": -1}, "focus_points"), ({"focus_k": (0.3, 0.2)}, "focus_k[1]"),
