@@ -1,17 +1,22 @@
 """Q1's record misses: teacher label vs Q1's played cycle, velocity along the line between (5 us env).
 
-Ran on Q1 (agents/pretrained/ppo_generalist before F1 shipped: `git show 263ed8d:agents/pretrained/ppo_generalist/FILE`)."""
+python results/blind/focus_band_decision/miss_actions.py runs/q1/policy
+(runs/q1/policy: Q1, the same weights as `git show 263ed8d:agents/pretrained/ppo_generalist/FILE`)."""
+import csv
+import sys
+
 import numpy as np
-from mdr_drive_agents.drive_field import DriveField
-from mdr_drive_agents.teacher_data import teacher_drives
-from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
-from mdr_drive_agents.evaluate import load_policy, open_loop_velocity, policy_rollout
+
 from mdr_drive_agents.cycles import align_phase
+from mdr_drive_agents.drive_field import DriveField
+from mdr_drive_agents.evaluate import ACTION_MAP, load_policy, open_loop_velocity, policy_rollout
+from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
+from mdr_drive_agents.teacher_data import teacher_drives
+
 field = DriveField.load("results/recipe/teacher_field.npz")
 cfg = load_recipe(DEFAULT_CONFIG)["distill"]
-pol = load_policy("agents/pretrained/ppo_generalist")
+pol = load_policy(sys.argv[1])
 pts = [(0.117, 0.0086), (0.183, 0.1964), (0.161, 0.2898), (0.239, 0.1355), (0.239, 0.1516)]
-import csv
 full = []
 for s in range(20261207, 20261213):
     for r in csv.DictReader(open(f"results/blind/seed{s}_drawn_scan/points.csv")):
@@ -21,7 +26,6 @@ for k, m in pts:
     j = min(range(len(full)), key=lambda i: abs(full[i][0]-k)+abs(full[i][1]-m)); P.append(full[j])
 points = [(p[0], p[1]) for p in P]
 d, v = teacher_drives(field, points, cfg)
-from mdr_drive_agents.evaluate import ACTION_MAP
 d = ACTION_MAP.quantum_centre(d)
 disp, actions, _ = policy_rollout(pol, points)
 last2 = np.stack([actions[-1], actions[-2]], 1)

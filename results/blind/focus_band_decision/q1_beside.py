@@ -4,6 +4,8 @@ agents/pretrained/ppo_generalist runs/q1/policy --reuse-search results/blind/see
 (two at a time, about 90 s each), then: python results/blind/focus_band_decision/q1_beside.py"""
 import json
 
+from mdr_drive_agents.blind import missed_targets
+
 NAMES = {"agents/pretrained/ppo_generalist": "F1", "runs/q1/policy": "Q1"}
 print("| seed | build | below the trapezoid | fraction mean | fraction min (under 0.85) | critical load / best cycle's: min (k at >= 0.97) | missed |")
 print("|---|---|---|---|---|---|---|")
@@ -12,10 +14,7 @@ for seed in range(20261213, 20261219):
     stats = json.load(open(f"runs/q1_beside_{seed}/blind.json"))["statistics"]
     for path, name in NAMES.items():
         s = stats[path]
-        missed = [m for m, bad in (("below the trapezoid", s["points_below_trapezoid"] > 0),
-                                   ("fraction mean", s["fraction_of_best_mean"] < 0.95),
-                                   ("fraction min", s["fraction_of_best_min"] < 0.85),
-                                   ("critical load", s["critical_load_over_best_cycle_min"] < 0.97)) if bad]
+        missed = missed_targets(s)
         clean[name] += not missed
         print(f"| {seed} | {name} | {s['points_below_trapezoid']} | {s['fraction_of_best_mean']:.3f} | "
               f"{s['fraction_of_best_min']:.3f} ({s['points_under_fraction_target']} of {s['points_scored']}) | "
