@@ -51,10 +51,10 @@ adaptation: $(STAMP)
 benchmark: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark_shipped
 
-## make blind: the shipped policy on 120 random points of the first report seed its model card quotes, the scan's k drawn with the seed (its record: results/blind/seed20261213_drawn_scan, 831 s with a second seed beside it on 2 cores)
+## make blind: the shipped policy on 120 random points of the first report seed its model card quotes, the scan's k drawn with the seed (its record: results/blind/seed20261219_drawn_scan, 933 s with a second seed beside it on 2 cores)
 blind: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261213 --scan-draw --policies agents/pretrained/ppo_generalist \
-	    --out results/blind/seed20261213_shipped
+	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261219 --scan-draw --policies agents/pretrained/ppo_generalist \
+	    --out results/blind/seed20261219_shipped
 
 ## make claims: each claim of the paper's text against the model variants (results/paper_claims)
 claims: $(STAMP)
