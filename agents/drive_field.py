@@ -16,14 +16,15 @@ searched so that neighbours stay neighbours:
   neighbour's, so interpolation does not mix a push period with a clamp period.
 - then the stages ``FieldConfig`` names, each followed by an exchange: polish passes, refinements
   (a k line, load lines between the grid's) and, last, a stronger search at the nodes either side
-  of each k line's stall (``polish_stall``), where the teacher's critical load is decided.
+  of each k line's stall (``polish_stall``), where the teacher's critical load is decided, then at
+  the nodes of a band of k and load (``polish_band``).
 
 ``DriveField.candidates(k, load)`` returns, for any point, the bilinear interpolation of the four
 surrounding grid drives and the grid drives around the point (the cell's four corners, or with
 ``radius`` R the 2R x 2R nodes around the cell); ``DriveField.best(points)`` plays all of them at
 the points (batched) and keeps the best: the label the student is trained on (``agents.distill``).
 Its settings, ``FieldConfig``, live in ``agents.field_config`` (imported here too); the refinement
-stages (new k and load lines, the stall polish) in ``agents.field_refine``.
+stages (new k and load lines, the stall and band polishes) in ``agents.field_refine``.
 """
 
 from __future__ import annotations
@@ -100,6 +101,11 @@ class DriveField(GridRefinement):
             k_max = float(config.polish_stall[2]) if len(config.polish_stall) == 3 else None
             field.polish_stall(int(config.polish_stall[0]), float(config.polish_stall[1]), executor=executor,
                                seed=seed + 970_000, k_max=k_max)
+            field.settle()
+        if config.polish_band:
+            budget, sigma, k_low, k_high, low, high = config.polish_band
+            field.polish_band(int(budget), float(sigma), (float(k_low), float(k_high)), (float(low), float(high)),
+                              executor=executor, seed=seed + 980_000)
             field.settle()
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field

@@ -467,6 +467,34 @@ def test_polish_stall_searches_the_nodes_either_side_of_each_stall_and_plays_wha
             FieldConfig(polish_stall=bad)
 
 
+def test_polish_band_searches_the_nodes_of_its_band_only_and_plays_what_it_records():
+    from mdr_drive_agents.evaluate import open_loop_velocity
+    from mdr_drive_env.sweep import Executor
+
+    field = _synthetic_field(nk=3, ns=4)  # k 0, 0.3, 0.6; fractions 0, 0.4, 0.8, 1.2
+    field.trapezoid_critical[:] = 0.02
+    assert field.band_nodes((0.3, 0.6), (0.4, 0.8)) == [(1, 1), (1, 2), (2, 1), (2, 2)]
+    assert field.band_nodes((0.1, 0.2), (0.0, 1.2)) == []
+    points = [field.point(i, j) for i in range(3) for j in range(4)]
+    field.velocities = open_loop_velocity(points, field.drives.reshape(12, 2, 5)).reshape(3, 4)
+    before_d, before_v = field.drives.copy(), field.velocities.copy()
+    band = field.band_nodes((0.3, 0.6), (0.4, 0.8))
+    changed = field.polish_band(8, 0.1, (0.3, 0.6), (0.4, 0.8), executor=Executor(workers=1, progress=False))
+    assert field.meta["polished_band"] == {"budget": 8, "sigma": 0.1, "k_band": [0.3, 0.6], "fraction_band": [0.4, 0.8],
+                                           "starts": 2, "nodes": len(band), "changed": changed}
+    for i, j in [(i, j) for i in range(3) for j in range(4) if (i, j) not in band]:
+        assert np.array_equal(field.drives[i, j], before_d[i, j]) and field.velocities[i, j] == before_v[i, j]
+    assert np.all(field.velocities >= before_v) and changed == int((field.velocities > before_v).sum())
+    assert np.allclose(open_loop_velocity(points, field.drives.reshape(12, 2, 5)), field.velocities.ravel())
+    assert field.polish_band(8, 0.1, (0.1, 0.2), (0.0, 1.2), executor=Executor(workers=1, progress=False)) == 0
+    for bad, match in (((0, 0.1, 0.1, 0.3, 0.8, 1.4), "polish_band budget"), ((10, 0.0, 0.1, 0.3, 0.8, 1.4), "polish_band sigma"),
+                       ((10, 0.1, 0.1, 0.3), "polish_band"), ((10, 0.1, 0.3, 0.1, 0.8, 1.4), "polish_band k_high"),
+                       ((10, 0.1, 0.1, 0.7, 0.8, 1.4), "polish_band k_high"), ((10, 0.1, 0.1, 0.3, 0.8, 0.5), "polish_band high"),
+                       ((10, 0.1, 0.1, 0.3, -0.1, 1.0), "polish_band low")):
+        with pytest.raises(ValueError, match=match):
+            FieldConfig(polish_band=bad)
+
+
 def test_a_wider_teacher_never_plays_a_slower_drive():
     field = _synthetic_field()
     points = [(0.25, 0.02), (0.45, 0.04)]
