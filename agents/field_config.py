@@ -72,7 +72,7 @@ class FieldConfig:
         polish_band: after it, (budget, sigma, k_low, k_high, low, high) or empty: every node with k in
             [k_low, k_high] and load fraction in [low, high] searched as ``polish_stall``'s, from its
             two fastest trials (``DriveField.polish_band``) (-, action units, -, -, -, -). Near the
-            critical load at k = 0.15-0.3 the grid's drives were up to 17 % slower than the blind
+            critical load at k = 0.18-0.24 the grid's drives were up to 17 % slower than the blind
             benchmark's per-point search (results/blind/teacher_band_decision).
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the

@@ -151,7 +151,7 @@ class GridRefinement:
     def polish_band(self, budget: int, sigma: float, k_band: tuple[float, float],
                     fraction_band: tuple[float, float], executor=None, seed: int = 0, starts: int = 2) -> int:
         """At each of :meth:`band_nodes`: :meth:`polish_nodes` (record ``polished_band``). Near the
-        critical load at k = 0.15-0.3 the grid's drives were up to 17 % slower than the blind
+        critical load at k = 0.18-0.24 the grid's drives were up to 17 % slower than the blind
         benchmark's per-point search (results/blind/teacher_band_decision). Returns the nodes changed."""
         record = {"k_band": list(k_band), "fraction_band": list(fraction_band), "starts": starts}
         changed = self.polish_nodes(self.band_nodes(k_band, fraction_band), budget, sigma, executor, seed, starts,
