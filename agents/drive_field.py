@@ -104,18 +104,37 @@ class DriveField(GridRefinement):
             field.settle()
         if config.polish_band:
             budget, sigma, k_low, k_high, low, high = config.polish_band
+            before = field.drives.copy()
             field.polish_band(int(budget), float(sigma), (float(k_low), float(k_high)), (float(low), float(high)),
                               executor=executor, seed=seed + 980_000)
-            field.settle()
+            field.settle(keep_phases_of=before)  # new drives in their node's old phase: no line turned
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
 
-    def settle(self) -> None:
+    def settle(self, keep_phases_of: np.ndarray | None = None) -> None:
         """After a stage adds or changes nodes: offer each node its neighbours' drives
         (``exchange``), then write every cycle in the phase closest to its neighbours' (``align``), so
-        that interpolating between nodes blends like with like."""
+        that interpolating between nodes blends like with like; with ``keep_phases_of`` (the drives
+        before a stage that added no node), in the phase of each node's drive before it instead
+        (``keep_phases``)."""
         self.exchange()
-        self.align()
+        if keep_phases_of is None:
+            self.align()
+        else:
+            self.keep_phases(keep_phases_of)
+
+    def keep_phases(self, before: np.ndarray) -> None:
+        """Write every cycle in the phase closest to the same node's drive in ``before`` (the field's
+        drives (n_k, n_s, 2, 5) before a stage that changed some of them): a node the stage left
+        alone keeps its phase exactly. ``align`` instead chains along each k line from the lightest
+        node, so one new drive can turn the phase of every heavier node on its line, and a student
+        is taught opposite first actions between that line and its neighbours
+        (results/blind/phase_k_decision, results/blind/band_phase_decision)."""
+        if before.shape != self.drives.shape:
+            raise ValueError(f"keep_phases: drives before the stage have shape {before.shape}, the field's "
+                             f"{self.drives.shape}")
+        shape = self.drives.shape
+        self.drives = align_phase(self.drives.reshape(-1, 2, 5), before.reshape(-1, 2, 5)).reshape(shape)
 
     def point(self, i: int, j: int) -> tuple[float, float, float, float]:
         """(k, load kg, mu, mu1) of grid node (i, j): its point at the field's friction."""

@@ -495,6 +495,37 @@ def test_polish_band_searches_the_nodes_of_its_band_only_and_plays_what_it_recor
             FieldConfig(polish_band=bad)
 
 
+def test_keeping_phases_leaves_the_nodes_a_stage_did_not_change_as_they_were():
+    from mdr_drive_agents.drive_field import DriveField
+
+    a, b = np.full(5, 0.5), np.full(5, -0.5)
+    c, d = np.array([0.9, 0.9, -0.9, -0.9, 0.0]), np.array([-0.9, -0.9, 0.9, 0.9, 0.0])
+    line = np.array([[a, b], [c, d], [c, d], [c, d]])  # a light drive, then a heavy family, aligned
+    before = np.stack([line, line])
+
+    def field_with(drives):
+        return DriveField(np.array([0.0, 0.6]), np.linspace(0.0, 1.2, 4), np.full(2, 0.05), drives.copy(), np.zeros((2, 4)))
+
+    field = field_with(before)
+    field.align()
+    assert np.array_equal(field.drives, before)
+    # a stage gives node (0, 1) a new drive, closer to the light drive as written and to the heavy
+    # family swapped: align's chain along the line then turns every heavier node's phase
+    new = np.array([0.6 * a + 0.4 * d, 0.6 * b + 0.4 * c])
+    changed = before.copy()
+    changed[0, 1] = new
+    chained = field_with(changed)
+    chained.align()
+    assert all(np.array_equal(chained.drives[0, j], before[0, j, ::-1]) for j in (2, 3))
+    kept = field_with(changed)
+    kept.keep_phases(before)
+    untouched = [(i, j) for i in range(2) for j in range(4) if (i, j) != (0, 1)]
+    assert all(np.array_equal(kept.drives[i, j], before[i, j]) for i, j in untouched)
+    assert np.array_equal(kept.drives[0, 1], align_phase(new, before[0, 1]))  # the new drive, in its node's old phase
+    with pytest.raises(ValueError, match="keep_phases"):
+        kept.keep_phases(before[:1])
+
+
 def test_a_wider_teacher_never_plays_a_slower_drive():
     field = _synthetic_field()
     points = [(0.25, 0.02), (0.45, 0.04)]
