@@ -42,7 +42,7 @@ from .cycles import align_phase
 from .evaluate import open_loop_velocity
 from .field_config import PAPER_FRICTION, FieldConfig
 from .field_refine import GridRefinement
-from .field_search import polish_slice, search_slice
+from .field_search import map_polish_by_node, search_slice
 
 
 class DriveField(GridRefinement):
@@ -175,12 +175,10 @@ class DriveField(GridRefinement):
     def polish(self, budget: int, sigma: float, executor=None, seed: int = 0) -> int:
         """Every node runs CMA-ES over two-action cycles (``budget`` evaluations, step ``sigma``) from
         its own drive and from each of its four grid neighbours' that differs from it, and keeps the
-        fastest drive found if it beats its own; one task per k slice on ``executor``. Returns the
+        fastest drive found if it beats its own; one task per node on ``executor``. Returns the
         nodes changed. The grid's searches start from the lighter node's drive and the two hand-made
         cycles, and the velocity is so rugged in the action that they miss drives that a search from
         a neighbour's drive, in k as well as in the load, finds."""
-        from mdr_drive_env.sweep import Executor
-
         nk, ns = self.velocities.shape
         tasks = []
         for i in range(nk):
@@ -192,7 +190,7 @@ class DriveField(GridRefinement):
                         starts.append(self.drives[a, b])
                 nodes.append((*self.point(i, j)[:2], np.array(starts)))
             tasks.append((nodes, budget, sigma, seed + 7919 * (i + 1), self.friction))
-        found = (executor or Executor()).map(polish_slice, tasks, "teacher: polish")
+        found = map_polish_by_node(tasks, "teacher: polish", executor)
         changed = 0
         for i, slice_ in enumerate(found):
             for j, (drive, vel) in enumerate(slice_):

@@ -1,7 +1,7 @@
 """The teacher's searches at its grid nodes: CMA-ES (``agents.baselines``) from the starts the drive
 field gives them, one k slice per task so that an executor (``mdr_drive_env.sweep.Executor``) can spread
-the slices over processes or a Ray cluster (``DriveField.search``, ``polish``, ``refine_k``, ``refine_load``,
-``polish_stall``).
+the slices over processes or a Ray cluster (``DriveField.search``); the polish passes and the refinements
+(``polish``, ``refine_k``, ``refine_load``, ``polish_stall``, ``polish_band``) one node per task.
 """
 
 from __future__ import annotations
@@ -57,6 +57,25 @@ def polish_slice(args) -> list[tuple[np.ndarray, float]]:
     return out
 
 
+def map_polish_by_node(line_tasks: list, desc: str, executor=None) -> list:
+    """What ``executor.map(polish_slice, line_tasks, desc)`` returns (per line task, its nodes' drives
+    and velocities), computed one task per node: node ``j`` of a line seeded ``seed`` runs as the
+    line's task runs it (``seed + 31 j``), so the results are the same bit for bit, but the workers
+    stay busy to the end instead of waiting on the last, longest lines."""
+    from mdr_drive_env.sweep import Executor
+
+    node_tasks, owner = [], []
+    for n, (nodes, budget, sigma, seed, friction) in enumerate(line_tasks):
+        for j, node in enumerate(nodes):
+            node_tasks.append(([node], budget, sigma, seed + 31 * j, friction))
+            owner.append(n)
+    found = (executor or Executor()).map(polish_slice, node_tasks, desc)
+    lines: list = [[] for _ in line_tasks]
+    for n, result in zip(owner, found):
+        lines[n].extend(result)
+    return lines
+
+
 def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: int, friction, label: str,
                      executor=None) -> tuple[np.ndarray, np.ndarray]:
     """Drives (n_lines, n, 2, 5) and velocities (n_lines, n) m/s of new grid nodes (``DriveField.refine_k``,
@@ -64,8 +83,6 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
     mu1): every node plays its trials (one batched call), CMA-ES over two-action cycles runs from the
     ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``; one task per line on
     ``executor``) and the node keeps the fastest drive found or played."""
-    from mdr_drive_env.sweep import Executor
-
     tasks, trial_d, trial_v = [], [], []  # per line: its task, its nodes' fastest trial drives and velocities
     for n, line in enumerate(lines):
         played = open_loop_velocity([(*node, *friction) for node, t in line for _ in t],
@@ -80,7 +97,7 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
         tasks.append((nodes, budget, sigma, seed + 7919 * (n + 1), friction))
         trial_d.append(fastest_d)
         trial_v.append(fastest_v)
-    found = (executor or Executor()).map(polish_slice, tasks, label)
+    found = map_polish_by_node(tasks, label, executor)
     searched_d = np.array([[d for d, _ in line] for line in found])
     searched_v = np.array([[v for _, v in line] for line in found], dtype=np.float64)
     trial_d, trial_v = np.array(trial_d), np.array(trial_v, dtype=np.float64)
@@ -88,4 +105,4 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
     return np.where(keep_search[:, :, None, None], searched_d, trial_d), np.where(keep_search, searched_v, trial_v)
 
 
-__all__ = ["polish_slice", "search_new_nodes", "search_point", "search_slice"]
+__all__ = ["map_polish_by_node", "polish_slice", "search_new_nodes", "search_point", "search_slice"]

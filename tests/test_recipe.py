@@ -298,7 +298,7 @@ def test_the_teachers_neighbourhood_grows_with_its_radius_and_stays_on_the_grid(
 
 
 def test_polish_searches_from_each_node_and_its_distinct_neighbours_and_keeps_only_gains(monkeypatch):
-    from mdr_drive_agents import drive_field
+    from mdr_drive_agents import field_search
     from mdr_drive_env.sweep import Executor
 
     field = _synthetic_field(nk=3, ns=3)
@@ -310,18 +310,35 @@ def test_polish_searches_from_each_node_and_its_distinct_neighbours_and_keeps_on
         nodes, budget, sigma, *_ = args
         out = []
         for k, load, starts in nodes:
-            i, j = int(np.argmin(np.abs(field.ks - k))), len(out)
+            i = int(np.argmin(np.abs(field.ks - k)))
+            j = int(np.argmin(np.abs(field.fractions * field.trapezoid_critical[i] - load)))
             seen[(i, j)] = len(starts)
             assert np.array_equal(starts[0], field.drives[i, j]) and (budget, sigma) == (8, 0.1)
             out.append((np.full((2, 5), 0.3), {(1, 1): 0.02, (0, 0): 0.005}.get((i, j), 0.01)))
         return out
 
-    monkeypatch.setattr(drive_field, "polish_slice", fake_slice)
+    monkeypatch.setattr(field_search, "polish_slice", fake_slice)
     assert field.polish(8, 0.1, executor=Executor(workers=1, progress=False)) == 1
-    assert seen[(0, 0)] == 3 and seen[(1, 0)] == 4 and seen[(1, 1)] == 4  # itself + its distinct neighbours
+    assert len(seen) == 9 and seen[(0, 0)] == 3 and seen[(1, 0)] == 4 and seen[(1, 1)] == 4  # itself + its distinct neighbours
     assert field.velocities[1, 1] == 0.02 and np.all(field.drives[1, 1] == 0.3)
     assert field.velocities[0, 0] == 0.01 and not np.all(field.drives[0, 0] == 0.3)  # a slower drive is not taken
     assert field.meta["polished"] == [{"budget": 8, "sigma": 0.1, "changed": 1}]
+
+
+def test_polishing_one_node_per_task_finds_what_one_line_per_task_finds():
+    from mdr_drive_agents.field_search import map_polish_by_node, polish_slice
+    from mdr_drive_env.sweep import Executor
+
+    field = _synthetic_field(nk=2, ns=3)
+    field.trapezoid_critical[:] = 0.02
+    lines = [([(*field.point(i, j)[:2], field.drives[i, j:j + 2]) for j in range(2)], 16, 0.2, 7 + 100 * i,
+              field.friction) for i in range(2)]
+    by_line = [polish_slice(task) for task in lines]
+    by_node = map_polish_by_node(lines, "test", Executor(workers=2, progress=False))
+    assert [len(line) for line in by_node] == [2, 2]
+    for line_a, line_b in zip(by_line, by_node):
+        for (drive_a, v_a), (drive_b, v_b) in zip(line_a, line_b):
+            assert np.array_equal(drive_a, drive_b) and v_a == v_b  # the same seeds: the same drives, bit for bit
 
 
 def test_a_polished_node_plays_at_the_velocity_it_records():
