@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from mdr_drive_env.blas import PINNED_CORE, blas_core
 from mdr_drive_env.files import write_text
 from mdr_drive_env.sweep import Executor, TaskStore, add_executor_arguments, executor_from, task_folder
 
@@ -136,6 +137,11 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     command = command_line("recipe")
 
     tasks = task_folder(out, resume)
+    core = blas_core()
+    if teacher is None and core not in (None, PINNED_CORE):
+        print(f"recipe: warning: numpy's OpenBLAS runs its {core!r} kernels, not {PINNED_CORE!r} (numpy was loaded "
+              f"before mdr_drive_env, or OPENBLAS_CORETYPE is set): the teacher's CMA-ES searches round differently "
+              f"in the last bits, and its drives will differ from the shipped teacher's", file=sys.stderr)
     t0 = time.perf_counter()
     if teacher is None:
         field = DriveField.search(recipe["teacher"], seed=seed, executor=executor, store=TaskStore(tasks / "teacher"))
@@ -173,7 +179,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
           flush=True)
     summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
                "stage_wall_time_s": stages,
-               "teacher_loaded_from": None if teacher is None else str(teacher),
+               "teacher_loaded_from": None if teacher is None else str(teacher), "blas_core": core,
                "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
                "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},
                "teacher_mean_velocity_m_s": float(np.mean(field.velocities))}

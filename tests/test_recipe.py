@@ -32,6 +32,7 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
 
     out, summary = recipe_run
     assert set(summary["stage_wall_time_s"]) == {"teacher_s", "student_s", "total_s"}
+    assert "blas_core" in summary  # the BLAS kernels the teacher was searched with (mdr_drive_env.blas)
     venv = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"),
                              DummyVecEnv([lambda: gym.make("MDRDrive-v0", k=0.1, cargo_mass=0.05)]))
     venv.training, venv.norm_reward = False, False
