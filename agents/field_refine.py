@@ -4,7 +4,7 @@ between every two of the grid's (``refine_k``), load lines between two of its lo
 nodes either side of each k line's stall (``polish_stall``) and at the nodes of a band of k and load
 (``polish_band``). Each searches its new or chosen nodes
 with CMA-ES over two-action cycles from the drives around them (``agents.field_search``), one task
-per line on an executor; ``DriveField.search`` runs them in the order ``FieldConfig`` gives.
+per node on an executor; ``DriveField.search`` runs them in the order ``FieldConfig`` gives.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ class GridRefinement:
         fractions: each new node plays the interpolation of its two k neighbours' drives and the drives
         of the six nodes around it (those two and their lighter and heavier neighbours), then CMA-ES
         over two-action cycles runs from the ``starts`` fastest of them (``budget`` evaluations each,
-        step ``sigma``) and the node keeps the fastest drive found or played; one task per new k line
+        step ``sigma``) and the node keeps the fastest drive found or played; one task per node
         on ``executor``. The old nodes are unchanged. Returns the new nodes."""
         from .blind import trapezoid_critical
 
@@ -65,7 +65,7 @@ class GridRefinement:
         interpolation of its lighter and heavier neighbours' drives and the drives of the six nodes
         around it (those two and their neighbours in k), then CMA-ES over two-action cycles runs from
         the ``starts`` fastest (``budget`` evaluations each, step ``sigma``) and the node keeps the
-        fastest drive found or played; one task per k line on ``executor``. Above ``k_max`` (if given)
+        fastest drive found or played; one task per node on ``executor``. Above ``k_max`` (if given)
         the new nodes are not searched: each keeps the faster of its lighter and heavier neighbours'
         drives, so the teacher's drives there stay the grid's. The old nodes are unchanged; the load
         fractions are no longer evenly spaced. With ``min_drop`` > 0, only the cells across which the
@@ -163,7 +163,7 @@ class GridRefinement:
                      label: str = "", record: dict | None = None) -> int:
         """At each node (i, j) of ``nodes``: play its own drive, its lighter and its two k neighbours'
         (aligned to it) and the push/clamp cycle, run CMA-ES over two-action cycles from the
-        ``starts`` fastest (``budget`` evaluations each, step ``sigma``; one task per k line on
+        ``starts`` fastest (``budget`` evaluations each, step ``sigma``; one task per node on
         ``executor``) and keep the fastest drive found if it beats the node's own. ``record``, if
         given, gets the search's settings and counts. Returns the nodes changed."""
         nk = len(self.ks)

@@ -81,7 +81,7 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
     """Drives (n_lines, n, 2, 5) and velocities (n_lines, n) m/s of new grid nodes (``DriveField.refine_k``,
     ``refine_load``), ``lines`` of [((k, load kg), trial drives (t, 2, 5)), ...] at ``friction`` (mu,
     mu1): every node plays its trials (one batched call), CMA-ES over two-action cycles runs from the
-    ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``; one task per line on
+    ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``; one task per node on
     ``executor``) and the node keeps the fastest drive found or played."""
     tasks, trial_d, trial_v = [], [], []  # per line: its task, its nodes' fastest trial drives and velocities
     for n, line in enumerate(lines):
