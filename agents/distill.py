@@ -96,6 +96,8 @@ class DistillConfig:
         focus_points: round 0's extra random episodes with k in ``focus_k`` (loads drawn as for
             ``points``), so the fit sees that band more densely (0: none) (-).
         focus_k: the k interval of those episodes (-).
+        inner_focus_points, inner_focus_k: a second such band, drawn after the first (usually a
+            narrower one inside it, where the misses still sit) (0: none) (-).
         quantum_centres: label the student with the teacher's actions moved to the centre of the time
             quantum their rise fractions and z phase select (``ActionMap.quantum_centre``): the
             same drives, and an error of up to half a quantum (0.0056 action units for a rise,
@@ -135,16 +137,18 @@ class DistillConfig:
     quantum_centres: bool = False
     focus_points: int = 0
     focus_k: tuple[float, float] = (0.0, 0.6)
+    inner_focus_points: int = 0
+    inner_focus_k: tuple[float, float] = (0.0, 0.6)
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
                      "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "jump_levels", "jump_neighbours",
-                     "stall_probes", "focus_points"):
+                     "stall_probes", "focus_points", "inner_focus_points"):
             check_int(name, getattr(self, name),
                       0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels", "stall_probes",
-                                   "focus_points") else 1)
+                                   "focus_points", "inner_focus_points") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -160,10 +164,17 @@ class DistillConfig:
         check_range("stall_band[1]", self.stall_band[1], self.stall_band[0], 2.0, low_open=True)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
-        if len(self.focus_k) != 2:
-            raise ValueError(f"focus_k={self.focus_k!r} must be two values of k [low, high]")
-        check_range("focus_k[0]", self.focus_k[0], 0.0, 1.0)
-        check_range("focus_k[1]", self.focus_k[1], self.focus_k[0], 1.0, low_open=True)
+        for name in ("focus_k", "inner_focus_k"):
+            band = getattr(self, name)
+            if len(band) != 2:
+                raise ValueError(f"{name}={band!r} must be two values of k [low, high]")
+            check_range(f"{name}[0]", band[0], 0.0, 1.0)
+            check_range(f"{name}[1]", band[1], band[0], 1.0, low_open=True)
+
+    def focus_bands(self) -> list[tuple[int, tuple[float, float]]]:
+        """Round 0's extra episodes: (points, (k low, k high)) per band in use, in drawing order."""
+        return [(n, tuple(band)) for n, band in ((self.focus_points, self.focus_k),
+                                                  (self.inner_focus_points, self.inner_focus_k)) if n]
         if not isinstance(self.quantum_centres, bool):
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
 
@@ -218,8 +229,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     import torch
 
     check_stall_probes(config, friction is not None)  # before any work, not after round 0's fit
-    if config.focus_points:
-        clipped_k_range(field_, config.focus_k)  # a band outside the teacher's k: an error before any work
+    for _, band in config.focus_bands():
+        clipped_k_range(field_, band)  # a band outside the teacher's k: an error before any work
     torch.set_num_threads(config.torch_threads)
     rng = np.random.default_rng(seed)
     student = make_student(config, seed, env_kwargs or {}, hyperparameters or {})
@@ -241,8 +252,8 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
             continue
         t0 = time.perf_counter()
         points = draw_points(field_, config.points, rng, config, friction)
-        if r == 0 and config.focus_points:
-            points += draw_points(field_, config.focus_points, rng, config, friction, k_range=config.focus_k)
+        for n, band in config.focus_bands() if r == 0 else ():
+            points += draw_points(field_, n, rng, config, friction, k_range=band)
         drives, _ = teacher_drives(field_, points, config)
         extra = []
         if r == 0 and config.jump_levels:

@@ -62,9 +62,10 @@ def jump_note(distilled: dict) -> str:
         added = next((r.get("jump_points") for r in distilled.get("history") or [] if r.get("round") == 0), None)
         notes.append(f"{added:,} more" if added is not None else "more")
         notes[-1] += f" bisecting where its drive jumps ({d['jump_levels']} levels)"
-    if d.get("focus_points"):
-        low, high = d["focus_k"]
-        notes.append(f"{d['focus_points']:,} more at k = {low:g}-{high:g}")
+    for points, band in (("focus_points", "focus_k"), ("inner_focus_points", "inner_focus_k")):
+        if d.get(points):
+            low, high = d[band]
+            notes.append(f"{d[points]:,} more at k = {low:g}-{high:g}")
     if d.get("quantum_centres"):
         notes.append("labels at the centres of their time quanta")
     return f" and {', '.join(notes)}" if notes else ""

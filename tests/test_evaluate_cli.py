@@ -194,6 +194,8 @@ def test_the_model_card_names_the_first_rounds_extra_episodes_only_where_the_rec
         " labels at the centres of their time quanta")
     assert jump_note({"distill": {**d, "focus_points": 0}, "history": history}) == (
         " and 6,764 more bisecting where its drive jumps (5 levels), labels at the centres of their time quanta")
+    inner = {**d, "inner_focus_points": 1024, "inner_focus_k": [0.23, 0.28]}
+    assert "1,024 more at k = 0.22-0.34, 1,024 more at k = 0.23-0.28," in jump_note({"distill": inner, "history": history})
     assert jump_note({"distill": {}}) == ""
 
 

@@ -993,14 +993,22 @@ def test_focus_points_add_round_0_episodes_in_their_k_band_and_leave_the_default
     assert seen[1][:12] == seen[0]  # the uniform draw is the same; the band's points follow it
     assert all(0.22 <= p[0] <= 0.32 for p in seen[1][12:])
     assert plain.history[0]["samples"] == 12 * 2 and focused.history[0]["samples"] == 18 * 2
-    with pytest.raises(ValueError, match="lies outside the teacher's k range"):  # before any work
-        distill_module.distill(teacher, DistillConfig(**tiny, focus_points=6, focus_k=(0.7, 0.9)), 0,
-                               hyperparameters=hyper, progress=False)
-    assert len(seen) == 2
+    inner = distill_module.distill(teacher, DistillConfig(**tiny, focus_points=6, focus_k=(0.22, 0.32),
+                                                          inner_focus_points=4, inner_focus_k=(0.25, 0.27)), 0,
+                                   hyperparameters=hyper, progress=False)
+    assert len(seen[2]) == 22 and seen[2][:18] == seen[1]  # the second band's points follow the first's
+    assert all(0.25 <= p[0] <= 0.27 for p in seen[2][18:]) and inner.history[0]["samples"] == 22 * 2
+    for bad in ({"focus_k": (0.7, 0.9)}, {"inner_focus_points": 3, "inner_focus_k": (0.7, 0.9)}):
+        with pytest.raises(ValueError, match="lies outside the teacher's k range"):  # before any work
+            distill_module.distill(teacher, DistillConfig(**tiny, **{"focus_points": 6, **bad}), 0,
+                                   hyperparameters=hyper, progress=False)
+    assert len(seen) == 3
 
 
 @pytest.mark.parametrize("bad, name", [({"focus_points": -1}, "focus_points"), ({"focus_k": (0.3, 0.2)}, "focus_k[1]"),
-                                       ({"focus_k": (0.1,)}, "focus_k"), ({"focus_k": (-0.1, 0.2)}, "focus_k[0]")])
+                                       ({"focus_k": (0.1,)}, "focus_k"), ({"focus_k": (-0.1, 0.2)}, "focus_k[0]"),
+                                       ({"inner_focus_points": -1}, "inner_focus_points"),
+                                       ({"inner_focus_k": (0.3, 0.2)}, "inner_focus_k[1]")])
 def test_a_bad_focus_option_is_an_error_naming_it(bad, name):
     with pytest.raises(ValueError, match=re.escape(name)):
         DistillConfig(**bad)
