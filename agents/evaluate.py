@@ -128,9 +128,15 @@ def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, varian
     if len(actions) == 1 and len(points) > 1:
         actions = np.repeat(actions, len(points), axis=0)
     sim = BatchedDriveSimulator(len(points))
-    params = [point_params(point, variant) for point in points]
-    for i, p in enumerate(params):
-        sim.set_params(i, p)
+    params, first_of = [], {}  # the model is built once per distinct point (searches play many drives at one)
+    for i, point in enumerate(points):
+        key = tuple(map(float, point))
+        if key in first_of:
+            sim.copy_params(i, first_of[key])
+        else:
+            first_of[key] = i
+            sim.set_params(i, point_params(point, variant))
+        params.append(sim.params[i])
     action_map = action_map_at(time_quantum)
     cycle = [np.array([[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
                        for p in (action_map.to_params(a) for a in actions[:, j])]) for j in range(actions.shape[1])]

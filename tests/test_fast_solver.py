@@ -216,6 +216,29 @@ def test_batched_results_do_not_depend_on_the_thread_count(rng):
         BatchedDriveSimulator(2, num_threads=MAX_THREADS + 1)
 
 
+def test_copied_params_step_as_set_params_does_bit_for_bit(rng):
+    """open_loop_displacements builds each distinct point's model once and copies it to the drives
+    that share it (a search plays many drives at one point): the same results as setting each."""
+    n = 6
+    waveforms = np.column_stack([rng.uniform(0, 30e-6, n), rng.integers(5, 196, n) * 1e-5, rng.uniform(0, 6e-6, n),
+                                 rng.integers(5, 196, n) * 1e-5, rng.integers(0, 200, n) / 200])
+    models = [DriveParams.paper(k=0.3, cargo_mass=0.05), DriveParams.paper(k=0.45, cargo_mass=0.01)]
+    set_each, copied = BatchedDriveSimulator(n), BatchedDriveSimulator(n)
+    for i in range(n):
+        set_each.set_params(i, models[i % 2])
+    copied.set_params(0, models[0])
+    copied.set_params(1, models[1])
+    for i in range(2, n):
+        copied.copy_params(i, i % 2)
+    assert copied.params == set_each.params
+    for _ in range(3):
+        np.testing.assert_array_equal(copied.step(waveforms, 2e-3), set_each.step(waveforms, 2e-3))
+    copied.copy_params(2, 1)  # a copy resets the drive, as set_params does
+    assert copied.state[2].tolist() == [0.0] * len(copied.state[2]) and copied.params[2] is models[1]
+    with pytest.raises(RuntimeError, match="drive 1 has no params"):
+        BatchedDriveSimulator(2).copy_params(0, 1)
+
+
 def test_batched_action_map_equals_the_scalar_one(rng):
     from mdr_drive_env.gym_envs.spaces import ActionMap
 

@@ -156,6 +156,16 @@ class BatchedDriveSimulator:
         self.params[i] = params
         self.reset(i)
 
+    def copy_params(self, i: int, source: int) -> None:
+        """Give drive ``i`` the model of drive ``source`` (set already) and reset it: what
+        ``set_params(i, params)`` with ``source``'s params does, without recomputing its node weights."""
+        if self.params[source] is None:
+            raise RuntimeError(f"copy_params({i}, {source}): drive {source} has no params yet")
+        for array in (self.w, self.left, self.p1, self.p3, self.model):
+            array[i] = array[source]
+        self.params[i] = self.params[source]
+        self.reset(i)
+
     def reset(self, i: int) -> None:
         """Drive ``i`` at rest at X = 0, no contact, springs unloaded."""
         self.u[i] = 0.0
