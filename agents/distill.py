@@ -170,13 +170,13 @@ class DistillConfig:
                 raise ValueError(f"{name}={band!r} must be two values of k [low, high]")
             check_range(f"{name}[0]", band[0], 0.0, 1.0)
             check_range(f"{name}[1]", band[1], band[0], 1.0, low_open=True)
+        if not isinstance(self.quantum_centres, bool):
+            raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
 
     def focus_bands(self) -> list[tuple[int, tuple[float, float]]]:
         """Round 0's extra episodes: (points, (k low, k high)) per band in use, in drawing order."""
         return [(n, tuple(band)) for n, band in ((self.focus_points, self.focus_k),
                                                   (self.inner_focus_points, self.inner_focus_k)) if n]
-        if not isinstance(self.quantum_centres, bool):
-            raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
 
 
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,

@@ -1012,3 +1012,9 @@ def test_focus_points_add_round_0_episodes_in_their_k_band_and_leave_the_default
 def test_a_bad_focus_option_is_an_error_naming_it(bad, name):
     with pytest.raises(ValueError, match=re.escape(name)):
         DistillConfig(**bad)
+
+
+def test_quantum_centres_must_be_a_boolean():
+    with pytest.raises(ValueError, match=r"quantum_centres='yes' must be true or false"):
+        DistillConfig(quantum_centres="yes")
+    assert DistillConfig(quantum_centres=True).quantum_centres is True
