@@ -47,6 +47,10 @@ from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout
 
 
+#: Round 0's extra-episode bands: (count field, k-interval field) of :class:`DistillConfig`, in drawing order.
+FOCUS_KEYS = (("focus_points", "focus_k"), ("inner_focus_points", "inner_focus_k"))
+
+
 @dataclass(frozen=True)
 class DistillConfig:
     """DAgger distillation of the drive field into a PPO MlpPolicy.
@@ -164,7 +168,7 @@ class DistillConfig:
         check_range("stall_band[1]", self.stall_band[1], self.stall_band[0], 2.0, low_open=True)
         check_range("huber_delta", self.huber_delta, 0.0, 2.0)
         check_range("jump_threshold", self.jump_threshold, 0.0, 2.0, low_open=True)
-        for name in ("focus_k", "inner_focus_k"):
+        for _, name in FOCUS_KEYS:
             band = getattr(self, name)
             if len(band) != 2:
                 raise ValueError(f"{name}={band!r} must be two values of k [low, high]")
@@ -175,8 +179,7 @@ class DistillConfig:
 
     def focus_bands(self) -> list[tuple[int, tuple[float, float]]]:
         """Round 0's extra episodes: (points, (k low, k high)) per band in use, in drawing order."""
-        return [(n, tuple(band)) for n, band in ((self.focus_points, self.focus_k),
-                                                  (self.inner_focus_points, self.inner_focus_k)) if n]
+        return [(getattr(self, count), tuple(getattr(self, band))) for count, band in FOCUS_KEYS if getattr(self, count)]
 
 
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
@@ -365,5 +368,5 @@ def validation_fraction(student: Student, points, v_teacher: np.ndarray, moving:
             "val_below_teacher": int((v < v_teacher - 0.05e-3).sum())}
 
 
-__all__ = ["DistillConfig", "check_stall_probes", "distill", "find_holes", "fit", "hole_round", "student_velocity",
+__all__ = ["FOCUS_KEYS", "DistillConfig", "check_stall_probes", "distill", "find_holes", "fit", "hole_round", "student_velocity",
            "validation_fraction"]

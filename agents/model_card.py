@@ -25,6 +25,7 @@ from .blind import (
     missed_targets,
     scan_of,
 )
+from .distill import FOCUS_KEYS
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -62,7 +63,7 @@ def jump_note(distilled: dict) -> str:
         added = next((r.get("jump_points") for r in distilled.get("history") or [] if r.get("round") == 0), None)
         notes.append(f"{added:,} more" if added is not None else "more")
         notes[-1] += f" bisecting where its drive jumps ({d['jump_levels']} levels)"
-    for points, band in (("focus_points", "focus_k"), ("inner_focus_points", "inner_focus_k")):
+    for points, band in FOCUS_KEYS:
         if d.get(points):
             low, high = d[band]
             notes.append(f"{d[points]:,} more at k = {low:g}-{high:g}")
