@@ -121,28 +121,44 @@ def point_params(point, variant: str = "as-specified") -> DriveParams:
 def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, variant: str = "as-specified",
                             time_quantum: float = TIME_QUANTUM):
     """Per-period displacements (periods, n) (m) of open-loop drives (see :func:`open_loop_velocity`;
-    ``points`` as :func:`point_params` takes them) and whether each ran away (n,)."""
+    ``points`` as :func:`point_params` takes them) and whether each ran away (n,).
+
+    Drives that play the same waveforms at the same point (after quantisation to ``time_quantum``:
+    the teacher's candidates share nodes' drives, and a search's samples share quanta) are simulated
+    once and their results copied: each drive of the batch runs on its own, so the results are
+    those of simulating every one."""
     actions = np.asarray(actions, dtype=np.float64)
     if actions.ndim < 3:
         actions = np.atleast_2d(actions)[:, None, :]
     if len(actions) == 1 and len(points) > 1:
         actions = np.repeat(actions, len(points), axis=0)
-    sim = BatchedDriveSimulator(len(points))
-    params, first_of = [], {}  # the model is built once per distinct point (searches play many drives at one)
-    for i, point in enumerate(points):
-        key = tuple(map(float, point))
-        if key in first_of:
-            sim.copy_params(i, first_of[key])
-        else:
-            first_of[key] = i
-            sim.set_params(i, point_params(point, variant))
-        params.append(sim.params[i])
     action_map = action_map_at(time_quantum)
-    cycle = [np.array([[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
-                       for p in (action_map.to_params(a) for a in actions[:, j])]) for j in range(actions.shape[1])]
-    disp = np.array([sim.step(cycle[t % len(cycle)], action_map.period)[:, K.O_DISPLACEMENT].copy()
+    cycle = np.array([[[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
+                       for p in (action_map.to_params(a) for a in actions[:, j])]
+                      for j in range(actions.shape[1])]).reshape(actions.shape[1], len(points), 5)
+    drive_of, unique = {}, []  # drive_of: each drive's row among the simulated ones
+    inverse = np.empty(len(points), dtype=np.int64)
+    for i, point in enumerate(points):
+        key = (tuple(map(float, point)), cycle[:, i].tobytes())
+        if key not in drive_of:
+            drive_of[key] = len(unique)
+            unique.append(i)
+        inverse[i] = drive_of[key]
+    sim = BatchedDriveSimulator(len(unique))
+    params, first_of = [], {}  # the model is built once per distinct point (searches play many drives at one)
+    for row, i in enumerate(unique):
+        key = tuple(map(float, points[i]))
+        if key in first_of:
+            sim.copy_params(row, first_of[key])
+        else:
+            first_of[key] = row
+            sim.set_params(row, point_params(points[i], variant))
+        params.append(sim.params[row])
+    rows = np.array(unique)
+    disp = np.array([sim.step(cycle[t % len(cycle)][rows], action_map.period)[:, K.O_DISPLACEMENT].copy()
                      for t in range(periods)])
-    return disp, runaway_of(disp, sim.out[:, K.O_PEAK_FZ], params)
+    runaway = runaway_of(disp, sim.out[:, K.O_PEAK_FZ], params)
+    return np.ascontiguousarray(disp[:, inverse]), runaway[inverse]  # C order: means over periods as before
 
 
 #: Fine load grid (kg) of the critical-load search, as fractions of a k-dependent upper bound.

@@ -89,6 +89,37 @@ def test_a_cycle_of_two_actions_alternates_the_waveforms_period_by_period():
         assert vb == pytest.approx(np.mean(d[-AVERAGE_PERIODS:]) / 2e-3, rel=1e-12, abs=1e-15)
 
 
+def test_repeated_drives_are_simulated_once_with_the_results_of_simulating_each(monkeypatch):
+    """open_loop_displacements simulates a drive repeated at the same point (the same waveforms once
+    quantised) once and copies its results: equal bit for bit to playing each drive in a batch of its
+    own, the runaway flags too, and the displacements in C order (means over periods as before)."""
+    from mdr_drive_agents import evaluate
+
+    rng = np.random.default_rng(7)
+    drives = rng.uniform(-1.0, 1.0, (3, 2, 5))
+    nudged = drives[0].copy()
+    nudged[:, 1] += 1e-9  # the same rise quantum: the same waveforms as drives[0]
+    points = [(0.2, 0.05), (0.2, 0.05), (0.45, 0.3), (0.2, 0.05), (0.45, 0.3), (0.2, 0.05), (0.0, 0.0)]
+    actions = np.stack([drives[0], drives[1], drives[2], drives[0], drives[2], nudged, drives[0]])
+    sizes = []
+    original = evaluate.BatchedDriveSimulator
+
+    def counting(n, *args, **kwargs):
+        sizes.append(n)
+        return original(n, *args, **kwargs)
+
+    monkeypatch.setattr(evaluate, "BatchedDriveSimulator", counting)
+    disp, runaway = evaluate.open_loop_displacements(points, actions)
+    assert sizes == [4]  # (0.2, 0.05) x drives 0 and 1, (0.45, 0.3) x drive 2, (0, 0) x drive 0
+    assert disp.flags["C_CONTIGUOUS"] and disp.shape == (EVAL_PERIODS, len(points))
+    for i, (point, action) in enumerate(zip(points, actions)):
+        alone, alone_runaway = evaluate.open_loop_displacements([point], action[None])
+        np.testing.assert_array_equal(disp[:, i], alone[:, 0])
+        assert runaway[i] == alone_runaway[0]
+    v = open_loop_velocity(points, actions)
+    assert v[0] == v[3] == v[5] and v[2] == v[4] and v[0] != v[6]
+
+
 def test_cma_es_over_two_action_cycles_stays_in_the_box():
     r = cma_optimize(0.3, 0.08, budget=40, popsize=8, seed=1, cycle=2, x0=np.zeros((2, 5)))
     assert r.action.shape == (2, 5) and np.all(np.abs(r.action) <= 1.0)
