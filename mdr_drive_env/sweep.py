@@ -197,12 +197,17 @@ class Executor:
 
     # ------------------------------------------------------------------ backends
     def _local(self, fn, tasks, pending, done, bar) -> None:
-        """A process pool; if a worker dies, the pool is rebuilt and the missing tasks resubmitted."""
+        """A process pool; if a worker dies, the pool is rebuilt and the missing tasks resubmitted. Each
+        worker's batched simulators use its share of the cores (``core.batch.set_process_threads``)."""
+        from .core.batch import set_process_threads
+
         workers = min(self.workers or available_cores(), len(pending))
+        share = max(1, available_cores() // workers)
         missing, failures = list(pending), 0
         while missing:
             try:
-                with ProcessPoolExecutor(max_workers=workers) as pool:
+                with ProcessPoolExecutor(max_workers=workers, initializer=set_process_threads,
+                                         initargs=(share,)) as pool:
                     futures = {pool.submit(fn, tasks[i]): i for i in missing}
                     while futures:
                         finished, _ = wait(futures, return_when=FIRST_COMPLETED)

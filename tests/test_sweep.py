@@ -58,6 +58,27 @@ def test_local_processes_equal_serial(serial):
     assert Executor(workers=2, progress=False).map(square_sim, TASKS, "local") == serial
 
 
+def batch_threads(_task):
+    """The threads a batched simulator gets by default in the process that runs this task."""
+    from mdr_drive_env.core import batch
+
+    return batch.default_threads(), batch.BatchedDriveSimulator(16).num_threads
+
+
+def test_local_workers_share_the_cores_among_their_batched_simulators():
+    """Two workers on this machine's cores: each worker's batched simulators take its share (one
+    thread each on two cores), and this process keeps its own default."""
+    from mdr_drive_env.core import batch
+    from mdr_drive_env.sweep import available_cores
+
+    here = batch.default_threads()
+    share = max(1, available_cores() // 2)
+    assert Executor(workers=2, progress=False).map(batch_threads, [0, 1, 2], "threads") == [(share, share)] * 3
+    assert batch.default_threads() == here
+    with pytest.raises(ValueError, match=r"threads=0 is outside the allowed range \[1, 256\]"):
+        batch.set_process_threads(0)
+
+
 def test_local_pool_replaces_a_dead_worker(tmp_path):
     tasks = [(i, str(tmp_path / "marker")) for i in range(6)]
     assert Executor(workers=2, progress=False).map(dies_once, tasks, "local") == [i * i for i in range(6)]

@@ -74,10 +74,29 @@ def advance_batch_serial(u, state, g, w, left, p1, p3, model, waveforms, period,
                       scratch, trace)
 
 
+#: Threads a batched simulator of this process uses by default when set (``set_process_threads``).
+_process_threads: int | None = None
+
+
 def default_threads() -> int:
-    """The cores available to this process, at most ``NUMBA_NUM_THREADS`` (which the Ray sweeps set to
-    1 per task, so that N CPUs run N tasks; ``mdr_drive_env.sweep``)."""
-    return max(1, min(len(os.sched_getaffinity(0)), numba.config.NUMBA_NUM_THREADS))
+    """The threads a batched simulator uses unless told: the cores available to this process, at most
+    ``NUMBA_NUM_THREADS`` (which the Ray sweeps set to 1 per task, so that N CPUs run N tasks;
+    ``mdr_drive_env.sweep``) and at most its share of the cores if one was set
+    (:func:`set_process_threads`)."""
+    cores = max(1, min(len(os.sched_getaffinity(0)), numba.config.NUMBA_NUM_THREADS))
+    return cores if _process_threads is None else min(cores, _process_threads)
+
+
+def set_process_threads(threads: int | None) -> None:
+    """Give every batched simulator of this process ``threads`` threads by default (None: the cores
+    available again). The sweeps' local workers set their share of the cores, so that N workers on N
+    cores do not each step their CMA-ES populations on N threads (docs/performance.md). Results do
+    not depend on the thread count."""
+    global _process_threads
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
+                                or not 1 <= threads <= MAX_THREADS):
+        raise ValueError(f"threads={threads!r} is outside the allowed range [1, {MAX_THREADS}]")
+    _process_threads = threads
 
 
 _helpers: ThreadPoolExecutor | None = None
