@@ -123,10 +123,10 @@ def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, varian
     """Per-period displacements (periods, n) (m) of open-loop drives (see :func:`open_loop_velocity`;
     ``points`` as :func:`point_params` takes them) and whether each ran away (n,).
 
-    Drives that play the same waveforms at the same point (after quantisation to ``time_quantum``:
-    the teacher's candidates share nodes' drives, and a search's samples share quanta) are simulated
-    once and their results copied: each drive of the batch runs on its own, so the results are
-    those of simulating every one."""
+    Drives that play the same waveforms at the same point once quantised to ``time_quantum`` (the
+    teacher's candidates, ``DriveField.best``, share nodes' drives) are simulated once and their
+    results copied: each drive of the batch runs on its own, so the results are those of simulating
+    every one."""
     actions = np.asarray(actions, dtype=np.float64)
     if actions.ndim < 3:
         actions = np.atleast_2d(actions)[:, None, :]

@@ -9,8 +9,9 @@ import mdr_drive_env  # noqa: F401  first: it pins numpy's BLAS kernels (mdr_dri
 import numpy as np
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
-from agents.distill import DistillConfig, find_holes
+from agents.distill import find_holes
 from agents.drive_field import DriveField
+from agents.evaluate import TIME_QUANTUM
 from agents.recipe import load_recipe
 from agents.student import Student
 from agents.teacher_data import draw_points, jump_points, labelled_episodes, teacher_drives
@@ -25,7 +26,7 @@ env_kwargs = run.get("env_kwargs", {})
 venv = VecNormalize.load(f"{policy_dir}/vecnormalize.pkl", DummyVecEnv([lambda: gym.make("MDRDrive-v0", **env_kwargs)]))
 student = Student(PPO.load(f"{policy_dir}/model.zip", device="cpu"), venv,
                   z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)),
-                  time_quantum=float(env_kwargs.get("time_quantum", 1e-5)))
+                  time_quantum=float(env_kwargs.get("time_quantum", TIME_QUANTUM)))
 
 
 def digest(*arrays) -> str:
