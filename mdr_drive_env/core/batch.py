@@ -74,6 +74,14 @@ def advance_batch_serial(u, state, g, w, left, p1, p3, model, waveforms, period,
                       scratch, trace)
 
 
+def check_threads(name: str, threads) -> int:
+    """``threads`` as an int, or a ``ValueError`` naming ``name`` unless it is an integer (not a bool)
+    in [1, ``MAX_THREADS``]."""
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or not 1 <= threads <= MAX_THREADS:
+        raise ValueError(f"{name}={threads!r} is outside the allowed range [1, {MAX_THREADS}]")
+    return int(threads)
+
+
 #: Threads a batched simulator of this process uses by default when set (``set_process_threads``).
 _process_threads: int | None = None
 
@@ -93,10 +101,7 @@ def set_process_threads(threads: int | None) -> None:
     cores do not each step their CMA-ES populations on N threads (docs/performance.md). Results do
     not depend on the thread count."""
     global _process_threads
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
-                                or not 1 <= threads <= MAX_THREADS):
-        raise ValueError(f"threads={threads!r} is outside the allowed range [1, {MAX_THREADS}]")
-    _process_threads = threads
+    _process_threads = None if threads is None else check_threads("threads", threads)
 
 
 _helpers: ThreadPoolExecutor | None = None
@@ -143,11 +148,7 @@ class BatchedDriveSimulator:
         if n < 1:
             raise ValueError(f"n={n!r} is outside the allowed range [1, inf)")
         self.n = n
-        self.num_threads = default_threads() if num_threads is None else num_threads
-        if isinstance(self.num_threads, bool) or not isinstance(self.num_threads, (int, np.integer)) or not (
-                1 <= self.num_threads <= MAX_THREADS):
-            raise ValueError(f"num_threads={num_threads!r} is outside the allowed range [1, {MAX_THREADS}]")
-        self.num_threads = int(self.num_threads)
+        self.num_threads = default_threads() if num_threads is None else check_threads("num_threads", num_threads)
         self.max_depth = float(max_depth)
         nodes = self.numerics.nodes
         self.g = node_positions(self.max_depth, nodes, self.numerics.node_power)
