@@ -136,10 +136,11 @@ def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, varian
     cycle = np.array([[[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
                        for p in (action_map.to_params(a) for a in actions[:, j])]
                       for j in range(actions.shape[1])]).reshape(actions.shape[1], len(points), 5)
+    point_keys = [tuple(map(float, point)) for point in points]
     drive_of, unique = {}, []  # drive_of: each drive's row among the simulated ones
     inverse = np.empty(len(points), dtype=np.int64)
-    for i, point in enumerate(points):
-        key = (tuple(map(float, point)), cycle[:, i].tobytes())
+    for i, point_key in enumerate(point_keys):
+        key = (point_key, cycle[:, i].tobytes())
         if key not in drive_of:
             drive_of[key] = len(unique)
             unique.append(i)
@@ -147,7 +148,7 @@ def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, varian
     sim = BatchedDriveSimulator(len(unique))
     params, first_of = [], {}  # the model is built once per distinct point (searches play many drives at one)
     for row, i in enumerate(unique):
-        key = tuple(map(float, points[i]))
+        key = point_keys[i]
         if key in first_of:
             sim.copy_params(row, first_of[key])
         else:
