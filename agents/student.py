@@ -24,9 +24,6 @@ if TYPE_CHECKING:
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
 EDGE = 0.999
 
-#: ``adam_fit`` zeroes the subnormal entries of Adam's moments every this many steps (``zero_subnormal_moments``).
-SUBNORMAL_SWEEP_STEPS = 16
-
 
 def policy_mean(policy, obs):
     """The Gaussian mean action of an SB3 PPO policy on (normalised) observations, as a torch tensor
@@ -89,42 +86,11 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
                    time_quantum=float(env_kwargs.get("time_quantum", TIME_QUANTUM)))
 
 
-def zero_subnormal_moments(optimizer) -> int:
-    """Set the subnormal entries (0 < |x| < the smallest normal float) of an Adam optimiser's moments
-    to zero; returns how many there were.
-
-    Where a weight's gradient stays zero (a ReLU unit inactive on every minibatch), Adam's first
-    moment decays by ``beta1`` a step into the subnormal range and sticks there: ``m - 0.1 m`` rounds
-    back to ``m`` for the smallest subnormals. x86 CPUs handle subnormal operands in microcode, about
-    ten times slower, so a fit with many such weights runs slower, though they move nothing: their
-    update, ``lr m / (sqrt(v) + eps)``, is below half the spacing of any float32 weight larger than
-    about 1e-24; a subnormal second moment's square root is below half the spacing of ``eps``; and
-    a later gradient larger than about 1e-30 absorbs either. So zeroing them leaves the weights
-    as they would have been (``tests/test_student.py`` checks it against a fit that keeps them; the
-    shipped recipe's student came out bit for bit, ``docs/performance.md``)."""
-    import torch
-
-    tiny = torch.finfo(torch.float32).tiny
-    zeroed = 0
-    with torch.no_grad():
-        for state in optimizer.state.values():
-            for key in ("exp_avg", "exp_avg_sq"):
-                moment = state.get(key)
-                if moment is None or moment.dtype != torch.float32:
-                    continue
-                subnormal = (moment.abs() < tiny) & (moment != 0)
-                zeroed += int(subnormal.sum())
-                moment.masked_fill_(subnormal, 0.0)
-    return zeroed
-
-
 def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str,
              progress: bool = True) -> float:
     """``steps`` Adam steps, the learning rate decaying linearly to zero; every epoch ``epoch()``
     gives ``(n, loss_of)``: its sample count and the loss of a minibatch of sample indices, visited
-    in a shuffled order. Every ``SUBNORMAL_SWEEP_STEPS`` steps the moments' subnormal entries are
-    zeroed (``zero_subnormal_moments``: the same weights, a faster fit). Returns the last epoch's
-    mean loss."""
+    in a shuffled order. Returns the last epoch's mean loss."""
     import torch
 
     opt = torch.optim.Adam(list(params), lr=learning_rate)
@@ -146,8 +112,6 @@ def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: 
             opt.step()
             sched.step()
             total, seen, done = total + float(loss.detach()) * len(idx), seen + len(idx), done + 1
-            if done % SUBNORMAL_SWEEP_STEPS == 0:
-                zero_subnormal_moments(opt)
             bar.update()
         bar.set_postfix(loss=f"{total / max(seen, 1):.2e}")
     bar.close()
@@ -169,5 +133,4 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["EDGE", "SUBNORMAL_SWEEP_STEPS", "Student", "adam_fit", "edge_loss", "make_student", "policy_mean", "save_student",
-           "zero_subnormal_moments"]
+__all__ = ["EDGE", "Student", "adam_fit", "edge_loss", "make_student", "policy_mean", "save_student"]
