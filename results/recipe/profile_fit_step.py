@@ -1,0 +1,77 @@
+"""Where a step of the student's fit goes: the shipped policy's actor, the recipe's batch, loss and
+Adam, on the recipe's torch thread count, timed and profiled (docs/performance.md).
+
+    PYTHONPATH=. python results/recipe/profile_fit_step.py [--steps 300] [--policy DIR] [--config YAML]
+
+The inputs are random normal observations (the time of a dense step does not depend on the
+values); the epoch's data preparation (``distill.fit``'s ``epoch``) is not included.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import torch
+import yaml
+from stable_baselines3 import PPO
+from torch.profiler import ProfilerActivity, profile
+
+from mdr_drive_agents.distill import DistillConfig
+from mdr_drive_agents.student import edge_loss, policy_mean
+
+
+def matmul_flops(layers: list[torch.nn.Linear], batch: int) -> int:
+    """Multiply-adds x 2 of one forward and backward pass: every layer's product and weight
+    gradient, and every layer's input gradient but the first's (its input needs none)."""
+    products = [batch * layer.in_features * layer.out_features for layer in layers]
+    return 2 * (2 * sum(products) + sum(products[1:]))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--steps", type=int, default=300, help="timed Adam steps (after 30 warm-up steps)")
+    ap.add_argument("--policy", default="agents/pretrained/ppo_generalist", help="folder of model.zip")
+    ap.add_argument("--config", default="agents/configs/recipe.yaml", help="the recipe YAML (batch, loss, threads)")
+    a = ap.parse_args()
+    with open(a.config) as f:
+        config = DistillConfig(**yaml.safe_load(f)["distill"])
+    torch.set_num_threads(config.torch_threads)
+    policy = PPO.load(f"{a.policy}/model.zip", device="cpu").policy
+    policy.set_training_mode(True)
+    params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
+    layers = [m for m in policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)] + [policy.action_net]
+    opt = torch.optim.Adam(params, lr=1e-6)
+    gen = torch.Generator().manual_seed(0)
+    x = torch.randn(config.batch, policy.observation_space.shape[0], generator=gen)
+    y = torch.randn(config.batch, policy.action_space.shape[0], generator=gen).clamp(-1, 1)
+
+    def step():
+        loss = edge_loss(policy_mean(policy, x), y, config.huber_delta)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+
+    for _ in range(30):
+        step()
+    start = time.perf_counter()
+    for _ in range(a.steps):
+        step()
+    seconds = (time.perf_counter() - start) / a.steps
+    with profile(activities=[ProfilerActivity.CPU]) as prof:
+        for _ in range(a.steps):
+            step()
+    by_op = {e.key: e.self_cpu_time_total for e in prof.key_averages()}
+    total = sum(by_op.values())
+    products = by_op.get("aten::mm", 0.0) + by_op.get("aten::addmm", 0.0)
+    flops = matmul_flops(layers, config.batch)
+    print(f"actor {[layer.out_features for layer in layers]}, batch {config.batch}, {config.torch_threads} torch threads")
+    print(f"{1 / seconds:.1f} Adam steps/s ({seconds * 1e3:.2f} ms a step), {flops / 1e9:.2f} GFLOP of matrix products a step")
+    print(f"profiled: matrix products (aten::mm, aten::addmm) {products / total:.1%} of the step's self CPU time, "
+          f"at {flops / (products / a.steps * 1e-6) / 1e9:.0f} GFLOP/s")
+    for key, value in sorted(by_op.items(), key=lambda kv: -kv[1])[:6]:
+        print(f"  {key}: {value / total:.1%}")
+
+
+if __name__ == "__main__":
+    main()
