@@ -2,14 +2,18 @@
 Adam, on the recipe's torch thread count, timed and profiled (docs/performance.md).
 
     PYTHONPATH=. python results/recipe/profile_fit_step.py [--steps 300] [--policy DIR] [--config YAML]
+        [--bf16] [--fused-adam]
 
 The inputs are random normal observations (the time of a dense step does not depend on the
-values); the epoch's data preparation (``distill.fit``'s ``epoch``) is not included.
+values); the epoch's data preparation (``distill.fit``'s ``epoch``) is not included. ``--bf16``
+and ``--fused-adam`` time the cheaper steps a new build could take (their weights differ from the
+recipe's: bfloat16 matrix products under ``torch.autocast``; ``torch.optim.Adam(fused=True)``).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import time
 
 import torch
@@ -33,6 +37,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=300, help="timed Adam steps (after 30 warm-up steps)")
     ap.add_argument("--policy", default="agents/pretrained/ppo_generalist", help="folder of model.zip")
     ap.add_argument("--config", default="agents/configs/recipe.yaml", help="the recipe YAML (batch, loss, threads)")
+    ap.add_argument("--bf16", action="store_true", help="bfloat16 matrix products (torch.autocast)")
+    ap.add_argument("--fused-adam", action="store_true", help="torch's fused Adam (other weights than the recipe's)")
     a = ap.parse_args()
     with open(a.config) as f:
         config = DistillConfig(**yaml.safe_load(f)["distill"])
@@ -41,13 +47,14 @@ def main() -> None:
     policy.set_training_mode(True)
     params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
     layers = [m for m in policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)] + [policy.action_net]
-    opt = torch.optim.Adam(params, lr=1e-6)
+    opt = torch.optim.Adam(params, lr=1e-6, fused=True if a.fused_adam else None)
     gen = torch.Generator().manual_seed(0)
     x = torch.randn(config.batch, policy.observation_space.shape[0], generator=gen)
     y = torch.randn(config.batch, policy.action_space.shape[0], generator=gen).clamp(-1, 1)
 
     def step():
-        loss = edge_loss(policy_mean(policy, x), y, config.huber_delta)
+        with torch.autocast("cpu", dtype=torch.bfloat16) if a.bf16 else contextlib.nullcontext():
+            loss = edge_loss(policy_mean(policy, x), y, config.huber_delta)
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -63,9 +70,10 @@ def main() -> None:
             step()
     by_op = {e.key: e.self_cpu_time_total for e in prof.key_averages()}
     total = sum(by_op.values())
-    products = by_op.get("aten::mm", 0.0) + by_op.get("aten::addmm", 0.0)
+    products = sum(by_op.get(op, 0.0) for op in ("aten::mm", "aten::addmm", "aten::linear"))
     flops = matmul_flops(layers, config.batch)
-    print(f"actor {[layer.out_features for layer in layers]}, batch {config.batch}, {config.torch_threads} torch threads")
+    print(f"actor {[layer.out_features for layer in layers]}, batch {config.batch}, {config.torch_threads} torch threads"
+          f"{', bfloat16 products' if a.bf16 else ''}{', fused Adam' if a.fused_adam else ''}")
     print(f"{1 / seconds:.1f} Adam steps/s ({seconds * 1e3:.2f} ms a step), {flops / 1e9:.2f} GFLOP of matrix products a step")
     print(f"profiled: matrix products (aten::mm, aten::addmm) {products / total:.1%} of the step's self CPU time, "
           f"at {flops / (products / a.steps * 1e-6) / 1e9:.0f} GFLOP/s")
