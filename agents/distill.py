@@ -71,6 +71,11 @@ class DistillConfig:
         perturbed_share: share of the samples whose previous action is perturbed in each epoch (-).
         log_std: the policy's log standard deviation after distillation (for PPO fine-tuning) (-).
         torch_threads: torch threads of the fit (-).
+        bf16_share: share of each fit's Adam steps (the first ones) whose matrix products run in
+            bfloat16 (``torch.autocast``; the weights, the optimiser and the last steps stay float32):
+            faster on CPUs with AVX-512 BF16 or AMX, slower on CPUs without (0: off) (-).
+        fused_adam: torch's fused Adam (one pass over the weights a step; the same update up to
+            rounding, so other weights than the default's) (-).
         hole_rounds: rounds that look for where the student falls short of the teacher and add the
             teacher's episodes there (module docstring) (-).
         hole_probes: random points per hole round where the student and the teacher drive (-).
@@ -124,6 +129,8 @@ class DistillConfig:
     perturbed_share: float = 0.5
     log_std: float = -3.0
     torch_threads: int = 1
+    bf16_share: float = 0.0
+    fused_adam: bool = False
     teacher_radius: int = 1
     hole_rounds: int = 0
     hole_probes: int = 4096
@@ -157,6 +164,7 @@ class DistillConfig:
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
         check_range("perturbed_share", self.perturbed_share, 0.0, 1.0)
+        check_range("bf16_share", self.bf16_share, 0.0, 1.0)
         check_range("load_factor", self.load_factor, 0.0, 5.0, low_open=True)
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         check_range("hole_learning_rate", self.hole_learning_rate, 0.0, 1.0, low_open=True)
@@ -176,6 +184,8 @@ class DistillConfig:
             check_range(f"{name}[1]", band[1], band[0], 1.0, low_open=True)
         if not isinstance(self.quantum_centres, bool):
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
+        if not isinstance(self.fused_adam, bool):
+            raise ValueError(f"fused_adam={self.fused_adam!r} must be true or false")
 
     def focus_bands(self) -> list[tuple[int, tuple[float, float]]]:
         """Round 0's extra episodes: (points, (k low, k high)) per band in use, in drawing order."""
@@ -212,7 +222,8 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
 
     policy.set_training_mode(True)
     loss = adam_fit([*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()], epoch, steps,
-                    config.batch, learning_rate or config.learning_rate, seed, "distill: fit", progress)
+                    config.batch, learning_rate or config.learning_rate, seed, "distill: fit", progress,
+                    bf16_share=config.bf16_share, fused=config.fused_adam)
     policy.set_training_mode(False)
     return loss
 

@@ -87,15 +87,20 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
 
 
 def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str,
-             progress: bool = True) -> float:
+             progress: bool = True, bf16_share: float = 0.0, fused: bool = False) -> float:
     """``steps`` Adam steps, the learning rate decaying linearly to zero; every epoch ``epoch()``
     gives ``(n, loss_of)``: its sample count and the loss of a minibatch of sample indices, visited
-    in a shuffled order. Returns the last epoch's mean loss."""
+    in a shuffled order. The first ``bf16_share`` of the steps compute the loss under bfloat16
+    autocast (matrix products in bfloat16, the weights and the optimiser in float32), the rest in
+    float32; ``fused``: torch's fused Adam. Returns the last epoch's mean loss."""
+    import contextlib
+
     import torch
 
-    opt = torch.optim.Adam(list(params), lr=learning_rate)
+    opt = torch.optim.Adam(list(params), lr=learning_rate, fused=True if fused else None)
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: max(1.0 - s / steps, 0.0))
     gen = torch.Generator().manual_seed(seed)
+    low_precision_steps = int(round(bf16_share * steps))
     done, total, seen = 0, 0.0, 0
     bar = tqdm(total=steps, desc=desc, unit="step", disable=not progress, mininterval=2.0)
     while done < steps:
@@ -106,7 +111,9 @@ def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: 
             if done >= steps:
                 break
             idx = perm[i:i + batch]
-            loss = loss_of(idx)
+            with (torch.autocast("cpu", dtype=torch.bfloat16) if done < low_precision_steps
+                  else contextlib.nullcontext()):
+                loss = loss_of(idx)
             opt.zero_grad()
             loss.backward()
             opt.step()

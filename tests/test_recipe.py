@@ -267,6 +267,10 @@ def test_configs_reject_bad_values_naming_them():
         DistillConfig(huber_delta=-1.0)
     with pytest.raises(ValueError, match="jump_levels"):
         DistillConfig(jump_levels=-1)
+    with pytest.raises(ValueError, match=r"bf16_share=1\.5 is outside the allowed range \[0, 1\]"):
+        DistillConfig(bf16_share=1.5)
+    with pytest.raises(ValueError, match="fused_adam='yes' must be true or false"):
+        DistillConfig(fused_adam="yes")
     with pytest.raises(ValueError, match="jump_threshold"):
         DistillConfig(jump_threshold=0.0)
     with pytest.raises(ValueError, match="polish"):
@@ -749,6 +753,30 @@ def test_a_student_in_a_finer_time_quantum_env_is_played_and_probed_there():
     student.act = lambda obs: np.tile(off, (len(obs), 1))  # the hole round measures it in its own env
     np.testing.assert_allclose(student_velocity(student, point)[0],
                                rollout(point, np.zeros((1, 2, 5)), student.act, 30, time_quantum=5e-6)[2][-10:].mean() / 2e-3)
+
+
+def test_a_fit_runs_its_first_steps_in_bfloat16_and_the_rest_in_float32():
+    import torch
+
+    from mdr_drive_agents.student import adam_fit
+
+    torch.manual_seed(0)
+    net = torch.nn.Sequential(torch.nn.Linear(3, 32), torch.nn.ReLU(), torch.nn.Linear(32, 1))
+    x = torch.randn(512, 3)
+    y = (x[:, :1] > 0).float()
+    dtypes = []
+
+    def loss_of(idx):
+        out = net(x[idx])
+        dtypes.append(out.dtype)
+        return torch.mean((out.float() - y[idx]) ** 2)
+
+    first = float(torch.mean((net(x) - y) ** 2))
+    last = adam_fit(net.parameters(), lambda: (len(x), loss_of), 40, 64, 1e-2, 0, "test", progress=False,
+                    bf16_share=0.75, fused=True)
+    assert dtypes == [torch.bfloat16] * 30 + [torch.float32] * 10
+    assert all(p.dtype == torch.float32 for p in net.parameters())  # the weights stay float32
+    assert last < first
 
 
 def test_drive_difference_compares_cycles_in_their_closest_phase():
