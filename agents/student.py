@@ -86,6 +86,16 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
                    time_quantum=float(env_kwargs.get("time_quantum", TIME_QUANTUM)))
 
 
+def bf16_products(on: bool):
+    """A context in which torch's matrix products run in bfloat16 (``torch.autocast``; the weights and
+    the optimiser stay float32), or, with ``on`` false, one that changes nothing."""
+    import contextlib
+
+    import torch
+
+    return torch.autocast("cpu", dtype=torch.bfloat16) if on else contextlib.nullcontext()
+
+
 def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str,
              progress: bool = True, bf16_share: float = 0.0, fused: bool = False) -> float:
     """``steps`` Adam steps, the learning rate decaying linearly to zero; every epoch ``epoch()``
@@ -93,8 +103,6 @@ def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: 
     in a shuffled order. The first ``bf16_share`` of the steps compute the loss under bfloat16
     autocast (matrix products in bfloat16, the weights and the optimiser in float32), the rest in
     float32; ``fused``: torch's fused Adam. Returns the last epoch's mean loss."""
-    import contextlib
-
     import torch
 
     opt = torch.optim.Adam(list(params), lr=learning_rate, fused=True if fused else None)
@@ -111,8 +119,7 @@ def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: 
             if done >= steps:
                 break
             idx = perm[i:i + batch]
-            with (torch.autocast("cpu", dtype=torch.bfloat16) if done < low_precision_steps
-                  else contextlib.nullcontext()):
+            with bf16_products(done < low_precision_steps):
                 loss = loss_of(idx)
             opt.zero_grad()
             loss.backward()
@@ -140,4 +147,4 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["EDGE", "Student", "adam_fit", "edge_loss", "make_student", "policy_mean", "save_student"]
+__all__ = ["EDGE", "Student", "adam_fit", "bf16_products", "edge_loss", "make_student", "policy_mean", "save_student"]

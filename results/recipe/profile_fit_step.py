@@ -13,16 +13,14 @@ recipe's: bfloat16 matrix products under ``torch.autocast``; ``torch.optim.Adam(
 from __future__ import annotations
 
 import argparse
-import contextlib
 import time
 
 import torch
-import yaml
 from stable_baselines3 import PPO
 from torch.profiler import ProfilerActivity, profile
 
-from mdr_drive_agents.distill import DistillConfig
-from mdr_drive_agents.student import edge_loss, policy_mean
+from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
+from mdr_drive_agents.student import bf16_products, edge_loss, policy_mean
 
 
 def matmul_flops(layers: list[torch.nn.Linear], batch: int) -> int:
@@ -36,12 +34,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--steps", type=int, default=300, help="timed Adam steps (after 30 warm-up steps)")
     ap.add_argument("--policy", default="agents/pretrained/ppo_generalist", help="folder of model.zip")
-    ap.add_argument("--config", default="agents/configs/recipe.yaml", help="the recipe YAML (batch, loss, threads)")
+    ap.add_argument("--config", default=DEFAULT_CONFIG, help="the recipe YAML (batch, loss, threads)")
     ap.add_argument("--bf16", action="store_true", help="bfloat16 matrix products (torch.autocast)")
     ap.add_argument("--fused-adam", action="store_true", help="torch's fused Adam (other weights than the recipe's)")
     a = ap.parse_args()
-    with open(a.config) as f:
-        config = DistillConfig(**yaml.safe_load(f)["distill"])
+    config = load_recipe(a.config)["distill"]
     torch.set_num_threads(config.torch_threads)
     policy = PPO.load(f"{a.policy}/model.zip", device="cpu").policy
     policy.set_training_mode(True)
@@ -53,7 +50,7 @@ def main() -> None:
     y = torch.randn(config.batch, policy.action_space.shape[0], generator=gen).clamp(-1, 1)
 
     def step():
-        with torch.autocast("cpu", dtype=torch.bfloat16) if a.bf16 else contextlib.nullcontext():
+        with bf16_products(a.bf16):
             loss = edge_loss(policy_mean(policy, x), y, config.huber_delta)
         opt.zero_grad()
         loss.backward()
@@ -75,7 +72,7 @@ def main() -> None:
     print(f"actor {[layer.out_features for layer in layers]}, batch {config.batch}, {config.torch_threads} torch threads"
           f"{', bfloat16 products' if a.bf16 else ''}{', fused Adam' if a.fused_adam else ''}")
     print(f"{1 / seconds:.1f} Adam steps/s ({seconds * 1e3:.2f} ms a step), {flops / 1e9:.2f} GFLOP of matrix products a step")
-    print(f"profiled: matrix products (aten::mm, aten::addmm) {products / total:.1%} of the step's self CPU time, "
+    print(f"profiled: matrix products (aten::mm, aten::addmm, aten::linear) {products / total:.1%} of the step's self CPU time, "
           f"at {flops / (products / a.steps * 1e-6) / 1e9:.0f} GFLOP/s")
     for key, value in sorted(by_op.items(), key=lambda kv: -kv[1])[:6]:
         print(f"  {key}: {value / total:.1%}")
