@@ -192,31 +192,39 @@ class DistillConfig:
         return [(getattr(self, count), tuple(getattr(self, band))) for count, band in FOCUS_KEYS if getattr(self, count)]
 
 
+def epoch_samples(obs: np.ndarray, drives: np.ndarray, rng: np.random.Generator,
+                  perturbed_share: float) -> tuple[np.ndarray, np.ndarray]:
+    """One epoch's inputs and labels from the teacher's episodes ``obs`` (n, 14 or 16) and each
+    sample's drive ``drives`` (n, 2, 5): a ``perturbed_share`` of the previous actions replaced
+    (``perturb_previous_actions``), each entry of the slider's motion and the episode's elapsed
+    fraction taken from another sample (the teacher's action does not depend on them, and with the
+    entries as recorded the student read the drive off the slider's velocity, which its own drive
+    then changed), and the label: the action each drive plays after that previous action
+    (``cycle_action``). Returns the inputs (unnormalised, float) and labels (n, 5)."""
+    structure = ObservationLayout.structure  # the privileged layout has the same entries first
+    prev_slice = structure["previous_action"]
+    x = perturb_previous_actions(obs, drives, rng, perturbed_share, prev_slice)
+    y = cycle_action(drives, x[:, prev_slice])
+    for column in [*range(*structure["dynamics"].indices(obs.shape[1])),
+                   *range(*structure["episode_fraction"].indices(obs.shape[1]))]:
+        x[:, column] = x[rng.permutation(len(x)), column]
+    return x, y
+
+
 def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, config: DistillConfig, seed: int,
         progress: bool = True, learning_rate: float | None = None) -> float:
     """Fit the student's mean action to the teacher's (``cycle_action`` of each sample's drive after
     its previous action) on normalised ``obs``, ``steps`` Adam steps with the learning rate
-    (``config.learning_rate`` unless given) decaying linearly to zero; returns the last epoch's mean loss.
-
-    Every epoch, each entry of the slider's motion and the episode's elapsed fraction is taken from
-    another sample: the teacher's action does not depend on them, and with the entries as recorded
-    the student read the drive off the slider's velocity, which its own drive then changed. And a
-    ``config.perturbed_share`` of the samples get another previous action
-    (``perturb_previous_actions``)."""
+    (``config.learning_rate`` unless given) decaying linearly to zero; returns the last epoch's mean
+    loss. Each epoch's samples: :func:`epoch_samples` with ``config.perturbed_share``."""
     import torch
 
-    structure = ObservationLayout.structure  # the privileged layout has the same entries first
-    shuffled = [*range(*structure["dynamics"].indices(obs.shape[1])),
-                *range(*structure["episode_fraction"].indices(obs.shape[1]))]
-    prev_slice = structure["previous_action"]
     policy = student.model.policy
     rng = np.random.default_rng(seed)
 
     def epoch():
-        x = perturb_previous_actions(obs, drives, rng, config.perturbed_share, prev_slice)
-        y = torch.as_tensor(cycle_action(drives, x[:, prev_slice]), dtype=torch.float32)
-        for column in shuffled:
-            x[:, column] = x[rng.permutation(len(x)), column]
+        x, y = epoch_samples(obs, drives, rng, config.perturbed_share)
+        y = torch.as_tensor(y, dtype=torch.float32)
         x = torch.as_tensor(student.venv.normalize_obs(x.astype(np.float64)), dtype=torch.float32)
         return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx], config.huber_delta)
 
@@ -379,5 +387,5 @@ def validation_fraction(student: Student, points, v_teacher: np.ndarray, moving:
             "val_below_teacher": int((v < v_teacher - 0.05e-3).sum())}
 
 
-__all__ = ["FOCUS_KEYS", "DistillConfig", "check_stall_probes", "distill", "find_holes", "fit", "hole_round", "student_velocity",
-           "validation_fraction"]
+__all__ = ["FOCUS_KEYS", "DistillConfig", "check_stall_probes", "distill", "epoch_samples", "find_holes", "fit",
+           "hole_round", "student_velocity", "validation_fraction"]

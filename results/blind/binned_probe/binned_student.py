@@ -112,11 +112,9 @@ def fit_binned(a) -> None:
     import torch
 
     from mdr_drive_agents import checkpoint
-    from mdr_drive_agents.cycles import cycle_action
+    from mdr_drive_agents.distill import epoch_samples
     from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
     from mdr_drive_agents.student import adam_fit, make_student
-    from mdr_drive_agents.teacher_data import perturb_previous_actions
-    from mdr_drive_env.gym_envs.spaces import ObservationLayout
 
     recipe = load_recipe(DEFAULT_CONFIG)
     cfg = recipe["distill"]
@@ -129,17 +127,11 @@ def fit_binned(a) -> None:
     print(f"round-0 samples: {len(obs)}", flush=True)
     model = BinnedNet(obs.shape[1], a.bins, cfg.net_arch, seed, offsets=not a.no_offsets)
     model.obs_mean, model.obs_var = student.venv.obs_rms.mean.copy(), student.venv.obs_rms.var.copy()
-    structure = ObservationLayout.structure
-    shuffled = [*range(*structure["dynamics"].indices(obs.shape[1])),
-                *range(*structure["episode_fraction"].indices(obs.shape[1]))]
-    prev_slice = structure["previous_action"]
     rng = np.random.default_rng(seed)
 
     def epoch():
-        x = perturb_previous_actions(obs, drives, rng, cfg.perturbed_share, prev_slice)
-        y = np.clip(cycle_action(drives, x[:, prev_slice]), -1.0, 1.0)
-        for column in shuffled:
-            x[:, column] = x[rng.permutation(len(x)), column]
+        x, y = epoch_samples(obs, drives, rng, cfg.perturbed_share)
+        y = np.clip(y, -1.0, 1.0)
         b = model.bin_of(y)
         t = (y - model.centres[b]) / model.width  # offset targets (unused without offsets)
         x = torch.as_tensor(model.normalise(x.astype(np.float64)), dtype=torch.float32)

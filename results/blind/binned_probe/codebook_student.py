@@ -100,12 +100,10 @@ def fit_codebook(a) -> None:
     import torch
 
     from mdr_drive_agents.evaluate import ACTION_MAP
-    from mdr_drive_agents.cycles import cycle_action
+    from mdr_drive_agents.distill import epoch_samples
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
     from mdr_drive_agents.student import adam_fit
-    from mdr_drive_agents.teacher_data import perturb_previous_actions
-    from mdr_drive_env.gym_envs.spaces import ObservationLayout
 
     recipe = load_recipe(DEFAULT_CONFIG)
     cfg = recipe["distill"]
@@ -121,17 +119,11 @@ def fit_codebook(a) -> None:
     model = CodebookNet(obs.shape[1], codebook, cfg.net_arch, seed)
     obs64 = obs.astype(np.float64)
     model.obs_mean, model.obs_var = obs64.mean(axis=0), obs64.var(axis=0)
-    structure = ObservationLayout.structure
-    shuffled = [*range(*structure["dynamics"].indices(obs.shape[1])),
-                *range(*structure["episode_fraction"].indices(obs.shape[1]))]
-    prev_slice = structure["previous_action"]
     rng = np.random.default_rng(seed)
 
     def epoch():
-        x = perturb_previous_actions(obs, drives, rng, cfg.perturbed_share, prev_slice)
-        y = torch.as_tensor(model.classes(cycle_action(drives, x[:, prev_slice])))
-        for column in shuffled:
-            x[:, column] = x[rng.permutation(len(x)), column]
+        x, y = epoch_samples(obs, drives, rng, cfg.perturbed_share)
+        y = torch.as_tensor(model.classes(y))
         x = torch.as_tensor(model.normalise(x.astype(np.float64)), dtype=torch.float32)
         return len(x), lambda idx: torch.nn.functional.cross_entropy(model.net(x[idx]), y[idx])
 
