@@ -35,6 +35,8 @@ def main():
                         "(teacher_check.py --cycle-scan-file JSON: k, best_cycle_kg)")
     p.add_argument("--radius", type=int, default=2, help="the recipe's teacher_radius")
     a = p.parse_args()
+    if not a.cycle_scans and (a.seed is None or a.scan_seed is None):
+        p.error("--seed and --scan-seed are required (or --cycle-scans)")
     from mdr_drive_agents.blind import MOVING_THRESHOLD, draw_points, in_k_cells
     from mdr_drive_agents.drive_field import DriveField
     from mdr_drive_agents.evaluate import critical_loads_grid
