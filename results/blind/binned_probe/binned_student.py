@@ -13,6 +13,7 @@ the label's bin plus the squared error of its offset. No hole round: compare wit
     python results/blind/binned_probe/binned_student.py line NET.pt LOW HIGH --ks 40       # critical load / teacher's
     python results/blind/binned_probe/binned_student.py scan NET.pt --ks 480 --scan-seed S
     python results/blind/binned_probe/binned_student.py points NET.pt --n 2000 --seed S     # velocity / teacher's
+    python results/blind/binned_probe/binned_student.py stored NET.pt BLIND.json ... [--scans]  # at stored blind points
 
 Run from the repository's root; CKPT is ``OUT/.tasks/student_round0.pkl`` of a recipe run, copied out
 (``runs/r0diag/student_round0.pkl``: F1s1's).
@@ -208,6 +209,42 @@ def points_against_teacher(model, n: int, seed: int) -> None:
               f"trapezoid {1e3 * trap[i]:.2f} mm/s", flush=True)
 
 
+def against_stored_search(model, files, scans: bool = False) -> None:
+    """The blind benchmark's velocity statistics (``blind.velocity_statistics``: against the stored
+    trapezoid and search's best drive) of ``model`` at the points of stored ``blind.json`` files,
+    beside those of the policies stored there; with ``scans``, also its critical load over the stored
+    best cycle's at the stored scan's k."""
+    import json
+
+    from mdr_drive_agents.blind import velocity_statistics
+
+    keys = ("points_below_trapezoid", "points_scored", "fraction_of_best_mean", "fraction_of_best_min",
+            "points_under_fraction_target")
+    for name in files:
+        d = json.loads(Path(name).read_text())
+        points = [tuple(p) for p in d["points"]]
+        trap = np.array(d["trapezoid"], dtype=float)
+        best = np.array([b["velocity"] for b in d["best"]])
+        stats = velocity_statistics(trap, best, velocity_fn(model)(points))
+        print(f"{name}: it " + ", ".join(f"{k} {stats[k]:.4g}" if isinstance(stats[k], float) else f"{k} {stats[k]}"
+                                          for k in keys), flush=True)
+        for policy, st in d["statistics"].items():
+            print(f"  stored {policy}: " + ", ".join(f"{k} {st[k]:.4g}" if isinstance(st[k], float) else f"{k} {st[k]}"
+                                                    for k in keys), flush=True)
+        if scans:
+            from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET
+            from mdr_drive_agents.evaluate import critical_loads_grid
+
+            c = d["critical_load_kg"]
+            ks, cycle = [float(k) for k in c["k"]], np.array(c["best cycle"])
+            crit = critical_loads_grid(ks, velocity_fn(model))
+            mine = np.array([crit[k] for k in ks]) / cycle
+            print(f"  critical load over the best cycle's at its {len(ks)} k: it min {mine.min():.3f}, "
+                  f"{int((mine >= CRITICAL_LOAD_TARGET).sum())} at >= {CRITICAL_LOAD_TARGET}; stored: "
+                  + ", ".join(f"{p} min {np.min(np.array(v) / cycle):.3f}" for p, v in c.items()
+                              if p not in ("k", "trapezoid", "best cycle")), flush=True)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -232,6 +269,10 @@ def main():
     pt.add_argument("net")
     pt.add_argument("--n", type=int, default=2000)
     pt.add_argument("--seed", type=int, required=True)
+    st = sub.add_parser("stored", help="velocity statistics at the points of stored blind benchmarks")
+    st.add_argument("net")
+    st.add_argument("files", nargs="+", help="blind.json files (mdr-drive benchmark --blind)")
+    st.add_argument("--scans", action="store_true", help="also the critical load at each file's scanned k")
     a = p.parse_args()
     if a.cmd == "fit":
         return fit_binned(a)
@@ -247,6 +288,8 @@ def main():
     elif a.cmd == "scan":
         ks = [float(round(k, 6)) for k in in_k_cells(np.random.default_rng(a.scan_seed).uniform(size=a.ks), (0.0, 0.6))]
         critical_against_teacher(model, ks, f"scan seed {a.scan_seed}, {a.ks} k")
+    elif a.cmd == "stored":
+        against_stored_search(model, a.files, a.scans)
     else:
         points_against_teacher(model, a.n, a.seed)
 
