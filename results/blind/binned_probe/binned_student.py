@@ -155,17 +155,17 @@ def fit_binned(a) -> None:
 
 
 def velocity_fn(model: "BinnedNet"):
-    from mdr_drive_agents.evaluate import steady_velocity_of
+    """``points -> steady velocities`` of ``model`` closed loop, as the recipe measures its student
+    (``distill.student_velocity``), in the recipe's env."""
+    from types import SimpleNamespace
+
+    from mdr_drive_agents.distill import student_velocity
     from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
-    from mdr_drive_agents.teacher_data import rollout
 
     env_kwargs = load_recipe(DEFAULT_CONFIG)["env_kwargs"]
-
-    def velocity(points):
-        _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), model.act, 30,
+    player = SimpleNamespace(act=model.act, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)),
                              time_quantum=float(env_kwargs["time_quantum"]))
-        return steady_velocity_of(disp)
-    return velocity
+    return lambda points: student_velocity(player, points)
 
 
 def critical_against_teacher(model, ks, label: str) -> None:
@@ -232,17 +232,14 @@ def against_stored_search(model, files, scans: bool = False) -> None:
             print(f"  stored {policy}: " + ", ".join(f"{k} {st[k]:.4g}" if isinstance(st[k], float) else f"{k} {st[k]}"
                                                     for k in keys), flush=True)
         if scans:
-            from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET
-            from mdr_drive_agents.evaluate import critical_loads_grid
+            from mdr_drive_agents.blind import CRITICAL_LOAD_TARGET, critical_load_on_scan, stored_scan
 
-            c = d["critical_load_kg"]
-            ks, cycle = [float(k) for k in c["k"]], np.array(c["best cycle"])
-            crit = critical_loads_grid(ks, velocity_fn(model))
-            mine = np.array([crit[k] for k in ks]) / cycle
-            print(f"  critical load over the best cycle's at its {len(ks)} k: it min {mine.min():.3f}, "
-                  f"{int((mine >= CRITICAL_LOAD_TARGET).sum())} at >= {CRITICAL_LOAD_TARGET}; stored: "
-                  + ", ".join(f"{p} min {np.min(np.array(v) / cycle):.3f}" for p, v in c.items()
-                              if p not in ("k", "trapezoid", "best cycle")), flush=True)
+            scan = stored_scan(d)
+            mine = critical_load_on_scan(velocity_fn(model), scan)
+            print(f"  critical load over the best cycle's at its {mine['scanned']} k: it min {mine['min']:.3f}, "
+                  f"{mine['at_target']} at >= {CRITICAL_LOAD_TARGET}; stored: "
+                  + ", ".join(f"{policy} min {st['critical_load_over_best_cycle_min']:.3f}"
+                              for policy, st in d["statistics"].items()), flush=True)
 
 
 def main():

@@ -84,15 +84,19 @@ def round0_episodes(field, cfg, seed: int, time_quantum: float):
     import mdr_drive_agents.teacher_data as td
     from node_teacher import node_best
 
+    recipe_teacher = td.teacher_drives  # jump bisection asks the module's teacher: the node teacher for this call
     td.teacher_drives = lambda field_, points, config: node_best(field_, points, config.teacher_radius)
-    rng = np.random.default_rng(seed)
-    points = td.draw_points(field, cfg.points, rng, cfg)
-    for n, band in cfg.focus_bands():
-        points += td.draw_points(field, n, rng, cfg, k_range=band)
-    drives, _ = td.teacher_drives(field, points, cfg)
-    extra, extra_drives = td.jump_points(field, points, drives, cfg)
-    points, drives = points + extra, np.concatenate([drives, extra_drives])
-    obs, sample_drives = td.labelled_episodes(field, points, None, cfg, seed, 0.0, time_quantum, drives=drives)
+    try:
+        rng = np.random.default_rng(seed)
+        points = td.draw_points(field, cfg.points, rng, cfg)
+        for n, band in cfg.focus_bands():
+            points += td.draw_points(field, n, rng, cfg, k_range=band)
+        drives, _ = td.teacher_drives(field, points, cfg)
+        extra, extra_drives = td.jump_points(field, points, drives, cfg)
+        points, drives = points + extra, np.concatenate([drives, extra_drives])
+        obs, sample_drives = td.labelled_episodes(field, points, None, cfg, seed, 0.0, time_quantum, drives=drives)
+    finally:
+        td.teacher_drives = recipe_teacher
     return obs, sample_drives, len(extra)
 
 
