@@ -404,3 +404,40 @@ def test_observation_structure_names_the_entries():
     assert obs[s["load_over_10N"]][0] == np.float32(info["load_force"] / 10.0)
     covered = sorted(i for sl in s.values() for i in range(*sl.indices(obs.size)))
     assert covered == list(range(obs.size))  # every entry named once
+
+
+def test_a_codebook_action_plays_its_row_and_the_envs_stay_checker_clean(tmp_path):
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    table = np.random.default_rng(4).uniform(-1.0, 1.0, (6, 5))
+    np.save(tmp_path / "table.npy", table)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make("MDRDrive-v0", max_periods=5, action_codebook=table).unwrapped)
+        sb3_check_env(gym.make("MDRDrive-v0", max_periods=5, action_codebook=table).unwrapped)
+    picks = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.05, action_codebook=str(tmp_path / "table.npy"))
+    boxes = gym.make("MDRDrive-v0", k=0.3, cargo_mass=0.05)
+    assert picks.action_space == gym.spaces.Discrete(6)
+    a, b = picks.reset(seed=1)[0], boxes.reset(seed=1)[0]
+    for i in (2, 5, 5, 0):
+        a, ra, *_ = picks.step(np.int64(i))
+        b, rb, *_ = boxes.step(table[i])
+        assert np.array_equal(a, b) and ra == rb  # the observation holds the row played: unchanged
+    vec = gym.make_vec("MDRDrive-v0", num_envs=2, vectorization_mode="vector_entry_point", k=0.3, cargo_mass=0.05,
+                       action_codebook=table)
+    vec.reset(seed=1)
+    obs, rewards, *_ = vec.step(np.array([2, 5]))
+    boxes.reset(seed=1)
+    assert rewards[0] == boxes.step(table[2])[1]
+    assert np.array_equal(obs[1, 5:10], table[5].astype(np.float32))
+    picks = pickle.loads(pickle.dumps(picks))
+    for bad in (6, -1, 1.5):
+        with pytest.raises(ValueError, match="codebook action"):
+            picks.step(bad)
+    with pytest.raises(ValueError, match="codebook action"):
+        vec.step(np.array([0, 6]))
+    for bad_table, message in ((np.zeros((3, 4)), "shape"), (np.full((3, 5), 1.5), "range"),
+                               (str(tmp_path / "missing.npy"), "missing.npy")):
+        with pytest.raises(ValueError, match=f"action_codebook.*{message}"):
+            gym.make("MDRDrive-v0", action_codebook=bad_table)

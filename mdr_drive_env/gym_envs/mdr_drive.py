@@ -15,7 +15,8 @@ from ..core.materials import normal_force_analytic
 from ..core.params import VARIANTS
 from ..core.waveform import PAPER_X, PAPER_Z, Waveform
 from .sensor import SensorHistory
-from .spaces import ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, sample_range
+from .spaces import (ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, codebook_rows, load_action_codebook,
+                     sample_range)
 
 
 #: The observation modes (``observation=``) and their layouts; the sensor layout depends on ``history``.
@@ -97,6 +98,12 @@ class MDRDriveEnv(gym.Env):
     that divides the period is allowed; a policy's ``run.json`` keeps it, and ``mdr-drive evaluate``
     plays it in such an env). Actions outside the box are clipped; a non-finite action raises
     ``ValueError``. ``env.unwrapped.trapezoid_action()`` is the paper's waveform (Fig. 2) exactly.
+
+    **Codebook actions** (``action_codebook=``, an (N, 5) table of Box actions or the path of a
+    ``.npy`` file holding one): ``Discrete(N)`` instead, action i plays the table's row i. The
+    observation is unchanged (its previous-action entries hold the row played). For a policy that
+    picks whole drives from a fixed set instead of regressing one (the shipped policy picks among
+    its teacher grid's drives, ``action_codebook.npy`` beside its ``model.zip``).
 
     Waveforms stay continuous across period boundaries: x starts and ends every period at 0; if a
     new z amplitude or phase makes z start at another depth than the last period ended, the jump is
@@ -205,15 +212,16 @@ class MDRDriveEnv(gym.Env):
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
     ``max_rise_fraction``, ``z_phase_origin`` (fraction of T, in [0, 1)), ``time_quantum`` (s), ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
     (``"full"``, the default, ``"sensor"`` or ``"privileged"``), ``history`` (periods in the sensor observation),
-    ``sensor_forces`` (bool), ``load_step_period`` (int or (low, high), or None), ``render_mode``
+    ``sensor_forces`` (bool), ``load_step_period`` (int or (low, high), or None), ``action_codebook``
+    ((N, 5) array or ``.npy`` path, or None), ``render_mode``
     (``"rgb_array"`` or ``"human"``). ``friction_coefficient`` and ``base_friction_coefficient`` take
     a float or a (low, high) range. Bad values raise ``ValueError`` naming the argument.
 
     ## Version History
 
     * v0: initial version; later within v0: the sensor observation, friction ranges, load steps,
-      ``MDRDriveSensor-v0``, the privileged observation, ``z_phase_origin`` and ``time_quantum`` (the
-      full observation, the action map and the defaults are unchanged).
+      ``MDRDriveSensor-v0``, the privileged observation, ``z_phase_origin``, ``time_quantum`` and
+      ``action_codebook`` (the full observation, the action map and the defaults are unchanged).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -250,6 +258,7 @@ class MDRDriveEnv(gym.Env):
         history: int = 4,
         sensor_forces: bool = False,
         load_step_period: int | tuple[int, int] | None = None,
+        action_codebook=None,
         render_mode: str | None = None,
     ):
         self.k_range = sample_range("k", k, 0.0, 1.0, high_open=True)
@@ -288,7 +297,9 @@ class MDRDriveEnv(gym.Env):
                                     z_amplitude_max=z_amplitude_max, min_rise_fraction=min_rise_fraction,
                                     max_rise_fraction=max_rise_fraction, time_step=self.numerics.time_step,
                                     time_quantum=float(time_quantum), z_phase_origin=z_phase_origin)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(ActionMap.SIZE,), dtype=np.float32)
+        self.action_codebook = load_action_codebook(action_codebook)
+        self.action_space = (spaces.Box(-1.0, 1.0, shape=(ActionMap.SIZE,), dtype=np.float32)
+                             if self.action_codebook is None else spaces.Discrete(len(self.action_codebook)))
         if observation not in OBSERVATIONS:
             raise ValueError(f"observation={observation!r} is not one of {list(OBSERVATIONS)}")
         self.observation = observation
@@ -358,6 +369,13 @@ class MDRDriveEnv(gym.Env):
         """The action whose waveform is the paper's (Fig. 2) exactly, as float32 in the box."""
         return self.action_map.to_action(Waveform(x=PAPER_X, z=PAPER_Z, z_phase=0.0))
 
+    def box_action(self, action) -> np.ndarray:
+        """The Box action (5,) float64 that ``action`` plays: itself, or with ``action_codebook`` the
+        table's row it indexes (``ValueError`` for an index outside it)."""
+        if self.action_codebook is not None:
+            return codebook_rows(self.action_codebook, np.asarray(action).reshape(()))
+        return np.asarray(action, dtype=np.float64).reshape(ActionMap.SIZE)
+
     def action_to_waveform(self, action: np.ndarray) -> Waveform:
         """The waveform (SI units) an action selects; clips to the box, raises on non-finite."""
         return self.action_map.to_waveform(action)
@@ -392,7 +410,7 @@ class MDRDriveEnv(gym.Env):
     def step(self, action):
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
-        action = np.asarray(action, dtype=np.float64).reshape(ActionMap.SIZE)
+        action = self.box_action(action)
         wp = self.action_map.to_params(action)
         if self.load_step is not None and self.period_index == self.load_step[0]:  # the cargo changes now
             self.cargo_mass = self.load_step[1]

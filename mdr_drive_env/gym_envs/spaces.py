@@ -24,6 +24,48 @@ def sample_range(name: str, value, low: float, high: float, high_open: bool = Fa
     return float(pair[0]), float(pair[1])
 
 
+def load_action_codebook(value) -> np.ndarray | None:
+    """``MDRDrive-v0``'s ``action_codebook`` as a validated (N, 5) float64 table of Box actions, or None.
+
+    ``value``: None, an array-like of N >= 2 rows of 5 finite actions in [-1, 1], or the path (str or
+    ``os.PathLike``) of a ``.npy`` file holding one. Raises ``ValueError`` naming ``action_codebook``."""
+    if value is None:
+        return None
+    import os
+
+    if isinstance(value, (str, os.PathLike)):
+        try:
+            value = np.load(value, allow_pickle=False)
+        except (OSError, ValueError) as e:
+            raise ValueError(f"action_codebook={str(value)!r} is not a readable .npy file ({type(e).__name__}: {e})") \
+                from None
+    try:
+        table = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("action_codebook must be an (N, 5) array of actions, N >= 2, or a .npy file of one") from None
+    if table.ndim != 2 or table.shape[1] != ActionMap.SIZE or len(table) < 2:
+        raise ValueError(f"action_codebook of shape {table.shape} must have shape (N, {ActionMap.SIZE}), N >= 2")
+    if not np.all(np.isfinite(table)) or np.abs(table).max() > 1.0:
+        raise ValueError("action_codebook entries must be finite and in the allowed range [-1, 1]")
+    table.setflags(write=False)
+    return table
+
+
+def codebook_rows(table: np.ndarray, indices) -> np.ndarray:
+    """The Box actions (..., 5) that codebook ``indices`` (integers, any shape) select; ``ValueError``
+    for an index that is not an integer in [0, N)."""
+    idx = np.asarray(indices)
+    shown = idx.tolist()
+    if idx.dtype.kind not in "iu":
+        as_int = idx.astype(np.int64) if idx.dtype.kind == "f" and np.all(np.isfinite(idx)) else None
+        if as_int is None or np.any(as_int != idx):
+            raise ValueError(f"codebook action {shown!r} is not an integer index")
+        idx = as_int
+    if idx.size and (idx.min() < 0 or idx.max() >= len(table)):
+        raise ValueError(f"codebook action {shown!r} is outside the allowed range [0, {len(table) - 1}]")
+    return table[idx]
+
+
 @dataclass(frozen=True)
 class ActionMap:
     """Affine map of an action in [-1, 1]^5 to the next period's waveform (SI units).

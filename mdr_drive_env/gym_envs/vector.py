@@ -12,7 +12,7 @@ from gymnasium.vector.utils import batch_space
 from ..core import kernel as K
 from ..core.batch import BatchedDriveSimulator
 from .mdr_drive import MDRDriveEnv
-from .spaces import ActionMap, ObservationLayout, PrivilegedLayout
+from .spaces import ActionMap, ObservationLayout, PrivilegedLayout, codebook_rows
 
 _INFO_KEYS = ("displacement", "mean_velocity", "end_velocity", "peak_tangential_force", "peak_normal_force",
               "indenter_dissipation", "base_dissipation", "load_work")
@@ -119,6 +119,8 @@ class MDRDriveVectorEnv(VectorEnv):
     def step(self, actions):
         t = self.template
         amap = t.action_map
+        if t.action_codebook is not None:  # indices into the table: its rows are the Box actions played
+            actions = codebook_rows(t.action_codebook, np.asarray(actions).reshape(self.num_envs))
         actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, ActionMap.SIZE)
         waveforms = amap.to_params_batch(actions)  # raises on non-finite actions, before any state changes
         stepped = ~self._autoreset
