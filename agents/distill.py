@@ -40,11 +40,11 @@ from . import checkpoint as round0_checkpoint
 from .cycles import cycle_action
 from .drive_field import DriveField
 from .evaluate import steady_velocity_of
-from .student import Student, adam_fit, edge_loss, make_student, policy_mean
-from .teacher_data import (around, clipped_k_range, draw_points, jump_points, labelled_episodes,
+from .student import Student, adam_fit, edge_loss, make_student, policy_logits, policy_mean
+from .teacher_data import (around, clipped_k_range, draw_points, grid_actions, jump_points, labelled_episodes,
                            perturb_previous_actions, rollout, stall_points, teacher_drives)
 from mdr_drive_env.core.params import check_int, check_range
-from mdr_drive_env.gym_envs.spaces import ObservationLayout
+from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
 
 
 #: Round 0's extra-episode bands: (count field, k-interval field) of :class:`DistillConfig`, in drawing order.
@@ -113,6 +113,13 @@ class DistillConfig:
             0.005 for the phase) leaves the waveform unchanged; a rise in the box's first or last
             quantum becomes the edge itself, past which the fit lets the output go. Near stall one
             quantum changes the steady velocity by more than a mm/s.
+        action_codebook: the student picks whole actions instead of regressing one: its action space
+            is ``Discrete(N)`` over the teacher grid's N distinct actions (``grid_actions``, the
+            env's ``action_codebook``), its output a softmax over them fitted by cross-entropy, and
+            it plays the most likely one; the teacher plays the grid's own drives only
+            (``teacher_drives``). Where the teacher's drive jumps between two families, a regression
+            plays a blend of the two for a narrow band of (k, load) that can go backwards; a pick
+            plays one or the other. Needs ``quantum_centres`` (the labels are the table's rows).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -150,6 +157,7 @@ class DistillConfig:
     focus_k: tuple[float, float] = (0.0, 0.6)
     inner_focus_points: int = 0
     inner_focus_k: tuple[float, float] = (0.0, 0.6)
+    action_codebook: bool = False
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -186,6 +194,10 @@ class DistillConfig:
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
         if not isinstance(self.fused_adam, bool):
             raise ValueError(f"fused_adam={self.fused_adam!r} must be true or false")
+        if not isinstance(self.action_codebook, bool):
+            raise ValueError(f"action_codebook={self.action_codebook!r} must be true or false")
+        if self.action_codebook and not self.quantum_centres:
+            raise ValueError("action_codebook=true needs quantum_centres=true (the labels must be the codebook's rows)")
 
     def focus_bands(self) -> list[tuple[int, tuple[float, float]]]:
         """Round 0's extra episodes: (points, (k low, k high)) per band in use, in drawing order."""
@@ -216,16 +228,23 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
     """Fit the student's mean action to the teacher's (``cycle_action`` of each sample's drive after
     its previous action) on normalised ``obs``, ``steps`` Adam steps with the learning rate
     (``config.learning_rate`` unless given) decaying linearly to zero; returns the last epoch's mean
-    loss. Each epoch's samples: :func:`epoch_samples` with ``config.perturbed_share``."""
+    loss. Each epoch's samples: :func:`epoch_samples` with ``config.perturbed_share``. A codebook
+    student (``student.codebook``) fits its action logits to the label's row by cross-entropy."""
     import torch
 
     policy = student.model.policy
     rng = np.random.default_rng(seed)
+    if student.codebook is not None:
+        drive_classes = student.codebook_index(drives.reshape(-1, 5)).reshape(len(drives), 2)
 
     def epoch():
         x, y = epoch_samples(obs, drives, rng, config.perturbed_share)
-        y = torch.as_tensor(y, dtype=torch.float32)
         x = torch.as_tensor(student.venv.normalize_obs(x.astype(np.float64)), dtype=torch.float32)
+        if student.codebook is not None:  # the label is one of each sample's two drive actions: its class
+            labels = torch.as_tensor(np.where(np.all(y == drives[:, 1], axis=1), drive_classes[:, 1],
+                                              drive_classes[:, 0]))
+            return len(x), lambda idx: torch.nn.functional.cross_entropy(policy_logits(policy, x[idx]), labels[idx])
+        y = torch.as_tensor(y, dtype=torch.float32)
         return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx], config.huber_delta)
 
     policy.set_training_mode(True)
@@ -255,7 +274,11 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         clipped_k_range(field_, band)  # a band outside the teacher's k: an error before any work
     torch.set_num_threads(config.torch_threads)
     rng = np.random.default_rng(seed)
-    student = make_student(config, seed, env_kwargs or {}, hyperparameters or {})
+    codebook = {}
+    if config.action_codebook:  # the table in the env's action units, as labelled_episodes shifts the labels
+        origin = float((env_kwargs or {}).get("z_phase_origin", 0.0))
+        codebook = {"action_codebook": shift_phase_origin(grid_actions(field_), 0.0, origin)}
+    student = make_student(config, seed, {**(env_kwargs or {}), **codebook}, hyperparameters or {})
     val = None
     if validation_points:
         val = (validation_points, teacher_drives(field_, validation_points, config)[1])

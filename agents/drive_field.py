@@ -283,16 +283,20 @@ class DriveField(GridRefinement):
         load over mu F_ref (the load scales with mu at a given ratio of mu1 to mu)."""
         return float(point[1]) * self.friction[0] / float(point[2])
 
-    def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1,
+             interpolation: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The teacher's drive (n, 2, 5) and its velocity (n,) at each (k, load kg) point, or (k, load
         kg, mu, mu1) point at other friction (the grid is read at the same load over mu F_ref,
         ``field_load``): the best of :meth:`candidates` (with ``radius``) played at the point, the
         interpolation unless another candidate is better by more than ``prefer_interpolation``
-        (relative), so neighbouring labels stay smooth."""
+        (relative), so neighbouring labels stay smooth. Without ``interpolation``: the best of the
+        grid's own drives around the point (the candidates but the first), so every drive is one of
+        the grid's (what a student that picks among them can be taught)."""
         check_int("radius", radius, 1)
         points = self.with_friction(points)
-        cands = [self.candidates(p[0], self.field_load(p), radius) for p in points]  # c may differ at the edge
-        return pick_best(points, cands, prefer_interpolation)
+        cands = [self.candidates(p[0], self.field_load(p), radius)[0 if interpolation else 1:]
+                 for p in points]  # c may differ at the edge
+        return pick_best(points, cands, prefer_interpolation if interpolation else 0.0)
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:

@@ -25,7 +25,7 @@ from mdr_drive_env.core import DriveParams, Waveform
 from mdr_drive_env.core import kernel as K
 from mdr_drive_env.core.analysis import is_runaway
 from mdr_drive_env.core.batch import BatchedDriveSimulator
-from mdr_drive_env.gym_envs.spaces import ActionMap, shift_phase_origin
+from mdr_drive_env.gym_envs.spaces import ActionMap, load_action_codebook, shift_phase_origin
 
 #: The shipped policy.
 PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
@@ -197,8 +197,19 @@ def critical_loads_grid(ks, velocity_fn, variant: str = "as-specified") -> dict[
     return out
 
 
+def run_env_kwargs(folder: str | Path, run: dict) -> dict:
+    """A policy folder's run.json ``env_kwargs`` with a relative ``action_codebook`` file name resolved
+    against ``folder``: ``gym.make("MDRDrive-v0", **run_env_kwargs(folder, run))`` is the env it acts in."""
+    env_kwargs = dict(run.get("env_kwargs", {}))
+    if isinstance(env_kwargs.get("action_codebook"), str):
+        env_kwargs["action_codebook"] = str(Path(folder) / env_kwargs["action_codebook"])
+    return env_kwargs
+
+
 class Policy:
-    """A trained SB3 policy with its VecNormalize statistics, as ``obs -> action`` (deterministic)."""
+    """A trained SB3 policy with its VecNormalize statistics, as ``obs -> action`` (deterministic):
+    Box actions (n, 5), also for a policy over codebook indices (their rows: it then plays in any
+    env without the codebook alike)."""
 
     def __init__(self, path: str | Path):
         import pickle
@@ -215,6 +226,7 @@ class Policy:
                 vn = pickle.load(f)
             self.obs_rms, self.clip_obs, self.epsilon = vn.obs_rms, vn.clip_obs, vn.epsilon
         self.run = run
+        self.codebook = load_action_codebook(run_env_kwargs(path, run).get("action_codebook"))
 
     @property
     def play_kwargs(self) -> dict:
@@ -228,7 +240,7 @@ class Policy:
             obs = np.clip((obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
                           -self.clip_obs, self.clip_obs).astype(np.float32)
         action, _ = self.model.predict(obs, deterministic=True)
-        return action
+        return action if self.codebook is None else self.codebook[action]
 
 
 def load_policy(path: str | Path):

@@ -23,12 +23,20 @@ if TYPE_CHECKING:
 
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
 EDGE = 0.999
+#: A codebook student's table of Box actions, beside its model.zip (run.json's ``action_codebook``).
+CODEBOOK_FILE = "action_codebook.npy"
 
 
 def policy_mean(policy, obs):
     """The Gaussian mean action of an SB3 PPO policy on (normalised) observations, as a torch tensor
     (SB3 clips it to the box when acting)."""
     return policy.get_distribution(obs).distribution.mean
+
+
+def policy_logits(policy, obs):
+    """The action logits (log-probabilities) of an SB3 PPO policy over a ``Discrete`` action space on
+    (normalised) observations, as a torch tensor."""
+    return policy.get_distribution(obs).distribution.logits
 
 
 def edge_loss(mean, target, huber_delta: float = 0.0):
@@ -60,10 +68,24 @@ class Student:
     z_phase_origin: float = 0.0
     #: The time quantum (s) of that env's rises and z phase (``MDRDrive-v0``'s ``time_quantum``).
     time_quantum: float = TIME_QUANTUM
+    #: The (N, 5) Box actions a codebook student picks among (the env's ``action_codebook``), or None.
+    codebook: np.ndarray | None = None
 
     def act(self, obs: np.ndarray) -> np.ndarray:
+        """The Box actions (n, 5) the network plays at observations ``obs`` (n, d): its mean action, or
+        the codebook row of its most likely index."""
         action, _ = self.model.predict(self.venv.normalize_obs(obs), deterministic=True)
-        return action
+        return action if self.codebook is None else self.codebook[action]
+
+    def codebook_index(self, actions: np.ndarray) -> np.ndarray:
+        """The index of each action (n, 5) in the codebook (exact rows); ``ValueError`` for one not in it."""
+        index = {row.tobytes(): i for i, row in enumerate(self.codebook)}
+        rows = np.ascontiguousarray(actions, dtype=np.float64)
+        try:
+            return np.array([index[row.tobytes()] for row in rows], dtype=np.int64)
+        except KeyError:
+            raise ValueError("a teacher action is not a row of the action codebook (labels must be the grid's "
+                             "quantum-centred actions)") from None
 
 
 def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparameters: dict) -> Student:
@@ -83,7 +105,8 @@ def make_student(config: DistillConfig, seed: int, env_kwargs: dict, hyperparame
                      "log_std_init": config.log_std}
     model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs, **hyper)
     return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)),
-                   time_quantum=float(env_kwargs.get("time_quantum", TIME_QUANTUM)))
+                   time_quantum=float(env_kwargs.get("time_quantum", TIME_QUANTUM)),
+                   codebook=venv.get_attr("action_codebook")[0])
 
 
 def bf16_products(on: bool):
@@ -133,7 +156,9 @@ def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: 
 
 
 def save_student(student: Student, out: str | Path, record: dict) -> None:
-    """model.zip, vecnormalize.pkl and run.json (``record``) into ``out``, each written atomically."""
+    """model.zip, vecnormalize.pkl and run.json (``record``) into ``out``, each written atomically; a
+    codebook student's table too, as ``CODEBOOK_FILE``, which run.json's ``env_kwargs`` then name
+    (``action_codebook``, relative to ``out``)."""
     import json
 
     from mdr_drive_env.files import atomic_path, write_text
@@ -144,7 +169,13 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
         student.model.save(tmp)
     with atomic_path(out / "vecnormalize.pkl") as tmp:
         student.venv.save(str(tmp))
+    if student.codebook is not None:
+        with atomic_path(out / CODEBOOK_FILE) as tmp:
+            with open(tmp, "wb") as f:
+                np.save(f, np.asarray(student.codebook))
+        record = {**record, "env_kwargs": {**record["env_kwargs"], "action_codebook": CODEBOOK_FILE}}
     write_text(out / "run.json", json.dumps(record, indent=2))
 
 
-__all__ = ["EDGE", "Student", "adam_fit", "bf16_products", "edge_loss", "make_student", "policy_mean", "save_student"]
+__all__ = ["CODEBOOK_FILE", "EDGE", "Student", "adam_fit", "bf16_products", "edge_loss", "make_student", "policy_logits",
+           "policy_mean", "save_student"]

@@ -129,8 +129,17 @@ def perturb_previous_actions(obs: np.ndarray, drives: np.ndarray, rng: np.random
 
 def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
     """The recipe's teacher at ``points``: drives (n, 2, 5) and velocities (n,) m/s from
-    ``field_.best`` with ``config.teacher_radius``."""
+    ``field_.best`` with ``config.teacher_radius``; with ``config.action_codebook``, the grid's own
+    drives only (no interpolation: every action is one of :func:`grid_actions` once quantum-centred)."""
+    if getattr(config, "action_codebook", False):
+        return field_.best(points, radius=config.teacher_radius, interpolation=False)
     return field_.best(points, radius=config.teacher_radius)
+
+
+def grid_actions(field_: DriveField) -> np.ndarray:
+    """The distinct actions of the field's grid drives at their time quanta's centres
+    (``ActionMap.quantum_centre``), sorted: (N, 5), the codebook a student picks from."""
+    return np.unique(ACTION_MAP.quantum_centre(field_.drives.reshape(-1, 5)), axis=0)
 
 
 def labelled_episodes(field_: DriveField, points, act, config, seed: int, z_phase_origin: float = 0.0,
@@ -220,4 +229,4 @@ def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float
 
 
 __all__ = ["around", "draw_points", "drive_difference", "jump_brackets", "jump_points", "labelled_episodes",
-           "perturb_previous_actions", "rollout", "stall_fractions", "stall_points", "teacher_drives"]
+           "grid_actions", "perturb_previous_actions", "rollout", "stall_fractions", "stall_points", "teacher_drives"]

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .evaluate import trapezoid_action
+from .evaluate import run_env_kwargs, trapezoid_action
 from mdr_drive_env import ENV_ID
 
 CONFIG_DIR = Path(__file__).parent / "configs"
@@ -224,7 +224,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     previous = json.loads(run_file.read_text()) if resume else None
     if resume:
         algo, seed = previous["algo"], previous["seed"]
-        hyper, env_kwargs = previous["hyperparameters"], previous["env_kwargs"]
+        hyper, env_kwargs = previous["hyperparameters"], run_env_kwargs(out, previous)
     else:
         if algo not in algos:
             raise ValueError(f"algo={algo!r} is not one of {sorted(algos)}")
@@ -324,7 +324,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         model.get_env().save(str(out / "vecnormalize.pkl"))
     record = {
         "algo": algo, "seed": seed, "env_id": previous.get("env_id", ENV_ID) if previous else ENV_ID,
-        "env_kwargs": env_kwargs,
+        "env_kwargs": previous["env_kwargs"] if previous else env_kwargs,  # a codebook file stays relative
         "hyperparameters": {**hyper, "n_envs": n, "normalize": normalize},
         "command": " ".join(sys.argv), "versions": versions(), "torch_threads": threads,
         "total_timesteps": int(model.num_timesteps), "steps_this_run": int(model.num_timesteps - start_steps),

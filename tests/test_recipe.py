@@ -1046,3 +1046,49 @@ def test_quantum_centres_must_be_a_boolean():
     with pytest.raises(ValueError, match=r"quantum_centres='yes' must be true or false"):
         DistillConfig(quantum_centres="yes")
     assert DistillConfig(quantum_centres=True).quantum_centres is True
+
+
+def test_a_codebook_student_picks_the_teachers_grid_actions_and_loads_as_plain_sb3(recipe_run, tmp_path):
+    import yaml
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from mdr_drive_agents.drive_field import DriveField
+    from mdr_drive_agents.evaluate import Policy, policy_rollout, run_env_kwargs
+    from mdr_drive_agents.teacher_data import grid_actions
+    from mdr_drive_agents.train import train
+
+    out, _ = recipe_run
+    config = yaml.safe_load(TINY.read_text())
+    config["distill"].update(action_codebook=True, quantum_centres=True)
+    (tmp_path / "codebook.yaml").write_text(yaml.safe_dump(config))
+    run = tmp_path / "run"
+    recipe.run(tmp_path / "codebook.yaml", run, progress=False, teacher=out / "teacher_field.npz")
+    folder = run / "policy"
+    table = np.load(folder / "action_codebook.npy")
+    np.testing.assert_array_equal(table, grid_actions(DriveField.load(out / "teacher_field.npz")))
+    saved = json.loads((folder / "run.json").read_text())
+    assert saved["env_kwargs"]["action_codebook"] == "action_codebook.npy"  # beside model.zip, found from there
+
+    # plain SB3: the env with the shipped table, PPO.load, VecNormalize.load, predict gives indices
+    env_kwargs = {**run_env_kwargs(folder, saved), "k": 0.2, "load_ratio": 0.1}
+    venv = VecNormalize.load(str(folder / "vecnormalize.pkl"), DummyVecEnv([lambda: gym.make("MDRDrive-v0", **env_kwargs)]))
+    venv.training, venv.norm_reward = False, False
+    model = PPO.load(folder / "model.zip", device="cpu")
+    assert model.action_space == gym.spaces.Discrete(len(table))
+    obs, played = venv.reset(), []
+    for _ in range(4):
+        index, _ = model.predict(obs, deterministic=True)
+        obs, *_ = venv.step(index)
+        played.append(table[index[0]])
+    # the package's evaluation plays the rows those indices select, in an env without the table
+    policy = Policy(folder)
+    cargo = venv.envs[0].unwrapped.cargo_mass
+    _, actions, _ = policy_rollout(policy, [(0.2, cargo)], periods=4)
+    np.testing.assert_allclose(actions[:, 0], np.array(played), atol=1e-6)
+    assert all(any(np.array_equal(a, row) for row in table) for a in played)
+
+    record = train(resume=folder, steps=64, progress_bar=False, eval_freq=10_000)  # fine-tunes over the indices
+    assert record["resumes"] == 1 and record["env_kwargs"]["action_codebook"] == "action_codebook.npy"
+    with pytest.raises(ValueError, match="quantum_centres"):
+        DistillConfig(action_codebook=True)
