@@ -10,7 +10,7 @@ HERE = Path("results/blind/codebook_decision")
 print("F1s1 (shipped), its record `seedS_drawn_scan`:\n")
 print(blind_record([f"results/blind/seed{seed}_drawn_scan/blind.json" for seed in SEEDS],
                    "agents/pretrained/ppo_generalist"))
-for name in ("cb60", "cb30"):
+for name in ("cb60", "cbs", "cb30"):  # cb30 was stopped unjudged (RULE.md, addendum)
     files = [HERE / f"{name}_seed{seed}" / "blind.json" for seed in SEEDS]
     if all(f.exists() for f in files):
         print(f"\n{name} (`{name}_seedS`, the same searches):\n")
