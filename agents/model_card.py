@@ -12,6 +12,7 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 
 from mdr_drive_env.files import write_text
 
@@ -26,6 +27,7 @@ from .blind import (
     scan_of,
 )
 from .distill import FOCUS_KEYS
+from .student import CODEBOOK_FILE
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -142,6 +144,9 @@ def snippet(dst: Path, run: dict) -> str:
     if quantum != TIME_QUANTUM:
         args.append(f"time_quantum={quantum:g}")
         notes.append(f"time_quantum={quantum:g} (rises and the z phase in {quantum * 1e6:g} us steps)")
+    if run["env_kwargs"].get("action_codebook"):
+        args.append(f'action_codebook="{dst.as_posix()}/{run["env_kwargs"]["action_codebook"]}"')
+        notes.append("its table of actions (Discrete: action i plays row i)")
     comment = f"# {' and '.join(notes)}: the env it was trained in, as in its run.json\n" if notes else ""
     return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(), comment=comment,
                           make_args=", ".join(['"MDRDrive-v0", k=0.2, cargo_mass=0.1', *args]))
@@ -225,9 +230,15 @@ def copy_policy(src: str | Path, dst: str | Path) -> tuple[Path, dict]:
     src, dst = Path(src), Path(dst)
     dst.mkdir(parents=True, exist_ok=True)
     if src.resolve() != dst.resolve():
-        for name in FILES:
+        for name in policy_files(src):
             shutil.copy2(src / name, dst / name)
     return dst, json.loads((dst / "run.json").read_text())
+
+
+def policy_files(folder: str | Path) -> tuple[str, ...]:
+    """The files a policy in ``folder`` is: ``FILES``, and its action table if its run.json names one."""
+    run = json.loads((Path(folder) / "run.json").read_text())
+    return FILES + ((CODEBOOK_FILE,) if run.get("env_kwargs", {}).get("action_codebook") else ())
 
 
 def ship(src: str | Path, dst: str | Path, blind_json=None) -> Path:
@@ -236,13 +247,15 @@ def ship(src: str | Path, dst: str | Path, blind_json=None) -> Path:
     a list of them, one per report seed), the card quotes the policy's blind results from each."""
     blind_jsons = [] if blind_json is None else [blind_json] if isinstance(blind_json, (str, Path)) else list(blind_json)
     dst, run = copy_policy(src, dst)
-    size_kb = sum((dst / n).stat().st_size for n in FILES) / 1024
+    size_kb = sum((dst / n).stat().st_size for n in policy_files(dst)) / 1024
+    table = run["env_kwargs"].get("action_codebook")
+    n_actions = len(np.load(dst / table)) if table else 0
     hyper = {k: v for k, v in run["hyperparameters"].items() if k != "policy_kwargs"}
     card = f"""# {dst.name}: a waveform policy for MDRDrive-v0
 
 One plain Stable-Baselines3 PPO policy for every grading exponent and load in its training range:
 it observes k and the load (observation entries 10-12) with the rest of the env's 14 observations
-and sets each period's waveform within the paper's actuator limits. Nothing but the network acts.
+and {f"picks each period's waveform among the {n_actions:,} drives of its teacher's grid (its action is an index, `Discrete({n_actions})`; the table ships as `{table}`, which the env takes as `action_codebook`)" if table else "sets each period's waveform within the paper's actuator limits"}. Nothing but the network acts.
 
 ## Load it
 
@@ -260,14 +273,14 @@ folder first: a resumed run writes into it; the observation statistics stay as d
 * PPO settings: `{json.dumps(hyper)}`, policy `{json.dumps(run['hyperparameters'].get('policy_kwargs', {}))}`
 * Versions: `{json.dumps(run['versions'])}`
 * Files: `model.zip` (SB3), `vecnormalize.pkl` (observation normalisation, needed to run it),
-  `run.json`; {size_kb:.0f} KiB in all.
+  `run.json`{f", `{table}` (its actions)" if table else ""}; {size_kb:.0f} KiB in all.
 
 ## Limits
 
 * Trained for the ranges above with the paper's friction (mu = 0.3, mu1 = 0.1) and material; `mdr-drive
   evaluate` warns outside the trained k and loads and at other friction coefficients.
 * It observes k and the load: a drive that knows neither needs a sensor-only policy (`MDRDriveSensor-v0`).
-* Its drives are the teacher's: a grid search with a stated budget, polished from each node's
+{"* It plays only its teacher's grid drives (the network picks which, each period): never a drive between two of them, so at a point it is at best as good as the best grid drive there; fine-tuning (`--resume`) changes which it picks, not the drives." + chr(10) if table else ""}* Its drives are the teacher's: a grid search with a stated budget, polished from each node's
   neighbours (docs/results.md), not a proven optimum; near stall it can be well short of a per-point
   search, and the network with it (the blind misses in docs/results.md).
 * Where the steady velocity is steep in the drive, a small imitation error costs much: at k = 0.24-0.29 the

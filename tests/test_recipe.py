@@ -1088,6 +1088,20 @@ def test_a_codebook_student_picks_the_teachers_grid_actions_and_loads_as_plain_s
     np.testing.assert_allclose(actions[:, 0], np.array(played), atol=1e-6)
     assert all(any(np.array_equal(a, row) for row in table) for a in played)
 
+    # shipped: the table is copied, and the card's snippet (with the table) runs as written
+    import re
+    import subprocess
+    import sys
+
+    from mdr_drive_agents.model_card import ship
+
+    card = ship(folder, tmp_path / "shipped").read_text()
+    assert (tmp_path / "shipped" / "action_codebook.npy").exists() and f"Discrete({len(table)})" in card
+    snippet = re.findall(r"```python\n(.*?)```", card, flags=re.S)[0]
+    assert "action_codebook=" in snippet
+    done = subprocess.run([sys.executable, "-c", snippet], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0 and "steady velocity" in done.stdout, done.stderr
+
     record = train(resume=folder, steps=64, progress_bar=False, eval_freq=10_000)  # fine-tunes over the indices
     assert record["resumes"] == 1 and record["env_kwargs"]["action_codebook"] == "action_codebook.npy"
     with pytest.raises(ValueError, match="quantum_centres"):
