@@ -268,6 +268,9 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     warm = hyper.get("warm_start", "none")
     if warm not in ("none", "trapezoid"):
         raise ValueError(f"warm_start={warm!r} is not one of ['none', 'trapezoid']")
+    if warm == "trapezoid" and env_kwargs.get("action_codebook") is not None:
+        raise ValueError("warm_start='trapezoid' sets a Box action; with action_codebook (Discrete actions) use "
+                         "warm_start: none")
     venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs)
     eval_env = make_eval_env(env_kwargs)
     if resume:

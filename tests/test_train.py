@@ -182,3 +182,21 @@ def test_hyperparams_replace_the_runs_own_when_resuming(tmp_path, capsys):
             main(["train", "--hyperparams", bad])
         assert e.value.code == 2
     assert "is not KEY:VALUE" in capsys.readouterr().err
+
+
+def test_plain_ppo_over_a_codebook_trains_from_a_config_and_refuses_the_box_warm_start(tmp_path):
+    import numpy as np
+    import yaml
+
+    from mdr_drive_agents.train import load_config
+
+    hyper, env_kwargs = load_config("ppo")
+    np.save(tmp_path / "table.npy", np.random.default_rng(0).uniform(-1.0, 1.0, (4, 5)))
+    config = {"MDRDrive-v0": {key: v for key, v in hyper.items() if key != "warm_start"},
+              "env_kwargs": {**env_kwargs, "action_codebook": str(tmp_path / "table.npy")}, "warm_start": "trapezoid"}
+    config["MDRDrive-v0"]["policy_kwargs"] = {"net_arch": [8]}
+    (tmp_path / "codebook.yaml").write_text(yaml.safe_dump(config))
+    with pytest.raises(ValueError, match="warm_start='trapezoid'.*action_codebook"):
+        train("ppo", steps=64, out=tmp_path / "box", config=tmp_path / "codebook.yaml", **KW)
+    record = train("ppo", steps=64, out=tmp_path / "picks", config=tmp_path / "codebook.yaml", warm_start="none", **KW)
+    assert record["total_timesteps"] >= 64 and record["env_kwargs"]["action_codebook"] == str(tmp_path / "table.npy")
