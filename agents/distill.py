@@ -296,14 +296,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
             _print_record(record)
             continue
         t0 = time.perf_counter()
-        points = draw_points(field_, config.points, rng, config, friction)
-        for n, band in config.focus_bands() if r == 0 else ():
-            points += draw_points(field_, n, rng, config, friction, k_range=band)
-        drives, _ = teacher_drives(field_, points, config)
-        extra = []
-        if r == 0 and config.jump_levels:
-            extra, extra_drives = jump_points(field_, points, drives, config)
-            points, drives = points + extra, np.concatenate([drives, extra_drives]) if extra else drives
+        points, drives, n_jump = round_points(field_, config, rng, friction, first=r == 0)
         obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r,
                                                student.z_phase_origin, student.time_quantum, drives=drives)
         obs_all.append(obs)
@@ -314,7 +307,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
             student.venv.obs_rms.count = float(len(obs))
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
                    config.steps if r == 0 else config.round_steps, config, seed + r, progress)
-        record = {"round": r, **({"jump_points": len(extra)} if r == 0 and config.jump_levels else {}),
+        record = {"round": r, **({"jump_points": n_jump} if r == 0 and config.jump_levels else {}),
                   "samples": int(sum(len(o) for o in obs_all)), "loss": loss,
                   "wall_time_s": round(time.perf_counter() - t0, 1)}
         if val is not None:
@@ -334,6 +327,23 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         if on_round is not None:
             on_round(student, record)
     return student
+
+
+def round_points(field_: DriveField, config: DistillConfig, rng: np.random.Generator, friction=None,
+                 first: bool = True) -> tuple[list, np.ndarray, int]:
+    """A round's points and the teacher's drive at each (n, 2, 5): ``config.points`` random points
+    (``draw_points`` with ``friction``), and in the first round (round 0) the focus bands' and, with
+    ``config.jump_levels``, the jump bisection's (``jump_points``) after them; returns them and the
+    number of jump points."""
+    points = draw_points(field_, config.points, rng, config, friction)
+    for n, band in config.focus_bands() if first else ():
+        points += draw_points(field_, n, rng, config, friction, k_range=band)
+    drives, _ = teacher_drives(field_, points, config)
+    extra = []
+    if first and config.jump_levels:
+        extra, extra_drives = jump_points(field_, points, drives, config)
+        points, drives = points + extra, np.concatenate([drives, extra_drives]) if extra else drives
+    return points, drives, len(extra)
 
 
 def hole_round(student: Student, field_: DriveField, config: DistillConfig, h: int, rng: np.random.Generator,
@@ -411,4 +421,4 @@ def validation_fraction(student: Student, points, v_teacher: np.ndarray, moving:
 
 
 __all__ = ["FOCUS_KEYS", "DistillConfig", "check_stall_probes", "distill", "epoch_samples", "find_holes", "fit",
-           "hole_round", "student_velocity", "validation_fraction"]
+           "hole_round", "round_points", "student_velocity", "validation_fraction"]

@@ -80,24 +80,18 @@ class CodebookNet:
 
 
 def round0_episodes(field, cfg, seed: int, time_quantum: float):
-    """Round 0's points (random, focus band, jump bisection) and the node teacher's episodes there."""
-    import mdr_drive_agents.teacher_data as td
-    from node_teacher import node_best
+    """Round 0's points (random, focus band, jump bisection) and the node teacher's episodes there: the
+    recipe's ``round_points`` with ``action_codebook`` (its teacher plays the grid's own drives, as
+    ``node_teacher.node_best``)."""
+    import dataclasses
 
-    recipe_teacher = td.teacher_drives  # jump bisection asks the module's teacher: the node teacher for this call
-    td.teacher_drives = lambda field_, points, config: node_best(field_, points, config.teacher_radius)
-    try:
-        rng = np.random.default_rng(seed)
-        points = td.draw_points(field, cfg.points, rng, cfg)
-        for n, band in cfg.focus_bands():
-            points += td.draw_points(field, n, rng, cfg, k_range=band)
-        drives, _ = td.teacher_drives(field, points, cfg)
-        extra, extra_drives = td.jump_points(field, points, drives, cfg)
-        points, drives = points + extra, np.concatenate([drives, extra_drives])
-        obs, sample_drives = td.labelled_episodes(field, points, None, cfg, seed, 0.0, time_quantum, drives=drives)
-    finally:
-        td.teacher_drives = recipe_teacher
-    return obs, sample_drives, len(extra)
+    from mdr_drive_agents.distill import round_points
+    from mdr_drive_agents.teacher_data import labelled_episodes
+
+    cfg = dataclasses.replace(cfg, action_codebook=True, quantum_centres=True)
+    points, drives, n_jump = round_points(field, cfg, np.random.default_rng(seed))
+    obs, sample_drives = labelled_episodes(field, points, None, cfg, seed, 0.0, time_quantum, drives=drives)
+    return obs, sample_drives, n_jump
 
 
 def fit_codebook(a) -> None:

@@ -16,12 +16,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
 
 def node_best(field, points, radius: int):
-    """Per point the best of the grid drives around it (``candidates`` without the interpolation)."""
-    from mdr_drive_agents.drive_field import pick_best
-
-    pts = field.with_friction(points)
-    cands = [field.candidates(p[0], field.field_load(p), radius)[1:] for p in pts]
-    return pick_best(pts, cands, 0.0)
+    """Per point the best of the grid drives around it (``candidates`` without the interpolation):
+    ``DriveField.best`` with ``interpolation=False``, the codebook student's teacher."""
+    return field.best(points, radius=radius, interpolation=False)
 
 
 def main():
