@@ -23,6 +23,11 @@ an output beyond the edge costs nothing (SB3 clips the action to the box when ac
 optimal drives use the full stroke or depth in most components, and only the others need to be
 precise (the steady velocity near an optimal drive changes steeply with the action).
 
+With ``action_codebook`` the student picks instead of regressing: its action is an index into the
+teacher grid's distinct actions (``Discrete(N)``; the env's ``action_codebook``), fitted by
+cross-entropy, and the teacher plays only the grid's own drives, so the student plays one of two
+neighbouring drives where the teacher's jumps, never a blend of them.
+
 The points and the episodes the student is taught on: ``agents/teacher_data.py``; the network, its
 loss and its Adam fit: ``agents/student.py``; round 0 kept for ``--resume``: ``agents/checkpoint.py``.
 """

@@ -27,7 +27,6 @@ from .blind import (
     scan_of,
 )
 from .distill import FOCUS_KEYS
-from .student import CODEBOOK_FILE
 from .evaluate import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -38,6 +37,7 @@ from .evaluate import (
     policy_velocity,
     trapezoid_action,
 )
+from .student import CODEBOOK_FILE
 
 CARD_KS = (0.0, 0.2, 0.4, 0.6)
 CARD_MASSES = (0.0, 0.05, 0.1, 0.2, 0.4)
