@@ -158,6 +158,17 @@ def blind_command(res: dict, policy_key: str) -> str:
     return f"mdr-drive benchmark --blind {res['n']} --seed SEED{draw} --policies {' '.join(res.get('policies', [policy_key]))}"
 
 
+def blind_key(blind_jsons, src: str | Path, dst: str | Path) -> str:
+    """The name the blind results ``blind_jsons`` give the policy shipped from ``src`` to ``dst``: the
+    folder they ran it from, ``src`` or ``dst`` (``ValueError`` if every file does not name one)."""
+    names = [Path(src).as_posix(), Path(dst).as_posix()]
+    stats = [json.loads(Path(f).read_text())["statistics"] for f in blind_jsons]
+    for name in names:
+        if all(name in s for s in stats):
+            return name
+    raise ValueError(f"the blind results do not all name the policy as {names[0]} or {names[1]}")
+
+
 def blind_record(blind_jsons, policy_key: str) -> str:
     """The policy's blind record: one table row per blind benchmark's ``blind.json`` (one per report
     seed, ``mdr-drive benchmark --blind``), the commands that wrote them and on how many seeds the
@@ -306,7 +317,7 @@ fresh drive, computed by `python -m mdr_drive_agents.model_card {Path(src).as_po
 
 {evaluation_table(dst)}
 
-{blind_record(blind_jsons, dst.as_posix()) if blind_jsons else ''}"""
+{blind_record(blind_jsons, blind_key(blind_jsons, src, dst)) if blind_jsons else ''}"""
     write_text(dst / "MODEL_CARD.md", card)
     return dst / "MODEL_CARD.md"
 

@@ -151,6 +151,11 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     assert "| 100 | 0 | 0.885 | 0.327 (1 of 20) | 0.937 (1 of 2) |" in text
     assert "All four targets met on 0 of 2 report seeds: a fresh seed passes with probability about\n0.00 (95 % Wilson interval 0.00-0.66)." in text
     assert ship(card_dir, card_dir).read_text().count("## Blind results") == 0
+    # results that ran the policy from its build folder are quoted when it is shipped from there
+    shipped = tmp_path / "shipped"
+    assert "SEED = 99, 100" in ship(card_dir, shipped, [blind_json, second]).read_text()
+    with pytest.raises(ValueError, match="do not all name the policy"):
+        ship(shipped, tmp_path / "elsewhere", [blind_json])
 
 
 def test_evaluate_reports_the_last_waveform_as_the_policys_env_quantises_it():
