@@ -2,7 +2,10 @@
 Adam, on the recipe's torch thread count, timed and profiled (docs/performance.md).
 
     PYTHONPATH=. python results/recipe/profile_fit_step.py [--steps 300] [--policy DIR] [--config YAML]
-        [--bf16] [--fused-adam]
+        [--bf16] [--fused-adam] [--threads N] [--raw-logits]
+
+A codebook policy (``Discrete`` actions, ``distill.action_codebook``) is timed with its loss, the
+cross-entropy of its logits against random labels.
 
 The inputs are random normal observations (the time of a dense step does not depend on the
 values); the epoch's data preparation (``distill.fit``'s ``epoch``) is not included. ``--bf16``
@@ -20,7 +23,7 @@ from stable_baselines3 import PPO
 from torch.profiler import ProfilerActivity, profile
 
 from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
-from mdr_drive_agents.student import bf16_products, edge_loss, policy_mean
+from mdr_drive_agents.student import bf16_products, edge_loss, policy_logits, policy_mean
 
 
 def matmul_flops(layers: list[torch.nn.Linear], batch: int) -> int:
@@ -37,9 +40,14 @@ def main() -> None:
     ap.add_argument("--config", default=DEFAULT_CONFIG, help="the recipe YAML (batch, loss, threads)")
     ap.add_argument("--bf16", action="store_true", help="bfloat16 matrix products (torch.autocast)")
     ap.add_argument("--fused-adam", action="store_true", help="torch's fused Adam (other weights than the recipe's)")
+    ap.add_argument("--threads", type=int, default=None, help="torch threads (default: the recipe's)")
+    ap.add_argument("--raw-logits", action="store_true",
+                    help="codebook: the cross-entropy of the action net's output itself, not of the normalised "
+                         "log-probabilities SB3's Categorical makes of it (one softmax pass fewer; other weights)")
     a = ap.parse_args()
     config = load_recipe(a.config)["distill"]
-    torch.set_num_threads(config.torch_threads)
+    threads = a.threads or config.torch_threads
+    torch.set_num_threads(threads)
     policy = PPO.load(f"{a.policy}/model.zip", device="cpu").policy
     policy.set_training_mode(True)
     params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
@@ -47,11 +55,21 @@ def main() -> None:
     opt = torch.optim.Adam(params, lr=1e-6, fused=True if a.fused_adam else None)
     gen = torch.Generator().manual_seed(0)
     x = torch.randn(config.batch, policy.observation_space.shape[0], generator=gen)
-    y = torch.randn(config.batch, policy.action_space.shape[0], generator=gen).clamp(-1, 1)
+    codebook = hasattr(policy.action_space, "n")  # Discrete: a codebook student
+    if codebook:
+        y = torch.randint(int(policy.action_space.n), (config.batch,), generator=gen)
+    else:
+        y = torch.randn(config.batch, policy.action_space.shape[0], generator=gen).clamp(-1, 1)
 
     def step():
         with bf16_products(a.bf16):
-            loss = edge_loss(policy_mean(policy, x), y, config.huber_delta)
+            if codebook and a.raw_logits:
+                latent = policy.mlp_extractor.forward_actor(policy.extract_features(x, policy.pi_features_extractor))
+                loss = torch.nn.functional.cross_entropy(policy.action_net(latent), y)
+            elif codebook:
+                loss = torch.nn.functional.cross_entropy(policy_logits(policy, x), y)
+            else:
+                loss = edge_loss(policy_mean(policy, x), y, config.huber_delta)
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -69,8 +87,9 @@ def main() -> None:
     total = sum(by_op.values())
     products = sum(by_op.get(op, 0.0) for op in ("aten::mm", "aten::addmm", "aten::linear"))
     flops = matmul_flops(layers, config.batch)
-    print(f"actor {[layer.out_features for layer in layers]}, batch {config.batch}, {config.torch_threads} torch threads"
-          f"{', bfloat16 products' if a.bf16 else ''}{', fused Adam' if a.fused_adam else ''}")
+    print(f"actor {[layer.out_features for layer in layers]}, batch {config.batch}, {threads} torch threads"
+          f"{', bfloat16 products' if a.bf16 else ''}{', fused Adam' if a.fused_adam else ''}"
+          f"{', raw logits' if a.raw_logits else ''}")
     print(f"{1 / seconds:.1f} Adam steps/s ({seconds * 1e3:.2f} ms a step), {flops / 1e9:.2f} GFLOP of matrix products a step")
     print(f"profiled: matrix products (aten::mm, aten::addmm, aten::linear) {products / total:.1%} of the step's self CPU time, "
           f"at {flops / (products / a.steps * 1e-6) / 1e9:.0f} GFLOP/s")
