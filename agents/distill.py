@@ -274,7 +274,7 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     settings (``agents/checkpoint.py``): an interrupted run continues after round 0."""
     import torch
 
-    check_stall_probes(config, friction is not None)  # before any work, not after round 0's fit
+    check_drawn_friction(config, friction is not None)  # before any work, not after round 0's fit
     for _, band in config.focus_bands():
         clipped_k_range(field_, band)  # a band outside the teacher's k: an error before any work
     torch.set_num_threads(config.torch_threads)
@@ -384,11 +384,14 @@ def student_velocity(student: Student, points) -> np.ndarray:
     return steady_velocity_of(disp)
 
 
-def check_stall_probes(config: DistillConfig, friction_drawn: bool) -> None:
-    """Stall probes are placed at the drive field's stall, which is at one friction: refused (a
-    ``ValueError`` naming the option) where the episodes' friction is drawn."""
+def check_drawn_friction(config: DistillConfig, friction_drawn: bool) -> None:
+    """The options that need the drive field's one friction, refused (a ``ValueError`` naming the
+    option) where the episodes' friction is drawn: stall probes (placed at the field's stall) and
+    ``action_codebook`` (a friction teacher mixes the fields' drives, so its drives are not one grid's)."""
     if config.stall_probes and friction_drawn:
         raise ValueError("stall_probes: not with a drawn friction (the field's stall is at one friction)")
+    if config.action_codebook and friction_drawn:
+        raise ValueError("action_codebook: not with a drawn friction (a friction teacher's drives mix several grids')")
 
 
 def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator,
@@ -399,7 +402,7 @@ def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng:
     (``config.hole_shortfall``; at the stall probes, also where the student stalls and the teacher
     moves), and the probe statistics (share of holes, the student's mean velocity over the
     teacher's where it moves)."""
-    check_stall_probes(config, friction is not None)
+    check_drawn_friction(config, friction is not None)
     points = draw_points(field_, config.hole_probes, rng, config, friction)
     if config.stall_probes:
         points += stall_points(field_, config.stall_probes, rng, config.stall_band)
@@ -425,5 +428,5 @@ def validation_fraction(student: Student, points, v_teacher: np.ndarray, moving:
             "val_below_teacher": int((v < v_teacher - 0.05e-3).sum())}
 
 
-__all__ = ["FOCUS_KEYS", "DistillConfig", "check_stall_probes", "distill", "epoch_samples", "find_holes", "fit",
+__all__ = ["FOCUS_KEYS", "DistillConfig", "check_drawn_friction", "distill", "epoch_samples", "find_holes", "fit",
            "hole_round", "round_points", "student_velocity", "validation_fraction"]

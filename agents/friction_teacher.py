@@ -151,7 +151,7 @@ def search_fields(config: FrictionTeacherConfig, field_config: FieldConfig, out:
 def load_config(path: str | Path) -> dict:
     """The YAML as {"seed", "friction": FrictionTeacherConfig, "teacher": FieldConfig, "distill":
     DistillConfig, "ppo", "env_kwargs"}; unknown sections or keys are a ``ValueError``."""
-    from .distill import DistillConfig, check_stall_probes
+    from .distill import DistillConfig, check_drawn_friction
     from .recipe import config_of, read_sections
 
     data = read_sections(path, {"seed", "friction", "teacher", "distill", "ppo", "env_kwargs"})
@@ -159,7 +159,7 @@ def load_config(path: str | Path) -> dict:
               "teacher": config_of(FieldConfig, data["teacher"], path),
               "distill": config_of(DistillConfig, data["distill"], path), "ppo": dict(data["ppo"]),
               "env_kwargs": dict(data["env_kwargs"])}
-    check_stall_probes(config["distill"], friction_drawn=True)  # the student's friction is always drawn here
+    check_drawn_friction(config["distill"], friction_drawn=True)  # the student's friction is always drawn here
     missing = [f for f in config["friction"].fields if not Path(f).is_file()]
     if missing:
         raise ValueError(f"{path}: friction.fields {missing} are not files (saved drive fields, .npz)")

@@ -131,7 +131,7 @@ def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
     """The recipe's teacher at ``points``: drives (n, 2, 5) and velocities (n,) m/s from
     ``field_.best`` with ``config.teacher_radius``; with ``config.action_codebook``, the grid's own
     drives only (no interpolation: every action is one of :func:`grid_actions` once quantum-centred)."""
-    if getattr(config, "action_codebook", False):
+    if config.action_codebook:
         return field_.best(points, radius=config.teacher_radius, interpolation=False)
     return field_.best(points, radius=config.teacher_radius)
 

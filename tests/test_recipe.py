@@ -1106,3 +1106,7 @@ def test_a_codebook_student_picks_the_teachers_grid_actions_and_loads_as_plain_s
     assert record["resumes"] == 1 and record["env_kwargs"]["action_codebook"] == "action_codebook.npy"
     with pytest.raises(ValueError, match="quantum_centres"):
         DistillConfig(action_codebook=True)
+    from mdr_drive_agents.distill import check_drawn_friction
+
+    with pytest.raises(ValueError, match="action_codebook: not with a drawn friction"):  # a friction teacher's
+        check_drawn_friction(DistillConfig(action_codebook=True, quantum_centres=True), friction_drawn=True)
