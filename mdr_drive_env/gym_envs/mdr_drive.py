@@ -102,8 +102,9 @@ class MDRDriveEnv(gym.Env):
     **Codebook actions** (``action_codebook=``, an (N, 5) table of Box actions or the path of a
     ``.npy`` file holding one): ``Discrete(N)`` instead, action i plays the table's row i. The
     observation is unchanged (its previous-action entries hold the row played). For a policy that
-    picks whole drives from a fixed set instead of regressing one (the shipped policy picks among
-    its teacher grid's drives, ``action_codebook.npy`` beside its ``model.zip``).
+    picks whole drives from a fixed set instead of regressing one (a codebook student,
+    ``distill.action_codebook``, picks among its teacher grid's drives; ``action_codebook.npy``
+    beside its ``model.zip``).
 
     Waveforms stay continuous across period boundaries: x starts and ends every period at 0; if a
     new z amplitude or phase makes z start at another depth than the last period ended, the jump is
