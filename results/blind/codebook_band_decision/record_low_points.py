@@ -5,11 +5,15 @@ they are equal the miss is the teacher's.
     python results/blind/codebook_band_decision/record_low_points.py
 """
 import json
+import sys
+from pathlib import Path
 
 import numpy as np
 
-from mdr_drive_agents.blind import MOVING_THRESHOLD
 from mdr_drive_agents.drive_field import DriveField
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "codebook_decision"))
+from teacher_at_misses import teacher_at_low_points  # noqa: E402
 
 KEY = "runs/cbb/policy"
 field = DriveField.load("results/blind/band_phase_decision/band_phase_teacher_field.npz")
@@ -19,13 +23,7 @@ for seed in range(20261249, 20261255):
     d = json.load(open(f"results/blind/seed{seed}_drawn_scan/blind.json"))
     best = np.array([b["velocity"] for b in d["best"]], dtype=float)
     v = np.array(d["learned"][KEY], dtype=float)
-    scored = best >= MOVING_THRESHOLD
-    idx = np.flatnonzero(scored & (v / np.where(scored, best, 1.0) < 0.87))
-    if not len(idx):
-        continue
-    points = [tuple(d["points"][i]) for i in idx]
-    _, v_teacher = field.best(points, radius=2)
-    _, v_grid = field.best(points, radius=2, interpolation=False)
+    idx, points, v_teacher, v_grid = teacher_at_low_points(field, d, [v])
     for j, i in enumerate(idx):
         print(f"| {seed} | {points[j][0]:.4f} | {points[j][1]:.4f} | {best[i] * 1e3:.2f} ({d['best'][i].get('kind')}) | "
               f"{d['trapezoid'][i] * 1e3:.2f} | {v[i] / best[i]:.3f} | {v_teacher[j] / best[i]:.3f} | {v_grid[j] / best[i]:.3f} |")
