@@ -45,7 +45,7 @@ from . import checkpoint as round0_checkpoint
 from .cycles import cycle_action
 from .drive_field import DriveField
 from .evaluate import steady_velocity_of
-from .student import Student, adam_fit, edge_loss, make_student, policy_logits, policy_mean
+from .student import Student, adam_fit, edge_loss, make_student, policy_logits, policy_mean, policy_raw_logits
 from .teacher_data import (around, clipped_k_range, draw_points, grid_actions, jump_points, labelled_episodes,
                            perturb_previous_actions, rollout, stall_points, teacher_drives)
 from mdr_drive_env.core.params import check_int, check_range
@@ -125,6 +125,13 @@ class DistillConfig:
             (``teacher_drives``). Where the teacher's drive jumps between two families, a regression
             plays a blend of the two for a narrow band of (k, load) that can go backwards; a pick
             plays one or the other. Needs ``quantum_centres`` (the labels are the table's rows).
+        raw_logits: a codebook student's cross-entropy on the action net's raw output
+            (``policy_raw_logits``) instead of SB3's normalised logits: the same loss up to rounding,
+            so other weights than without it, at about half the cost of a fit step. Needs
+            ``action_codebook``.
+        teacher_load_radius: the load lines of the teacher's neighbourhood (``DriveField.candidates``'s
+            ``load_radius``): R plays the 2R load lines around the point's cell (0: ``teacher_radius``).
+            Where ``refine_band`` halved the load spacing, 3 reaches as far in load as 2 did (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -163,16 +170,18 @@ class DistillConfig:
     inner_focus_points: int = 0
     inner_focus_k: tuple[float, float] = (0.0, 0.6)
     action_codebook: bool = False
+    raw_logits: bool = False
+    teacher_load_radius: int = 0
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
             raise ValueError(f"activation={self.activation!r} is not one of ['relu', 'tanh']")
         for name in ("points", "periods", "steps", "rounds", "round_steps", "batch", "torch_threads", "teacher_radius",
                      "hole_rounds", "hole_probes", "hole_neighbours", "hole_steps", "jump_levels", "jump_neighbours",
-                     "stall_probes", "focus_points", "inner_focus_points"):
+                     "stall_probes", "focus_points", "inner_focus_points", "teacher_load_radius"):
             check_int(name, getattr(self, name),
                       0 if name in ("rounds", "hole_rounds", "hole_neighbours", "jump_levels", "stall_probes",
-                                   "focus_points", "inner_focus_points") else 1)
+                                   "focus_points", "inner_focus_points", "teacher_load_radius") else 1)
         if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
             raise ValueError(f"net_arch={self.net_arch!r} must be positive layer sizes")
         check_range("no_load_share", self.no_load_share, 0.0, 1.0)
@@ -201,6 +210,10 @@ class DistillConfig:
             raise ValueError(f"fused_adam={self.fused_adam!r} must be true or false")
         if not isinstance(self.action_codebook, bool):
             raise ValueError(f"action_codebook={self.action_codebook!r} must be true or false")
+        if not isinstance(self.raw_logits, bool):
+            raise ValueError(f"raw_logits={self.raw_logits!r} must be true or false")
+        if self.raw_logits and not self.action_codebook:
+            raise ValueError("raw_logits=true needs action_codebook=true (a regression student has no logits)")
         if self.action_codebook and not self.quantum_centres:
             raise ValueError("action_codebook=true needs quantum_centres=true (the labels must be the codebook's rows)")
 
@@ -248,7 +261,8 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
         if student.codebook is not None:  # the label is one of each sample's two drive actions: its class
             labels = torch.as_tensor(np.where(np.all(y == drives[:, 1], axis=1), drive_classes[:, 1],
                                               drive_classes[:, 0]))
-            return len(x), lambda idx: torch.nn.functional.cross_entropy(policy_logits(policy, x[idx]), labels[idx])
+            logits = policy_raw_logits if config.raw_logits else policy_logits
+            return len(x), lambda idx: torch.nn.functional.cross_entropy(logits(policy, x[idx]), labels[idx])
         y = torch.as_tensor(y, dtype=torch.float32)
         return len(x), lambda idx: edge_loss(policy_mean(policy, x[idx]), y[idx], config.huber_delta)
 

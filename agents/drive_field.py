@@ -17,7 +17,8 @@ searched so that neighbours stay neighbours:
 - then the stages ``FieldConfig`` names, each followed by an exchange: polish passes, refinements
   (a k line, load lines between the grid's) and, last, a stronger search at the nodes either side
   of each k line's stall (``polish_stall``), where the teacher's critical load is decided, then at
-  the nodes of a band of k and load (``polish_band``).
+  the nodes of a band of k and load (``polish_band``), and load lines between them searched in that
+  band (``refine_band``).
 
 ``DriveField.candidates(k, load)`` returns, for any point, the bilinear interpolation of the four
 surrounding grid drives and the grid drives around the point (the cell's four corners, or with
@@ -108,6 +109,11 @@ class DriveField(GridRefinement):
             field.polish_band(int(budget), float(sigma), (float(k_low), float(k_high)), (float(low), float(high)),
                               executor=executor, seed=seed + 980_000)
             field.settle(keep_phases_of=before)  # new drives in their node's old phase: no line turned
+        if config.refine_band:
+            budget, sigma, k_low, k_high, low, high = config.refine_band
+            field.refine_band(int(budget), float(sigma), (float(k_low), float(k_high)), (float(low), float(high)),
+                              executor=executor, seed=seed + 990_000)
+            field.settle(keep_phases_of=field.drives.copy())  # the old nodes keep their phase, new ones their lighter's
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
 
@@ -256,11 +262,12 @@ class DriveField(GridRefinement):
         ws = (s - self.fractions[j]) / (self.fractions[j + 1] - self.fractions[j])
         return i, j, wk, ws
 
-    def candidates(self, k: float, load: float, radius: int = 1) -> np.ndarray:
+    def candidates(self, k: float, load: float, radius: int = 1, load_radius: int | None = None) -> np.ndarray:
         """(c, 2, 5): the bilinear interpolation of the four surrounding grid drives (each aligned to
         the cell's first corner), then the grid drives of the (2 radius) x (2 radius) nodes around the
-        cell (``radius`` 1: its four corners), each aligned to that corner, nodes past the grid's
-        edge left out."""
+        cell (``radius`` 1: its four corners; with ``load_radius``, (2 radius) k lines by
+        (2 load_radius) load lines), each aligned to that corner, nodes past the grid's edge left out."""
+        load_radius = radius if load_radius is None else load_radius
         i, j, wk, ws = self._cell(k, load)
         first = self.drives[i, j]
         corners = [first] + [align_phase(c, first) for c in
@@ -270,7 +277,7 @@ class DriveField(GridRefinement):
         nk, ns = self.velocities.shape
         ring = [align_phase(self.drives[a, b], first)
                 for a in range(max(i - radius + 1, 0), min(i + radius + 1, nk))
-                for b in range(max(j - radius + 1, 0), min(j + radius + 1, ns))
+                for b in range(max(j - load_radius + 1, 0), min(j + load_radius + 1, ns))
                 if not (i <= a <= i + 1 and j <= b <= j + 1)]
         return np.array([mixed, *corners, *ring])
 
@@ -284,17 +291,17 @@ class DriveField(GridRefinement):
         return float(point[1]) * self.friction[0] / float(point[2])
 
     def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1,
-             interpolation: bool = True) -> tuple[np.ndarray, np.ndarray]:
+             interpolation: bool = True, load_radius: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The teacher's drive (n, 2, 5) and its velocity (n,) at each (k, load kg) point, or (k, load
         kg, mu, mu1) point at other friction (the grid is read at the same load over mu F_ref,
-        ``field_load``): the best of :meth:`candidates` (with ``radius``) played at the point, the
+        ``field_load``): the best of :meth:`candidates` (with ``radius``, ``load_radius``) played at the point, the
         interpolation unless another candidate is better by more than ``prefer_interpolation``
         (relative), so neighbouring labels stay smooth. Without ``interpolation``: the best of the
         grid's own drives around the point (the candidates but the first), so every drive is one of
         the grid's (what a student that picks among them can be taught)."""
         check_int("radius", radius, 1)
         points = self.with_friction(points)
-        cands = [self.candidates(p[0], self.field_load(p), radius)[0 if interpolation else 1:]
+        cands = [self.candidates(p[0], self.field_load(p), radius, load_radius)[0 if interpolation else 1:]
                  for p in points]  # c may differ at the edge
         return pick_best(points, cands, prefer_interpolation if interpolation else 0.0)
 

@@ -74,6 +74,13 @@ class FieldConfig:
             two fastest trials (``DriveField.polish_band``) (-, action units, -, -, -, -). Near the
             critical load at k = 0.18-0.24 the grid's drives were up to 17 % slower than the blind
             benchmark's per-point search (results/blind/teacher_band_decision).
+        refine_band: last, (budget, sigma, k_low, k_high, low, high) or empty: a load line between
+            every two whose midpoint fraction lies in [low, high], searched at the k lines in [k_low,
+            k_high] from the best of the six nodes around each new node and every searched k line's
+            nodes on its two load lines (``starts`` 2), elsewhere a copy of its faster neighbour's drive
+            (``DriveField.refine_band``) (-, action units, -, -, -, -). Near the trapezoid's critical
+            load at k = 0.18-0.22 a drive searched at a node falls short of the per-point search a
+            third of a load cell away (results/blind/dense_band_decision).
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
@@ -93,6 +100,7 @@ class FieldConfig:
     refine_steep: tuple = ()
     polish_stall: tuple = ()
     polish_band: tuple = ()
+    refine_band: tuple = ()
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -133,19 +141,24 @@ class FieldConfig:
             check_search("polish_stall", *self.polish_stall[:2])
             if len(self.polish_stall) == 3:
                 check_range("polish_stall k_max", self.polish_stall[2], *self.k_range)
-        if self.polish_band:
-            if len(self.polish_band) != 6:
-                raise ValueError(f"polish_band={self.polish_band!r} must be (budget, sigma, k_low, k_high, low, high) "
-                                 "or empty")
-            check_search("polish_band", *self.polish_band[:2])
-            check_range("polish_band k_low", self.polish_band[2], *self.k_range)
-            check_range("polish_band k_high", self.polish_band[3], self.polish_band[2], self.k_range[1])
-            check_range("polish_band low", self.polish_band[4], 0.0, self.max_load_fraction)
-            check_range("polish_band high", self.polish_band[5], self.polish_band[4], self.max_load_fraction)
+        for stage in ("polish_band", "refine_band"):
+            self._check_band(stage, getattr(self, stage))
         if len(self.friction) != 2:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
         check_range("friction mu1", self.friction[1], 0.0, 2.0)
+
+    def _check_band(self, stage: str, band: tuple) -> None:
+        """A stage searched in a band of k and load, (budget, sigma, k_low, k_high, low, high) or empty."""
+        if not band:
+            return
+        if len(band) != 6:
+            raise ValueError(f"{stage}={band!r} must be (budget, sigma, k_low, k_high, low, high) or empty")
+        check_search(stage, *band[:2])
+        check_range(f"{stage} k_low", band[2], *self.k_range)
+        check_range(f"{stage} k_high", band[3], band[2], self.k_range[1])
+        check_range(f"{stage} low", band[4], 0.0, self.max_load_fraction)
+        check_range(f"{stage} high", band[5], band[4], self.max_load_fraction)
 
     def _check_load_lines(self, stage: str, lines: tuple) -> None:
         """A stage that adds searched load lines, (budget, sigma, low, high, ...): its search and its

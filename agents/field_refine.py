@@ -1,8 +1,8 @@
 """The teacher's refinement stages, mixed into :class:`agents.drive_field.DriveField`: a k line
 between every two of the grid's (``refine_k``), load lines between two of its load lines
-(``refine_load``; with ``min_drop``, only where the velocity is steep), and a stronger search at the
+(``refine_load``; with ``min_drop``, only where the velocity is steep), a stronger search at the
 nodes either side of each k line's stall (``polish_stall``) and at the nodes of a band of k and load
-(``polish_band``). Each searches its new or chosen nodes
+(``polish_band``), and load lines searched in such a band only (``refine_band``). Each searches its new or chosen nodes
 with CMA-ES over two-action cycles from the drives around them (``agents.field_search``), one task
 per node on an executor; ``DriveField.search`` runs them in the order ``FieldConfig`` gives.
 """
@@ -59,15 +59,18 @@ class GridRefinement:
 
     def refine_load(self, budget: int, sigma: float, band: tuple[float, float], executor=None, seed: int = 0,
                     starts: int = 3, k_max: float | None = None, min_drop: float = 0.0,
-                    record: str = "refined_load") -> int:
+                    record: str = "refined_load", k_min: float | None = None, wide_trials: bool = False) -> int:
         """Insert a load line between every two of the grid's whose midpoint fraction lies in ``band``
         (low, high; load / the trapezoid's critical load), on every k line: each new node plays the
         interpolation of its lighter and heavier neighbours' drives and the drives of the six nodes
         around it (those two and their neighbours in k), then CMA-ES over two-action cycles runs from
         the ``starts`` fastest (``budget`` evaluations each, step ``sigma``) and the node keeps the
         fastest drive found or played; one task per node on ``executor``. Above ``k_max`` (if given)
-        the new nodes are not searched: each keeps the faster of its lighter and heavier neighbours'
-        drives, so the teacher's drives there stay the grid's. The old nodes are unchanged; the load
+        (and below ``k_min``) the new nodes are not searched: each keeps the faster of its lighter and
+        heavier neighbours' drives, so the teacher's drives there stay the grid's. With ``wide_trials``,
+        each searched node also plays the drives of every searched k line's nodes on its two load
+        lines (near stall at k = 0.18-0.22 the fastest grid drive was often three k lines away,
+        results/blind/dense_band_decision). The old nodes are unchanged; the load
         fractions are no longer evenly spaced. With ``min_drop`` > 0, only the cells across which the
         forward velocity falls by more than ``min_drop`` (m/s) on at least one k line
         (:meth:`velocity_drops`) get a line. The settings and node counts go to ``meta[record]``.
@@ -79,13 +82,18 @@ class GridRefinement:
         if not cells:
             return 0
         mids = all_mids[cells]
-        searched = [i for i in range(nk) if k_max is None or self.ks[i] <= k_max]
+        tol = 1e-9
+        searched = [i for i in range(nk) if (k_max is None or self.ks[i] <= k_max + tol)
+                    and (k_min is None or self.ks[i] >= k_min - tol)]
         lines = []
         for i in searched:
             line = []
             for c, j in enumerate(cells):
                 light = self.drives[i, j]
-                ring = [align_phase(self.drives[a, b], light) for a in (i - 1, i, i + 1) if 0 <= a < nk for b in (j, j + 1)]
+                around = [a for a in (i - 1, i, i + 1) if 0 <= a < nk]
+                if wide_trials:
+                    around += [a for a in searched if a not in around]
+                ring = [align_phase(self.drives[a, b], light) for a in around for b in (j, j + 1)]
                 line.append(((float(self.ks[i]), float(mids[c] * self.trapezoid_critical[i])),
                              np.array([0.5 * (light + align_phase(self.drives[i, j + 1], light)), *ring])))
             lines.append(line)
@@ -109,9 +117,27 @@ class GridRefinement:
         self.drives = np.insert(self.drives, at, new_drives, axis=1)
         self.velocities = np.insert(self.velocities, at, new_velocities, axis=1)
         self.meta[record] = {"budget": budget, "sigma": sigma, "band": list(band), "k_max": k_max,
+                             **({"k_min": k_min} if k_min is not None else {}),
+                             **({"starts": starts, "wide_trials": True} if wide_trials else {}),
                              **({"min_drop": min_drop, "fractions": mids.tolist()} if min_drop > 0.0 else {}),
                              "new_nodes": len(cells) * nk, "searched": len(cells) * len(searched)}
         return len(cells) * len(searched)
+
+    def refine_band(self, budget: int, sigma: float, k_band: tuple[float, float],
+                    fraction_band: tuple[float, float], executor=None, seed: int = 0, starts: int = 2) -> int:
+        """A load line between every two whose midpoint fraction lies in ``fraction_band``, searched
+        only at the k lines in ``k_band`` (elsewhere each new node keeps the faster of its lighter and
+        heavier neighbours' drives): :meth:`refine_load` with ``wide_trials``, ``starts`` starts of
+        ``budget`` evaluations (record ``refined_band``). Near the trapezoid's critical load at
+        k = 0.18-0.22 a drive searched at a node lost up to 17 % a third of a load cell away
+        (results/blind/dense_band_decision). Each new node's cycle is written in the phase closest to
+        its lighter neighbour's. Returns the new nodes searched."""
+        old = self.fractions.copy()
+        searched = self.refine_load(budget, sigma, fraction_band, executor, seed, starts, k_max=k_band[1],
+                                    record="refined_band", k_min=k_band[0], wide_trials=True)
+        for j in np.flatnonzero(~np.isin(self.fractions, old)):
+            self.drives[:, j] = align_phase(self.drives[:, j], self.drives[:, j - 1])
+        return searched
 
     def velocity_drops(self) -> np.ndarray:
         """Per k line and load cell (n_k, n_s - 1), how much the forward velocity falls from the

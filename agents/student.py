@@ -39,6 +39,15 @@ def policy_logits(policy, obs):
     return policy.get_distribution(obs).distribution.logits
 
 
+def policy_raw_logits(policy, obs):
+    """The action net's raw output of an SB3 PPO policy over a ``Discrete`` action space on
+    (normalised) observations: :func:`policy_logits` before SB3's Categorical subtracts their
+    log-sum-exp. A cross-entropy gives the same loss on either (up to rounding) at about half the cost
+    of a codebook fit step, whose softmax over hundreds of actions is otherwise taken twice
+    (results/recipe/profile_fit_step_codebook_2026-11-27.txt)."""
+    return policy.action_net(policy.mlp_extractor.forward_actor(policy.extract_features(obs, policy.pi_features_extractor)))
+
+
 def edge_loss(mean, target, huber_delta: float = 0.0):
     """Squared error, except beyond the box's edge where the target is on it (SB3 clips there).
 
@@ -178,4 +187,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
 
 
 __all__ = ["CODEBOOK_FILE", "EDGE", "Student", "adam_fit", "bf16_products", "edge_loss", "make_student", "policy_logits",
+           "policy_raw_logits",
            "policy_mean", "save_student"]

@@ -23,7 +23,7 @@ from stable_baselines3 import PPO
 from torch.profiler import ProfilerActivity, profile
 
 from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
-from mdr_drive_agents.student import bf16_products, edge_loss, policy_logits, policy_mean
+from mdr_drive_agents.student import bf16_products, edge_loss, policy_logits, policy_mean, policy_raw_logits
 
 
 def matmul_flops(layers: list[torch.nn.Linear], batch: int) -> int:
@@ -64,8 +64,7 @@ def main() -> None:
     def step():
         with bf16_products(a.bf16):
             if codebook and a.raw_logits:
-                latent = policy.mlp_extractor.forward_actor(policy.extract_features(x, policy.pi_features_extractor))
-                loss = torch.nn.functional.cross_entropy(policy.action_net(latent), y)
+                loss = torch.nn.functional.cross_entropy(policy_raw_logits(policy, x), y)
             elif codebook:
                 loss = torch.nn.functional.cross_entropy(policy_logits(policy, x), y)
             else:
