@@ -261,8 +261,6 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
             rollout = int(hyper.get("n_steps", 2048))
             print(f"train: PPO collects whole rollouts of n_steps x n_envs = {rollout} x {n} = {rollout * n} steps: "
                   f"{option} {asked} runs {actual} steps", file=sys.stderr)
-    out.mkdir(parents=True, exist_ok=True)
-
     if not resume:
         hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
     warm = hyper.get("warm_start", "none")
@@ -271,6 +269,7 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     if warm == "trapezoid" and env_kwargs.get("action_codebook") is not None:
         raise ValueError("warm_start='trapezoid' sets a Box action; with action_codebook (Discrete actions) use "
                          "warm_start: none")
+    out.mkdir(parents=True, exist_ok=True)  # after every check: a refused run leaves no empty folder
     venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs)
     eval_env = make_eval_env(env_kwargs)
     if resume:

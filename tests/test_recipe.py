@@ -517,6 +517,75 @@ def test_polish_band_searches_the_nodes_of_its_band_only_and_plays_what_it_recor
             FieldConfig(polish_band=bad)
 
 
+def test_refine_band_searches_its_new_load_lines_in_its_k_band_only_and_from_the_bands_drives():
+    from mdr_drive_agents.evaluate import open_loop_velocity
+    from mdr_drive_env.sweep import Executor
+
+    field = _synthetic_field(nk=4, ns=3)  # k 0, 0.2, 0.4, 0.6; fractions 0, 0.6, 1.2
+    field.trapezoid_critical[:] = 0.02
+    field.velocities = open_loop_velocity([field.point(i, j) for i in range(4) for j in range(3)],
+                                          field.drives.reshape(12, 2, 5)).reshape(4, 3)
+    old_drives, old_velocities = field.drives.copy(), field.velocities.copy()
+    assert field.refine_band(8, 0.1, (0.2, 0.6), (0.5, 1.0), executor=Executor(workers=1, progress=False)) == 3
+    assert np.allclose(field.fractions, [0.0, 0.6, 0.9, 1.2]) and field.velocities.shape == (4, 4)
+    assert np.array_equal(field.drives[:, [0, 1, 3]], old_drives)  # the old nodes as they were
+    assert np.array_equal(field.velocities[:, [0, 1, 3]], old_velocities)
+    points = [field.point(i, 2) for i in range(4)]
+    assert np.allclose(open_loop_velocity(points, field.drives[:, 2]), field.velocities[:, 2])
+    # k = 0 lies outside the band: its new node keeps its lighter or heavier neighbour's drive
+    assert np.isclose(field.velocities[0, 2], open_loop_velocity([points[0]] * 2, old_drives[0, 1:]).max())
+    # a searched node is never slower than any drive of the band on its two load lines (wide trials),
+    # here the node at k = 0.2 against the drives of k = 0.6, two k lines away
+    far = open_loop_velocity([points[1]] * 2, old_drives[3, 1:])
+    assert field.velocities[1, 2] >= far.max() - 1e-12
+    for i in range(4):  # each new cycle in the phase closest to its lighter neighbour's
+        assert np.array_equal(field.drives[i, 2], align_phase(field.drives[i, 2], field.drives[i, 1]))
+    assert field.meta["refined_band"] == {"budget": 8, "sigma": 0.1, "band": [0.5, 1.0], "k_max": 0.6, "k_min": 0.2,
+                                          "starts": 2, "wide_trials": True, "new_nodes": 4, "searched": 3}
+    for bad, match in (((0, 0.1, 0.1, 0.3, 0.8, 1.4), "refine_band budget"), ((10, 0.1, 0.1, 0.3), "refine_band"),
+                       ((10, 0.1, 0.3, 0.1, 0.8, 1.4), "refine_band k_high"),
+                       ((10, 0.1, 0.1, 0.3, 0.8, 0.5), "refine_band high")):
+        with pytest.raises(ValueError, match=match):
+            FieldConfig(refine_band=bad)
+
+
+def test_the_teachers_reach_in_load_can_differ_from_its_reach_in_k():
+    from mdr_drive_agents.teacher_data import teacher_drives
+
+    field = _synthetic_field(nk=6, ns=9)  # fractions 0, 0.15, ..., 1.2
+    inside = (0.3, 0.6 * 0.05)  # the cell at k 0.24-0.36 and fractions 0.6-0.75
+    assert len(field.candidates(*inside, radius=2, load_radius=3)) == 1 + 4 * 6
+    assert len(field.candidates(*inside, radius=2, load_radius=2)) == len(field.candidates(*inside, radius=2))
+    wide = field.candidates(*inside, radius=2, load_radius=3)
+    assert all(any(np.array_equal(c, w) for w in wide) for c in field.candidates(*inside, radius=2))
+    config = DistillConfig(teacher_radius=2, teacher_load_radius=3, quantum_centres=True, action_codebook=True)
+    drives, _ = teacher_drives(field, [inside], config)
+    assert any(np.array_equal(drives[0], w) for w in wide[1:])  # one of the grid's own drives
+    with pytest.raises(ValueError, match="teacher_load_radius"):
+        DistillConfig(teacher_load_radius=-1)
+
+
+def test_the_raw_logit_cross_entropy_is_the_categoricals_and_needs_a_codebook():
+    import torch
+    from stable_baselines3 import PPO
+
+    from mdr_drive_agents.student import policy_logits, policy_raw_logits
+
+    table = np.random.default_rng(0).uniform(-1.0, 1.0, (7, 5))
+    model = PPO("MlpPolicy", gym.make("MDRDrive-v0", action_codebook=table), device="cpu", seed=0)
+    x = torch.as_tensor(np.random.default_rng(1).normal(size=(16, model.observation_space.shape[0])), dtype=torch.float32)
+    labels = torch.as_tensor(np.arange(16) % 7)
+    with torch.no_grad():
+        raw, normalised = policy_raw_logits(model.policy, x), policy_logits(model.policy, x)
+        assert not torch.allclose(raw, normalised)  # SB3 subtracts the log-sum-exp ...
+        torch.testing.assert_close(torch.nn.functional.cross_entropy(raw, labels),  # ... the loss is the same
+                                   torch.nn.functional.cross_entropy(normalised, labels))
+    with pytest.raises(ValueError, match="raw_logits=true needs action_codebook=true"):
+        DistillConfig(raw_logits=True)
+    with pytest.raises(ValueError, match="raw_logits='yes' must be true or false"):
+        DistillConfig(raw_logits="yes", action_codebook=True, quantum_centres=True)
+
+
 def test_keeping_phases_leaves_the_nodes_a_stage_did_not_change_as_they_were():
     from mdr_drive_agents.drive_field import DriveField
 

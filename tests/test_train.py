@@ -198,5 +198,6 @@ def test_plain_ppo_over_a_codebook_trains_from_a_config_and_refuses_the_box_warm
     (tmp_path / "codebook.yaml").write_text(yaml.safe_dump(config))
     with pytest.raises(ValueError, match="warm_start='trapezoid'.*action_codebook"):
         train("ppo", steps=64, out=tmp_path / "box", config=tmp_path / "codebook.yaml", **KW)
+    assert not (tmp_path / "box").exists()  # refused before any folder is made
     record = train("ppo", steps=64, out=tmp_path / "picks", config=tmp_path / "codebook.yaml", warm_start="none", **KW)
     assert record["total_timesteps"] >= 64 and record["env_kwargs"]["action_codebook"] == str(tmp_path / "table.npy")

@@ -32,10 +32,15 @@ def show(title: str, files, key: str) -> None:
     print()
 
 
-fresh = [HERE / f"seed{s}" / "blind.json" for s in FRESH]
-spent_cbb = [Path("results/blind/codebook_decision") / f"cbb_seed{s}" / "blind.json" for s in SPENT]
-show("F1s1 on fresh decision seeds 3232, 9292", fresh, SHIPPED)
-show("cbs on fresh decision seeds 3232, 9292", fresh, "runs/cbs/policy")
-show("CBB on fresh decision seeds 3232, 9292", [HERE / f"cbb_seed{s}" / "blind.json" for s in FRESH], "runs/cbb/policy")
-show("CBB on F1s1's six spent record seeds (stored searches)", spent_cbb, "runs/cbb/policy")
-show("F1s1 on the same six (its record)", [f"results/blind/seed{s}_drawn_scan/blind.json" for s in SPENT], SHIPPED)
+def main() -> None:
+    fresh = [HERE / f"seed{s}" / "blind.json" for s in FRESH]
+    spent_cbb = [Path("results/blind/codebook_decision") / f"cbb_seed{s}" / "blind.json" for s in SPENT]
+    show("F1s1 on fresh decision seeds 3232, 9292", fresh, SHIPPED)
+    show("cbs on fresh decision seeds 3232, 9292", fresh, "runs/cbs/policy")
+    show("CBB on fresh decision seeds 3232, 9292", [HERE / f"cbb_seed{s}" / "blind.json" for s in FRESH], "runs/cbb/policy")
+    show("CBB on F1s1's six spent record seeds (stored searches)", spent_cbb, "runs/cbb/policy")
+    show("F1s1 on the same six (its record)", [f"results/blind/seed{s}_drawn_scan/blind.json" for s in SPENT], SHIPPED)
+
+
+if __name__ == "__main__":
+    main()
