@@ -1,5 +1,6 @@
-"""The rule's table (RULE.md): CBD against CBB on fourteen decision seeds' stored searches (3232, 9292;
-the spent report seeds 20261219-24 and 20261249-54), as the model card tabulates them
+"""The rule's table (RULE.md): CBD and its recipe's student seeds 0 and 2 (the addendum) against CBB on
+fourteen decision seeds' stored searches (3232, 9292; the spent report seeds 20261219-24 and
+20261249-54), as the model card tabulates them
 (``model_card.blind_record``; the targets judged by ``blind.missed_targets``), and the rule's miss
 count (points under 0.85 + points below the trapezoid + scanned k under 0.97) per seed group:
 
@@ -27,9 +28,13 @@ def cbb_file(seed: int) -> Path:
     return Path("results/blind") / f"seed{seed}_drawn_scan" / "blind.json"
 
 
-for title, seeds in GROUPS.items():
-    cbd = [HERE / f"cbd_seed{s}" / "blind.json" for s in seeds]
-    cbb = [cbb_file(s) for s in seeds]
-    print(f"### {title}: CBD (misses: {misses(cbd, 'runs/cbd/policy')}), CBB (misses: {misses(cbb, 'runs/cbb/policy')})\n")
-    print(blind_record(cbd, "runs/cbd/policy"))
-    print()
+NAMES = {"cbd": "CBD (student seed 1)", "cbd_s0": "student seed 0", "cbd_s2": "student seed 2"}
+
+for name, label in NAMES.items():
+    for title, seeds in GROUPS.items():
+        files = [HERE / f"{name}_seed{s}" / "blind.json" for s in seeds]
+        cbb = [cbb_file(s) for s in seeds]
+        print(f"### {label}, {title} (misses: {misses(files, f'runs/{name}/policy')}; CBB's: "
+              f"{misses(cbb, 'runs/cbb/policy')})\n")
+        print(blind_record(files, f"runs/{name}/policy"))
+        print()
