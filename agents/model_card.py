@@ -37,7 +37,7 @@ from .evaluate import (
     policy_velocity,
     trapezoid_action,
 )
-from .student import CODEBOOK_FILE
+from .student import CODEBOOK_FILE, same_weights
 
 CARD_KS = (0.0, 0.2, 0.4, 0.6)
 CARD_MASSES = (0.0, 0.05, 0.1, 0.2, 0.4)
@@ -82,6 +82,13 @@ def stall_note(distill: dict) -> str:
     return f", each with {distill['stall_probes']:,} probes at {low:g}-{high:g} of the teacher's stall load"
 
 
+def fit_loss_note(distill: dict) -> str:
+    """The loss the student was fitted with (``DistillConfig``'s settings as saved in run.json)."""
+    if distill.get("action_codebook"):
+        return "cross-entropy over the teacher grid's actions" + (" (raw logits)" if distill.get("raw_logits") else "")
+    return f"Huber loss, delta {distill['huber_delta']:g}" if distill.get("huber_delta") else "squared error"
+
+
 def training_note(run: dict) -> str:
     """How the policy was made: distilled from a teacher (``agents.recipe``) or trained by PPO/SAC."""
     distilled = run.get("distilled_from")
@@ -92,8 +99,7 @@ def training_note(run: dict) -> str:
         return (f"distilled (`agents/distill.py`) from the drive-field teacher `{distilled['teacher']}` "
                 f"(`agents/drive_field.py`), recipe `{distilled['recipe']}`: a {'x'.join(map(str, d['net_arch']))} "
                 f"{d['activation']} network fitted for {d['steps']:,} steps ("
-                f"{'Huber loss, delta ' + format(d['huber_delta'], 'g') if d.get('huber_delta') else 'squared error'}) "
-                f"to the teacher's actions on "
+                f"{fit_loss_note(d)}) to the teacher's actions on "
                 f"{d['points']:,} random episodes{jump_note(distilled)} (the teacher's neighbourhood radius "
                 f"{d.get('teacher_radius', 1)}; "
                 f"DAgger rounds after it: {d['rounds']}; hole rounds: {d.get('hole_rounds', 0)}{stall_note(d)}); final fit loss "
@@ -158,15 +164,22 @@ def blind_command(res: dict, policy_key: str) -> str:
     return f"mdr-drive benchmark --blind {res['n']} --seed SEED{draw} --policies {' '.join(res.get('policies', [policy_key]))}"
 
 
-def blind_key(blind_jsons, src: str | Path, dst: str | Path) -> str:
+def blind_key(blind_jsons, src: str | Path, dst: str | Path, ran_from: str | Path | None = None) -> str:
     """The name the blind results ``blind_jsons`` give the policy shipped from ``src`` to ``dst``: the
-    folder they ran it from, ``src`` or ``dst`` (``ValueError`` if every file does not name one)."""
+    folder they ran it from, ``src`` or ``dst``, or ``ran_from`` if given (a copy of the same network,
+    e.g. the build a record ran before ``make train`` rebuilt it: ``ValueError`` unless
+    :func:`same_weights`); ``ValueError`` if every file does not name it."""
     names = [Path(src).as_posix(), Path(dst).as_posix()]
+    if ran_from is not None:
+        if not same_weights(src, ran_from):
+            raise ValueError(f"{Path(ran_from).as_posix()} is not the same network as {names[0]}: its results "
+                             "are not this policy's")
+        names = [Path(ran_from).as_posix()]
     stats = [json.loads(Path(f).read_text())["statistics"] for f in blind_jsons]
     for name in names:
         if all(name in s for s in stats):
             return name
-    raise ValueError(f"the blind results do not all name the policy as {names[0]} or {names[1]}")
+    raise ValueError(f"the blind results do not all name the policy as {' or '.join(names)}")
 
 
 def blind_record(blind_jsons, policy_key: str) -> str:
@@ -252,11 +265,28 @@ def policy_files(folder: str | Path) -> tuple[str, ...]:
     return FILES + ((CODEBOOK_FILE,) if run.get("env_kwargs", {}).get("action_codebook") else ())
 
 
-def ship(src: str | Path, dst: str | Path, blind_json=None) -> Path:
+#: The card's limits of a policy that regresses its action (a Box).
+REGRESSION_LIMITS = """* Where the steady velocity is steep in the drive, a small imitation error costs much: at k = 0.24-0.29 the
+  network falls under 0.85 of the teacher over bands of load even where the teacher's drive does not
+  change (1.00-1.04 of the trapezoid's critical load at k = 0.243, `results/blind/s3_record`).
+* Where the teacher's best drive jumps from one optimum to another, the network must switch between
+  them within a narrow band of k and load; there it can fall between them and stall or go backwards at
+  isolated (k, load) points, or, started there, stay in a slower drive (docs/results.md, Limits).
+"""
+#: The card's limits of a policy that picks its action from a table (Discrete).
+CODEBOOK_LIMITS = """* Where the teacher's best drive jumps from one grid drive to another, the network must switch its pick
+  within a narrow band of k and load; a pick of the neighbouring drive there can be slower, and near
+  stall the velocity is steep in the drive (docs/results.md, Limits).
+"""
+
+
+def ship(src: str | Path, dst: str | Path, blind_json=None, ran_from: str | Path | None = None) -> Path:
     """Copy the policy in ``src`` (``model.zip``, ``vecnormalize.pkl``, ``run.json``) to ``dst``
     (nothing to copy if they are the same folder) and write its card; with ``blind_json`` (a path or
-    a list of them, one per report seed), the card quotes the policy's blind results from each."""
+    a list of them, one per report seed), the card quotes the policy's blind results from each, which
+    ran it from ``src``, ``dst`` or ``ran_from`` (:func:`blind_key`)."""
     blind_jsons = [] if blind_json is None else [blind_json] if isinstance(blind_json, (str, Path)) else list(blind_json)
+    key = blind_key(blind_jsons, src, dst, ran_from) if blind_jsons else None  # before anything is copied
     dst, run = copy_policy(src, dst)
     size_kb = sum((dst / n).stat().st_size for n in policy_files(dst)) / 1024
     table = run["env_kwargs"].get("action_codebook")
@@ -294,20 +324,11 @@ folder first: a resumed run writes into it; the observation statistics stay as d
 {"* It plays only its teacher's grid drives (the network picks which, each period): never a drive between two of them, so at a point it is at best as good as the best grid drive there; fine-tuning (`--resume`) changes which it picks, not the drives." + chr(10) if table else ""}* Its drives are the teacher's: a grid search with a stated budget, polished from each node's
   neighbours (docs/results.md), not a proven optimum; near stall it can be well short of a per-point
   search, and the network with it (the blind misses in docs/results.md).
-* Where the steady velocity is steep in the drive, a small imitation error costs much: at k = 0.24-0.29 the
-  network falls under 0.85 of the teacher over bands of load even where the teacher's drive does not
-  change (1.00-1.04 of the trapezoid's critical load at k = 0.243, `results/blind/s3_record`).
-* Where the teacher's best drive jumps from one optimum to another, the network must switch between
-  them within a narrow band of k and load; there it can fall between them and stall or go backwards at
-  isolated (k, load) points, or, started there, stay in a slower drive (docs/results.md, Limits): check a working point with `mdr-drive
-  evaluate` before relying on it. `python scripts/dense_check.py {dst.as_posix()} --out DIR` maps
-  where it is below the trapezoid on a dense grid of the whole domain (no search needed; about a
-  minute): narrow rows of load, some going backwards fast. Where those points fall depends on the
-  build, and builds of one recipe differ widely: the shipped one was chosen among student seeds
-  (`results/blind/stall_low_k_decision`), then among teacher, hole-round, quantum and data settings
-  (`results/blind/stall_probe_decision`, `results/blind/t1_student_decision`,
-  `results/blind/quantum_decision`, `results/blind/focus_band_decision`), on decision data;
-  another `seed` is expected to miss more often (docs/ablations.md).
+{REGRESSION_LIMITS if not table else CODEBOOK_LIMITS}* `python scripts/dense_check.py {dst.as_posix()} --out DIR` maps where it is below the trapezoid on a
+  dense grid of the whole domain (no search needed; about a minute); check a working point with
+  `mdr-drive evaluate` before relying on it. Builds of one recipe differ widely with their seeds: the
+  shipped one was chosen on decision data by rules written before each build (docs/ablations.md);
+  another `seed` is expected to miss more often.
 
 ## Evaluation
 
@@ -317,7 +338,7 @@ fresh drive, computed by `python -m mdr_drive_agents.model_card {Path(src).as_po
 
 {evaluation_table(dst)}
 
-{blind_record(blind_jsons, blind_key(blind_jsons, src, dst)) if blind_jsons else ''}"""
+{blind_record(blind_jsons, key) if blind_jsons else ''}"""
     write_text(dst / "MODEL_CARD.md", card)
     return dst / "MODEL_CARD.md"
 
@@ -398,13 +419,16 @@ def main(argv=None) -> int:
     ap.add_argument("results", nargs="*", type=input_file, default=[],
                     help="blind.json of mdr-drive benchmark --blind, one per report seed (the card quotes each), "
                          "or, for a sensor policy, one adaptation.json of python -m mdr_drive_agents.adaptation")
+    ap.add_argument("--ran-from", type=folder_with(*FILES), default=None,
+                    help="the folder the blind results ran this policy from, if neither SRC nor DST: a copy of the "
+                         "same network (checked), e.g. the build a record ran before make train rebuilt it")
     a = ap.parse_args(argv)
 
     def work():
         sensor = any(Path(r).name == "adaptation.json" for r in a.results)
         if sensor and len(a.results) != 1:
             raise ValueError(f"a sensor policy's card quotes one adaptation.json, got {len(a.results)} files")
-        print((ship_sensor(a.src, a.dst, a.results[0]) if sensor else ship(a.src, a.dst, a.results)).read_text())
+        print((ship_sensor(a.src, a.dst, a.results[0]) if sensor else ship(a.src, a.dst, a.results, a.ran_from)).read_text())
 
     return run_command(ap.prog, work, "nothing was shipped unless the card was printed")
 

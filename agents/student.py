@@ -164,6 +164,34 @@ def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: 
     return total / max(seen, 1)
 
 
+def same_weights(a: str | Path, b: str | Path) -> bool:
+    """Whether the policies in folders ``a`` and ``b`` are the same network: equal tensors in their
+    ``model.zip``'s ``policy.pth``, equal ``vecnormalize.pkl`` statistics and equal action tables."""
+    import pickle
+    import zipfile
+
+    import torch
+
+    def tensors(folder):
+        with zipfile.ZipFile(Path(folder) / "model.zip") as z, z.open("policy.pth") as f:
+            return torch.load(f, map_location="cpu", weights_only=True)
+
+    def stats(folder):
+        with open(Path(folder) / "vecnormalize.pkl", "rb") as f:
+            rms = pickle.load(f).obs_rms
+        return rms.mean, rms.var
+
+    ta, tb = tensors(a), tensors(b)
+    if ta.keys() != tb.keys() or not all(torch.equal(ta[k], tb[k]) for k in ta):
+        return False
+    if not all(np.array_equal(x, y) for x, y in zip(stats(a), stats(b))):
+        return False
+    tables = [Path(f) / CODEBOOK_FILE for f in (a, b)]
+    if any(t.exists() for t in tables):
+        return all(t.exists() for t in tables) and np.array_equal(np.load(tables[0]), np.load(tables[1]))
+    return True
+
+
 def save_student(student: Student, out: str | Path, record: dict) -> None:
     """model.zip, vecnormalize.pkl and run.json (``record``) into ``out``, each written atomically; a
     codebook student's table too, as ``CODEBOOK_FILE``, which run.json's ``env_kwargs`` then name
@@ -187,5 +215,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
 
 
 __all__ = ["CODEBOOK_FILE", "EDGE", "Student", "adam_fit", "bf16_products", "edge_loss", "make_student", "policy_logits",
-           "policy_raw_logits",
+           "policy_raw_logits", "same_weights",
            "policy_mean", "save_student"]

@@ -156,6 +156,15 @@ def test_model_card_marks_runaways_and_quotes_blind_results(tmp_path):
     assert "SEED = 99, 100" in ship(card_dir, shipped, [blind_json, second]).read_text()
     with pytest.raises(ValueError, match="do not all name the policy"):
         ship(shipped, tmp_path / "elsewhere", [blind_json])
+    # ... or from a copy of the same network (a rebuild), named and checked; never another network's
+    rebuilt = tmp_path / "rebuilt"
+    shutil.copytree(card_dir, rebuilt)
+    assert "SEED = 99, 100" in ship(rebuilt, tmp_path / "third", [blind_json, second], ran_from=card_dir).read_text()
+    other = tmp_path / "other"
+    shutil.copytree(PRETRAINED.parent / "ppo_sensor" / "teacher", other)
+    with pytest.raises(ValueError, match="is not the same network"):
+        ship(other, tmp_path / "fourth", [blind_json], ran_from=card_dir)
+    assert not (tmp_path / "fourth").exists()  # refused before anything is copied
 
 
 def test_evaluate_reports_the_last_waveform_as_the_policys_env_quantises_it():
