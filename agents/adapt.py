@@ -5,7 +5,8 @@
 Teacher-student training, as controllers that must act without privileged information are trained
 (Lee et al. 2020; Kumar et al. 2021), with DAgger (Ross et al. 2011):
 
-* the **teacher** is a full-observation policy (default: the shipped ``ppo_generalist``), told k,
+* the **teacher** is a full-observation Box policy (default: the shipped ``ppo_generalist``; a policy
+  that picks from an action table cannot teach it), told k,
   the load and the friction coefficient through the env's ``privileged_observation()``;
 * the **student** sees only ``MDRDriveSensor-v0``'s observation: the last ``history`` periods of
   slider motion (displacement, mean and end velocity) and the actions that produced them. With
@@ -47,7 +48,7 @@ from mdr_drive_env.files import write_text
 
 from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
 
-from .student import Student, save_student
+from .student import CODEBOOK_FILE, Student, save_student
 from .estimator import FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy, teacher_layout
 from .evaluate import Policy, steady_velocity_of
 from .recipe import command_line, config_of, read_sections
@@ -265,6 +266,9 @@ def load_config(path: str | Path) -> tuple[int, int | None, AdaptConfig]:
     config = config_of(AdaptConfig, data["adapt"], path)
     if not (Path(config.teacher) / "model.zip").is_file():
         raise ValueError(f"{path}: teacher={config.teacher!r} is not a policy folder (no model.zip)")
+    if (Path(config.teacher) / CODEBOOK_FILE).is_file():
+        raise ValueError(f"{path}: teacher={config.teacher!r} picks from an action table (Discrete actions); the sensor "
+                         "policy's estimator-informed teacher needs a Box policy, e.g. agents/pretrained/ppo_sensor/teacher")
     return int(data["seed"]), data["validation_seed"], config
 
 

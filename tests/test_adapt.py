@@ -106,6 +106,19 @@ def test_a_config_with_a_missing_teacher_is_one_line(tmp_path, capsys):
     assert "teacher='no/such/folder'" in err and err.count("\n") == 1
 
 
+def test_a_codebook_teacher_is_refused_in_one_line(tmp_path, capsys):
+    import shutil
+
+    teacher = tmp_path / "picks"  # a policy folder with an action table: Discrete actions
+    shutil.copytree("agents/pretrained/ppo_sensor/teacher", teacher)
+    np.save(teacher / "action_codebook.npy", np.zeros((3, 5)))
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_generalist", f"teacher: {teacher}"))
+    assert adapt.main([str(bad), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "picks from an action table" in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
+
+
 def test_recovery_counts_the_periods_to_nine_tenths_of_the_new_steady_velocity():
     s = adaptation.STEP_PERIOD
     v = np.full(adaptation.STEP_EPISODE_PERIODS, 10e-3)
