@@ -79,8 +79,8 @@ class FieldConfig:
             k_high] from the best of the six nodes around each new node and every searched k line's
             nodes on its two load lines (``starts`` 2), elsewhere a copy of its faster neighbour's drive
             (``DriveField.refine_band``) (-, action units, -, -, -, -). Near the trapezoid's critical
-            load at k = 0.18-0.22 a drive searched at a node falls short of the per-point search a
-            third of a load cell away (results/blind/dense_band_decision).
+            load at k = 0.18-0.22 the band-polished grid's drives were up to 20 % short of a per-point
+            search between its load lines (results/blind/dense_band_decision/TEACHER_PROBE.md).
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).

@@ -2,9 +2,9 @@
 between every two of the grid's (``refine_k``), load lines between two of its load lines
 (``refine_load``; with ``min_drop``, only where the velocity is steep), a stronger search at the
 nodes either side of each k line's stall (``polish_stall``) and at the nodes of a band of k and load
-(``polish_band``), and load lines searched in such a band only (``refine_band``). Each searches its new or chosen nodes
-with CMA-ES over two-action cycles from the drives around them (``agents.field_search``), one task
-per node on an executor; ``DriveField.search`` runs them in the order ``FieldConfig`` gives.
+(``polish_band``), and load lines searched in such a band only (``refine_band``). Each searches its
+new or chosen nodes with CMA-ES over two-action cycles from the drives around them
+(``agents.field_search``), one task per node on an executor; ``DriveField.search`` runs them in the order ``FieldConfig`` gives.
 """
 
 from __future__ import annotations
@@ -69,8 +69,7 @@ class GridRefinement:
         (and below ``k_min``) the new nodes are not searched: each keeps the faster of its lighter and
         heavier neighbours' drives, so the teacher's drives there stay the grid's. With ``wide_trials``,
         each searched node also plays the drives of every searched k line's nodes on its two load
-        lines (near stall at k = 0.18-0.22 the fastest grid drive was often three k lines away,
-        results/blind/dense_band_decision). The old nodes are unchanged; the load
+        lines, not only its k neighbours'. The old nodes are unchanged; the load
         fractions are no longer evenly spaced. With ``min_drop`` > 0, only the cells across which the
         forward velocity falls by more than ``min_drop`` (m/s) on at least one k line
         (:meth:`velocity_drops`) get a line. The settings and node counts go to ``meta[record]``.
@@ -129,8 +128,8 @@ class GridRefinement:
         only at the k lines in ``k_band`` (elsewhere each new node keeps the faster of its lighter and
         heavier neighbours' drives): :meth:`refine_load` with ``wide_trials``, ``starts`` starts of
         ``budget`` evaluations (record ``refined_band``). Near the trapezoid's critical load at
-        k = 0.18-0.22 a drive searched at a node lost up to 17 % a third of a load cell away
-        (results/blind/dense_band_decision). Each new node's cycle is written in the phase closest to
+        k = 0.18-0.22 the band-polished grid's drives were up to 20 % short of a per-point search
+        between its load lines (results/blind/dense_band_decision/TEACHER_PROBE.md). Each new node's cycle is written in the phase closest to
         its lighter neighbour's. Returns the new nodes searched."""
         old = self.fractions.copy()
         searched = self.refine_load(budget, sigma, fraction_band, executor, seed, starts, k_max=k_band[1],
