@@ -130,7 +130,8 @@ def perturb_previous_actions(obs: np.ndarray, drives: np.ndarray, rng: np.random
 def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
     """The recipe's teacher at ``points``: drives (n, 2, 5) and velocities (n,) m/s from
     ``field_.best`` with ``config.teacher_radius`` (and ``teacher_load_radius``, if set); with
-    ``config.action_codebook``, the grid's own drives only (no interpolation: every action is one of :func:`grid_actions` once quantum-centred)."""
+    ``config.action_codebook``, the grid's own drives only (no interpolation: every action is one of
+    :func:`grid_actions` once quantum-centred)."""
     reach = {"radius": config.teacher_radius}
     if config.teacher_load_radius:
         reach["load_radius"] = config.teacher_load_radius
