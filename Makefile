@@ -35,11 +35,11 @@ convergence: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/mdr-drive bench --out results/bench
 
-## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; about 19 minutes alone on 2 cores; continue an interrupted one with python -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --resume)
+## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; about 22 minutes alone on 2 cores; continue an interrupted one with python -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --resume)
 train: $(STAMP)
 	$(PY) -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --force
 
-## make train-sensor: the sensor policy (MDRDriveSensor-v0: k, load, friction hidden) from the shipped full-observation policy (runs/sensor)
+## make train-sensor: the sensor policy (MDRDriveSensor-v0: k, load, friction hidden) from its full-observation teacher, agents/pretrained/ppo_sensor/teacher (runs/sensor)
 train-sensor: $(STAMP)
 	$(PY) -m mdr_drive_agents.adapt agents/configs/sensor.yaml --out runs/sensor --force
 
@@ -51,10 +51,10 @@ adaptation: $(STAMP)
 benchmark: $(STAMP)
 	$(VENV)/bin/mdr-drive benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark_shipped
 
-## make blind: the shipped policy on 120 random points of the first report seed its model card quotes, the scan's k drawn with the seed (its record: results/blind/seed20261219_drawn_scan, 933 s with a second seed beside it on 2 cores)
+## make blind: the shipped policy on 120 random points of the first report seed its model card quotes, the scan's k drawn with the seed (its record: results/blind/seed20261255_drawn_scan, 683 s alone on 2 cores)
 blind: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261219 --scan-draw --policies agents/pretrained/ppo_generalist \
-	    --out results/blind/seed20261219_shipped
+	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261255 --scan-draw --policies agents/pretrained/ppo_generalist \
+	    --out results/blind/seed20261255_shipped
 
 ## make claims: each claim of the paper's text against the model variants (results/paper_claims)
 claims: $(STAMP)

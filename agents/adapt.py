@@ -5,8 +5,8 @@
 Teacher-student training, as controllers that must act without privileged information are trained
 (Lee et al. 2020; Kumar et al. 2021), with DAgger (Ross et al. 2011):
 
-* the **teacher** is a full-observation Box policy (default: the shipped ``ppo_generalist``; a policy
-  that picks from an action table cannot teach it), told k,
+* the **teacher** is a full-observation Box policy (default: ``agents/pretrained/ppo_sensor/teacher``;
+  the shipped ``ppo_generalist`` picks from an action table and cannot teach it), told k,
   the load and the friction coefficient through the env's ``privileged_observation()``;
 * the **student** sees only ``MDRDriveSensor-v0``'s observation: the last ``history`` periods of
   slider motion (displacement, mean and end velocity) and the actions that produced them. With
@@ -85,7 +85,7 @@ class AdaptConfig:
             force sensor, ``MDRDriveSensor-v0(sensor_forces=True)``).
     """
 
-    teacher: str = "agents/pretrained/ppo_generalist"
+    teacher: str = "agents/pretrained/ppo_sensor/teacher"
     history: int = 6
     episodes: int = 512
     periods: int = 40

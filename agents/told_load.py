@@ -105,7 +105,8 @@ def main(argv=None) -> int:
     from .evaluate import env_rollout
 
     ap = Parser(prog="python -m mdr_drive_agents.told_load", description=main.__doc__)
-    ap.add_argument("--teacher", default="agents/pretrained/ppo_generalist", help="full-observation policy folder")
+    ap.add_argument("--teacher", default="agents/pretrained/ppo_sensor/teacher",
+                    help="full-observation Box policy folder (default: the sensor policy's teacher)")
     ap.add_argument("--seed", type=int, required=True, help="seed of the draws (-), as the adaptation run's")
     ap.add_argument("--n", type=int, default=32, help="draws (-), as the adaptation run's --blind")
     ap.add_argument("--adaptation", type=input_file, required=True,

@@ -100,7 +100,7 @@ def test_bad_adapt_settings_name_themselves(kwargs, name):
 
 def test_a_config_with_a_missing_teacher_is_one_line(tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
-    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_generalist", "teacher: no/such/folder"))
+    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_sensor/teacher", "teacher: no/such/folder"))
     assert adapt.main([str(bad), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "teacher='no/such/folder'" in err and err.count("\n") == 1
@@ -113,7 +113,7 @@ def test_a_codebook_teacher_is_refused_in_one_line(tmp_path, capsys):
     shutil.copytree("agents/pretrained/ppo_sensor/teacher", teacher)
     np.save(teacher / "action_codebook.npy", np.zeros((3, 5)))
     bad = tmp_path / "bad.yaml"
-    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_generalist", f"teacher: {teacher}"))
+    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_sensor/teacher", f"teacher: {teacher}"))
     assert adapt.main([str(bad), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "picks from an action table" in err and err.count("\n") == 1 and not (tmp_path / "out").exists()

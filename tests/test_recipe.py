@@ -949,7 +949,9 @@ def test_the_teacher_check_script_scores_the_teacher_against_an_earlier_blind_se
     root = Path(__file__).parents[1]
     field_path = root / "results" / "recipe" / "teacher_field.npz"
     points = [(0.1, 0.01), (0.3, 0.005), (0.5, 0.0)]
-    _, teacher = DriveField.load(field_path).best(points, radius=load_recipe(DEFAULT_CONFIG)["distill"].teacher_radius)
+    from mdr_drive_agents.teacher_data import teacher_drives
+
+    _, teacher = teacher_drives(DriveField.load(field_path), points, load_recipe(DEFAULT_CONFIG)["distill"])  # the script's teacher
     assert np.all(teacher >= 2e-3)
     best = teacher / np.array([1.0, 0.8, 0.5])  # the search beats the teacher by these fractions
     blind_json = tmp_path / "blind.json"
@@ -965,7 +967,6 @@ def test_the_teacher_check_script_scores_the_teacher_against_an_earlier_blind_se
 
     # with a scan: the teacher's critical load over the stored best cycle's, the k under 0.97 named
     from mdr_drive_agents.evaluate import critical_loads_grid
-    from mdr_drive_agents.teacher_data import teacher_drives
 
     field, config = DriveField.load(field_path), load_recipe(DEFAULT_CONFIG)["distill"]
     ks = [0.2, 0.4]

@@ -35,7 +35,7 @@ def test_the_told_ratio_is_the_nearest_to_the_truth_among_the_fastest():
 def test_told_velocities_play_the_teacher_at_the_draws_friction():
     from mdr_drive_agents.evaluate import Policy
 
-    teacher = Policy("agents/pretrained/ppo_generalist")
+    teacher = Policy("agents/pretrained/ppo_sensor/teacher")
     draws = np.array([[0.2, 0.05, 0.3, 0.1], [0.2, 0.05, 0.22, 0.1]])
     v = told_velocities(teacher, draws, ratios=TOLD_RATIOS[:3], periods=12)
     assert v.shape == (2, 3) and np.all(np.isfinite(v))
