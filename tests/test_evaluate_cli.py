@@ -215,7 +215,7 @@ def test_the_model_card_names_the_first_rounds_extra_episodes_only_where_the_rec
 
 def test_the_model_cards_blind_record_repeats_each_command_and_counts_the_seeds_that_meet_every_target(tmp_path):
     from mdr_drive_agents.blind import DRAWN_SCAN, EVEN_SCAN
-    from mdr_drive_agents.model_card import blind_record
+    from mdr_drive_agents.blind_record import blind_record
 
     clean = {"points_below_trapezoid": 0, "points_scored": 20, "fraction_of_best_mean": 1.1,
              "fraction_of_best_min": 0.9, "points_under_fraction_target": 0,
@@ -241,7 +241,7 @@ def test_the_model_cards_blind_record_repeats_each_command_and_counts_the_seeds_
 
 
 def test_the_pass_rates_wilson_interval_has_its_closed_forms_and_refuses_impossible_counts():
-    from mdr_drive_agents.model_card import wilson_interval
+    from mdr_drive_agents.blind_record import wilson_interval
 
     z2 = 1.96 ** 2
     assert wilson_interval(0, 10) == (0.0, pytest.approx(z2 / (10 + z2)))  # no pass: [0, z^2 / (n + z^2)]
