@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The rule's check (RULE.md): a candidate (default cbd: runs/cbd/policy) on the stored searches of
-# fourteen decision seeds.   bash results/blind/dense_band_decision/check.sh [NAME]
+# fourteen decision seeds, into OUT (default this folder).   bash results/blind/dense_band_decision/check.sh [NAME [OUT]]
 set -euo pipefail
 name=${1:-cbd}
-out=results/blind/dense_band_decision
+out=${2:-results/blind/dense_band_decision}
 for seed in 3232 9292; do
   mdr-drive benchmark --blind 120 --seed "$seed" --scan-draw \
     --reuse-search "results/blind/codebook_band_decision/seed${seed}/blind.json" \

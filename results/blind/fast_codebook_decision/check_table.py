@@ -1,7 +1,8 @@
-"""The rule's step 2 (RULE.md): CBBf (`runs/cbbf/policy`) on the fourteen decision seeds' stored searches,
-written by `bash results/blind/fast_codebook_decision/check.sh cbbf`:
+"""The rule's step 2 (RULE.md): a candidate (NAME: cbbf or cbbg, `runs/NAME/policy`) on the fourteen decision
+seeds' stored searches, written by `bash results/blind/fast_codebook_decision/check.sh NAME`:
 
-    python results/blind/fast_codebook_decision/check_table.py > results/blind/fast_codebook_decision/check_table.md
+    python results/blind/fast_codebook_decision/check_table.py cbbf > results/blind/fast_codebook_decision/check_table.md
+    python results/blind/fast_codebook_decision/check_table.py cbbg > results/blind/fast_codebook_decision/check_table_cbbg.md
 """
 import sys
 from pathlib import Path
@@ -13,6 +14,7 @@ from mdr_drive_agents.model_card import blind_record  # noqa: E402
 
 HERE = Path("results/blind/fast_codebook_decision")
 SEEDS = (3232, 9292, *range(20261219, 20261225), *range(20261249, 20261255))
-files = [HERE / f"cbbf_seed{s}" / "blind.json" for s in SEEDS]
-print(f"### CBBf on the fourteen decision seeds (misses: {misses(files, 'runs/cbbf/policy')})\n")
-print(blind_record(files, "runs/cbbf/policy"))
+name = sys.argv[1] if len(sys.argv) > 1 else "cbbf"
+files = [HERE / f"{name}_seed{s}" / "blind.json" for s in SEEDS]
+print(f"### {name[:3].upper()}{name[3:]} on the fourteen decision seeds (misses: {misses(files, f'runs/{name}/policy')})\n")
+print(blind_record(files, f"runs/{name}/policy"))

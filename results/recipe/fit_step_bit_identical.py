@@ -1,10 +1,14 @@
-"""Is Adam's foreach path bit-identical to the default (for-loop) one in a codebook fit step, and faster?
-(python results/recipe/fit_step_adam_foreach.py; runs/cbbr/policy: results/blind/codebook_band_decision/rebuild_check/cbbr_policy)"""
+"""Two variants of a codebook fit step that might keep the weights bit for bit, timed against the recipe's:
+a hand-normalised logit path (SB3's Categorical's own operation) and Adam's foreach path.
+
+    python results/recipe/fit_step_bit_identical.py 400     # runs/cbbr/policy: results/blind/codebook_band_decision/rebuild_check/cbbr_policy
+"""
 import copy, sys, time
 import numpy as np, torch
 from stable_baselines3 import PPO
 sys.path.insert(0, ".")
-from mdr_drive_agents.student import policy_logits
+from mdr_drive_agents.student import policy_logits, policy_raw_logits, adam_fit
+
 torch.set_num_threads(2)
 model = PPO.load("runs/cbbr/policy/model.zip", device="cpu")
 base = model.policy
@@ -13,7 +17,30 @@ n = 20000
 x = torch.as_tensor(rng.normal(size=(n, 14)), dtype=torch.float32)
 y = torch.as_tensor(rng.integers(0, 657, n))
 
-def run(steps, **adam_kw):
+def normalised(policy, obs):
+    raw = policy_raw_logits(policy, obs)
+    return raw - raw.logsumexp(dim=-1, keepdim=True)
+
+def run(fn, steps, fused=False):
+    policy = copy.deepcopy(base)
+    policy.set_training_mode(True)
+    t = time.perf_counter()
+    loss = adam_fit([*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()],
+                    lambda: (n, lambda idx: torch.nn.functional.cross_entropy(fn(policy, x[idx]), y[idx])),
+                    steps, 256, 1e-3, 1, "p", progress=False, fused=fused)
+    dt = time.perf_counter() - t
+    return policy, loss, steps / dt
+
+steps = int(sys.argv[1]) if len(sys.argv) > 1 else 400
+for name, fn in (("sb3", policy_logits), ("hand", normalised), ("raw", policy_raw_logits), ("sb3", policy_logits), ("hand", normalised)):
+    p, loss, rate = run(fn, steps)
+    if name == "sb3":
+        ref = p
+    same = all(torch.equal(a, b) for a, b in zip(ref.state_dict().values(), p.state_dict().values()))
+    print(f"{name}: {rate:.1f} steps/s, loss {loss:.8f}, same weights as sb3: {same}", flush=True)
+
+
+def run_adam(steps, **adam_kw):
     policy = copy.deepcopy(base); policy.set_training_mode(True)
     params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
     opt = torch.optim.Adam(params, lr=1e-3, **adam_kw)
@@ -33,9 +60,8 @@ def run(steps, **adam_kw):
     dt = time.perf_counter() - t
     return policy, steps / dt, tf / steps * 1e3
 
-steps = 400
 for name, kw in (("loop", {}), ("foreach", {"foreach": True}), ("loop", {}), ("foreach", {"foreach": True})):
-    p, rate, adam_ms = run(steps, **kw)
+    p, rate, adam_ms = run_adam(steps, **kw)
     if name == "loop": ref = p
     same = all(torch.equal(a, b) for a, b in zip(ref.state_dict().values(), p.state_dict().values()))
     print(f"{name}: {rate:.1f} steps/s, adam+sched {adam_ms:.2f} ms/step, same as loop: {same}", flush=True)
