@@ -35,8 +35,12 @@ def policy_mean(policy, obs):
 
 def policy_logits(policy, obs):
     """The action logits (log-probabilities) of an SB3 PPO policy over a ``Discrete`` action space on
-    (normalised) observations, as a torch tensor."""
-    return policy.get_distribution(obs).distribution.logits
+    (normalised) observations, as a torch tensor: SB3's ``Categorical`` normalisation of the action
+    net's output (its log-sum-exp subtracted, torch's own operation), without building the distribution
+    and checking its arguments: the same tensor and gradients bit for bit (tested), a fit step a few
+    per cent faster (docs/performance.md)."""
+    raw = policy_raw_logits(policy, obs)
+    return raw - raw.logsumexp(dim=-1, keepdim=True)
 
 
 def policy_raw_logits(policy, obs):

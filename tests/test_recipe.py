@@ -586,6 +586,27 @@ def test_the_raw_logit_cross_entropy_is_the_categoricals_and_needs_a_codebook():
         DistillConfig(raw_logits="yes", action_codebook=True, quantum_centres=True)
 
 
+def test_the_fits_logits_are_sb3s_categorical_logits_bit_for_bit_with_their_gradients():
+    import torch
+    from stable_baselines3 import PPO
+
+    from mdr_drive_agents.student import policy_logits
+
+    table = np.random.default_rng(0).uniform(-1.0, 1.0, (9, 5))
+    x = torch.as_tensor(np.random.default_rng(1).normal(size=(32, 14)), dtype=torch.float32)
+    labels = torch.as_tensor(np.arange(32) % 9)
+    grads = []
+    for logits_of in (policy_logits, lambda policy, obs: policy.get_distribution(obs).distribution.logits):
+        model = PPO("MlpPolicy", gym.make("MDRDrive-v0", action_codebook=table), device="cpu", seed=0)
+        logits = logits_of(model.policy, x)
+        torch.nn.functional.cross_entropy(logits, labels).backward()
+        grads.append((logits.detach(), [p.grad.clone() for p in model.policy.action_net.parameters()]
+                      + [p.grad.clone() for p in model.policy.mlp_extractor.policy_net.parameters()]))
+    (ours, our_grads), (sb3, sb3_grads) = grads
+    assert torch.equal(ours, sb3)
+    assert len(our_grads) == len(sb3_grads) and all(torch.equal(a, b) for a, b in zip(our_grads, sb3_grads))
+
+
 def test_keeping_phases_leaves_the_nodes_a_stage_did_not_change_as_they_were():
     from mdr_drive_agents.drive_field import DriveField
 

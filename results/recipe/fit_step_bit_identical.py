@@ -1,7 +1,8 @@
-"""Two variants of a codebook fit step that might keep the weights bit for bit, timed against the recipe's:
-a hand-normalised logit path (SB3's Categorical's own operation) and Adam's foreach path.
+"""Two variants of a codebook fit step that might keep the weights bit for bit, timed against SB3's own
+path: the hand-normalised logits (SB3's Categorical's own operation, now ``student.policy_logits``, the
+recipe's) and Adam's foreach path; ``raw``, the raw-logit loss, changes the weights.
 
-    python results/recipe/fit_step_bit_identical.py 400     # runs/cbbr/policy: results/blind/codebook_band_decision/rebuild_check/cbbr_policy
+    python results/recipe/fit_step_bit_identical.py 400 [ROUNDS]    # runs/cbbr/policy: results/blind/codebook_band_decision/rebuild_check/cbbr_policy
 """
 import copy, sys, time
 import numpy as np, torch
@@ -17,9 +18,8 @@ n = 20000
 x = torch.as_tensor(rng.normal(size=(n, 14)), dtype=torch.float32)
 y = torch.as_tensor(rng.integers(0, 657, n))
 
-def normalised(policy, obs):
-    raw = policy_raw_logits(policy, obs)
-    return raw - raw.logsumexp(dim=-1, keepdim=True)
+def sb3_logits(policy, obs):
+    return policy.get_distribution(obs).distribution.logits
 
 def run(fn, steps, fused=False):
     policy = copy.deepcopy(base)
@@ -32,7 +32,9 @@ def run(fn, steps, fused=False):
     return policy, loss, steps / dt
 
 steps = int(sys.argv[1]) if len(sys.argv) > 1 else 400
-for name, fn in (("sb3", policy_logits), ("hand", normalised), ("raw", policy_raw_logits), ("sb3", policy_logits), ("hand", normalised)):
+rounds = int(sys.argv[2]) if len(sys.argv) > 2 else 1
+variants = (("sb3", sb3_logits), ("hand", policy_logits), ("raw", policy_raw_logits)) + (("sb3", sb3_logits), ("hand", policy_logits)) * rounds
+for name, fn in variants:
     p, loss, rate = run(fn, steps)
     if name == "sb3":
         ref = p
@@ -51,7 +53,7 @@ def run_adam(steps, **adam_kw):
     for i in range(steps):
         idx = perm[(i * 256) % (n - 256):(i * 256) % (n - 256) + 256]
         t0 = time.perf_counter()
-        loss = torch.nn.functional.cross_entropy(policy_logits(policy, x[idx]), y[idx])
+        loss = torch.nn.functional.cross_entropy(sb3_logits(policy, x[idx]), y[idx])
         opt.zero_grad(); loss.backward()
         t1 = time.perf_counter()
         opt.step(); sched.step()
