@@ -193,7 +193,10 @@ REGRESSION_LIMITS = """* Where the steady velocity is steep in the drive, a smal
   isolated (k, load) points, or, started there, stay in a slower drive (docs/results.md, Limits).
 """
 #: The card's limits of a policy that picks its action from a table (Discrete).
-CODEBOOK_LIMITS = """* Where the teacher's best drive jumps from one grid drive to another, the network must switch its pick
+CODEBOOK_LIMITS = """* It plays only its teacher's grid drives (the network picks which, each period): never a drive between
+  two of them, so at a point it is at best as good as the best grid drive there; fine-tuning
+  (`--resume`) changes which it picks, not the drives.
+* Where the teacher's best drive jumps from one grid drive to another, the network must switch its pick
   within a narrow band of k and load; a pick of the neighbouring drive there can be slower, and near
   stall the velocity is steep in the drive (docs/results.md, Limits).
 """
@@ -240,7 +243,7 @@ folder first: a resumed run writes into it; the observation statistics stay as d
 * Trained for the ranges above with the paper's friction (mu = 0.3, mu1 = 0.1) and material; `mdr-drive
   evaluate` warns outside the trained k and loads and at other friction coefficients.
 * It observes k and the load: a drive that knows neither needs a sensor-only policy (`MDRDriveSensor-v0`).
-{"* It plays only its teacher's grid drives (the network picks which, each period): never a drive between two of them, so at a point it is at best as good as the best grid drive there; fine-tuning (`--resume`) changes which it picks, not the drives." + chr(10) if table else ""}* Its drives are the teacher's: a grid search with a stated budget, polished from each node's
+* Its drives are the teacher's: a grid search with a stated budget, polished from each node's
   neighbours (docs/results.md), not a proven optimum; near stall it can be well short of a per-point
   search, and the network with it (the blind misses in docs/results.md).
 {REGRESSION_LIMITS if not table else CODEBOOK_LIMITS}* `python scripts/dense_check.py {dst.as_posix()} --out DIR` maps where it is below the trapezoid on a
