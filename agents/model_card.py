@@ -16,7 +16,7 @@ import numpy as np
 
 from mdr_drive_env.files import write_text
 
-from .blind_record import blind_record  # also the decision folders' record scripts' import
+from .blind_record import blind_record
 from .distill import FOCUS_KEYS
 from .evaluate import (
     AVERAGE_PERIODS,

@@ -8,7 +8,7 @@ count (points under 0.85 + points below the trapezoid + scanned k under 0.97) pe
 import json
 from pathlib import Path
 
-from mdr_drive_agents.model_card import blind_record
+from mdr_drive_agents.blind_record import blind_record
 
 HERE = Path("results/blind/codebook_band_decision")
 FRESH = (3232, 9292)

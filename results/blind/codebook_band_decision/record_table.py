@@ -3,7 +3,7 @@ card tabulates it (``model_card.blind_record``; the targets judged by ``blind.mi
 
     python results/blind/codebook_band_decision/record_table.py
 """
-from mdr_drive_agents.model_card import blind_record
+from mdr_drive_agents.blind_record import blind_record
 
 SEEDS = range(20261249, 20261255)
 print(blind_record([f"results/blind/seed{seed}_drawn_scan/blind.json" for seed in SEEDS], "runs/cbb/policy"))

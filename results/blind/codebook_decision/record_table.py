@@ -3,7 +3,7 @@ points, searches and scans, as the model card tabulates them (``model_card.blind
 judged by ``blind.missed_targets``): python results/blind/codebook_decision/record_table.py"""
 from pathlib import Path
 
-from mdr_drive_agents.model_card import blind_record
+from mdr_drive_agents.blind_record import blind_record
 
 SEEDS = range(20261219, 20261225)
 HERE = Path("results/blind/codebook_decision")

@@ -12,7 +12,7 @@ from pathlib import Path
 sys.path.insert(0, "results/blind/codebook_band_decision")
 from check_table import misses  # noqa: E402
 
-from mdr_drive_agents.model_card import blind_record  # noqa: E402
+from mdr_drive_agents.blind_record import blind_record  # noqa: E402
 
 HERE = Path("results/blind/dense_band_decision")
 GROUPS = {"decision seeds 3232, 9292": (3232, 9292),

@@ -10,7 +10,7 @@ from pathlib import Path
 sys.path.insert(0, "results/blind/codebook_band_decision")
 from check_table import misses  # noqa: E402
 
-from mdr_drive_agents.model_card import blind_record  # noqa: E402
+from mdr_drive_agents.blind_record import blind_record  # noqa: E402
 
 HERE = Path("results/blind/fast_codebook_decision")
 SEEDS = (3232, 9292, *range(20261219, 20261225), *range(20261249, 20261255))

@@ -7,7 +7,7 @@ tabulates it (``model_card.blind_record``; the targets judged by ``blind.missed_
 import sys
 from pathlib import Path
 
-from mdr_drive_agents.model_card import blind_record
+from mdr_drive_agents.blind_record import blind_record
 
 first, last = (int(sys.argv[1]), int(sys.argv[2])) if len(sys.argv) == 3 else (20261255, 20261260)
 files = [f"results/blind/seed{seed}_drawn_scan/blind.json" for seed in range(first, last + 1)]
