@@ -35,7 +35,7 @@ convergence: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/mdr-drive bench --out results/bench
 
-## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; about 22 minutes alone on 2 cores; continue an interrupted one with python -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --resume)
+## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; 14-22 minutes alone on 2 cores by the host's speed, docs/results.md; continue an interrupted one with python -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --resume)
 train: $(STAMP)
 	$(PY) -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --force
 
