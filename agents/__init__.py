@@ -1,3 +1,16 @@
-"""Training and evaluation of waveform policies on MDRDrive-v0 (Stable-Baselines3)."""
+"""Learned drive waveforms for MDRDrive-v0 (Stable-Baselines3): the shipped policies, how they are
+made (``teacher``, ``student``, ``train``) and judged (``protocol``, ``search``, ``benchmarks``).
 
-import mdr_drive_env  # noqa: F401  (first: it pins numpy's BLAS kernels before numpy loads, mdr_drive_env.blas)
+    from mdr_drive_agents import load_policy
+
+    policy = load_policy("agents/pretrained/ppo_generalist")
+    env = policy.make_env(k=0.2, cargo_mass=0.1)
+"""
+
+from .blas import pin_blas_kernels
+
+pin_blas_kernels()  # before numpy loads, where it can: the same CMA-ES drives on every x86-64 CPU (blas.py)
+
+from .policy import PRETRAINED, SENSOR_PRETRAINED, Policy, load_policy  # noqa: E402
+
+__all__ = ["PRETRAINED", "SENSOR_PRETRAINED", "Policy", "load_policy"]

@@ -4,10 +4,6 @@ Importing the package registers ``MDRDrive-v0``; ``gym.make("mdr_drive_env:MDRDr
 imports it on demand (also in subprocesses).
 """
 
-from .blas import pin_blas_kernels
-
-pin_blas_kernels()  # before anything loads numpy: the same CMA-ES drives on every x86-64 CPU (mdr_drive_env.blas)
-
 __version__ = "0.1.0"
 
 #: The full-observation env's id (what the agents train and play on).

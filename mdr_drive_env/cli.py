@@ -297,43 +297,36 @@ def cmd_bench(a: argparse.Namespace) -> int:
     return 0 if res["accuracy_fast"]["max_error_over_tolerance"] <= 1.0 else 1
 
 
-#: Subcommands implemented in agents/: (name, help, description).
-AGENT_COMMANDS = (
-    ("train", "train a waveform policy (needs the train extra)",
-     "Train PPO or SAC on MDRDrive-v0 (agents/train.py, its options agents/train_cli.py); see docs/results.md."),
-    ("evaluate", "a trained policy against the trapezoid at one point",
-     "Steady velocity of a policy and of the paper's trapezoid (agents/evaluate_cli.py)."),
-    ("benchmark", "learned vs trapezoid vs CMA-ES over k and load",
-     "The waveform benchmark (agents/benchmark.py); writes results/benchmark/."),
-    ("demo", "the README's demo (make demo)",
-     "Simulate the paper's drive, then run the shipped policy against the trapezoid."),
-)
+#: The entry-point group through which installed packages add ``mdr-drive`` subcommands (the agents
+#: package adds train, recipe, evaluate, benchmark, ...). Each entry point names a module with
+#: ``HELP``, ``DESCRIPTION``, ``add_arguments(parser)`` and ``main(args) -> exit code``.
+COMMAND_GROUP = "mdr_drive.commands"
 
 
-#: The module of an agents/ subcommand where it is not the command's name.
-AGENT_MODULES = {"evaluate": "evaluate_cli", "train": "train_cli"}
+def plugin_commands() -> list:
+    """The entry points of :data:`COMMAND_GROUP`, in the order their package declares them."""
+    from importlib.metadata import entry_points
+
+    return list(entry_points(group=COMMAND_GROUP))
 
 
-def _agents_module(command: str):
-    """The agents/ module that implements ``command`` (``AGENT_MODULES``, else the command's name)."""
-    return __import__(f"mdr_drive_agents.{AGENT_MODULES.get(command, command)}", fromlist=["main"])
-
-
-def _agents_arguments(p: argparse.ArgumentParser, command: str) -> None:
+def _add_plugin_command(sub, entry_point) -> None:
+    """The subcommand ``entry_point`` names; one that cannot be imported (an extra is missing) still
+    shows in ``--help`` and says, in one line, what to install."""
     try:
-        mod = _agents_module(command)
-    except ImportError as e:  # the train extra is missing
-        p.set_defaults(_import_error=str(e))
+        module = entry_point.load()
+    except ImportError as e:
+        p = sub.add_parser(entry_point.name, help="(needs the train extra)")
+        p.set_defaults(func=functools.partial(_missing_extra, entry_point.name, str(e)))
         return
-    mod.add_arguments(p)
+    p = sub.add_parser(entry_point.name, help=module.HELP, description=module.DESCRIPTION)
+    module.add_arguments(p)
+    p.set_defaults(func=module.main)
 
 
-def _agents_main(command: str, a: argparse.Namespace) -> int:
-    if getattr(a, "_import_error", None):
-        print(f"mdr-drive {command} needs the train extra (pip install -e '.[train]'): {a._import_error}",
-              file=sys.stderr)
-        return 2
-    return _agents_module(command).main(a)
+def _missing_extra(command: str, error: str, args: argparse.Namespace) -> int:
+    print(f"mdr-drive {command} needs the train extra (pip install -e '.[train]'): {error}", file=sys.stderr)
+    return 2
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -377,10 +370,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_executor_arguments(b, resume=False)  # the reference's finished cases are always kept until it is written
     b.set_defaults(func=cmd_bench)
 
-    for name, help_text, description in AGENT_COMMANDS:  # implemented in agents/ (the train extra)
-        a = sub.add_parser(name, help=help_text, description=description)
-        _agents_arguments(a, name)
-        a.set_defaults(func=functools.partial(_agents_main, name))
+    for entry_point in plugin_commands():  # the agents package's, where it is installed
+        _add_plugin_command(sub, entry_point)
     return parser
 
 

@@ -7,8 +7,10 @@ Three sweeps, each a representative slice of the real one, run first on 1 worker
 ``--workers`` (default: the cores available), same tasks, same results (checked):
 
 - the paper reproduction at paper numerics (``mdr-drive reproduce --quick``'s Fig. 5 cases);
-- the shipped recipe's teacher (``agents.field_search.search_slice``: two of its 13 k slices);
-- the blind benchmark's per-point search (``agents.blind.best_drive`` at the first points of a seed).
+- the shipped recipe's teacher (``mdr_drive_agents.teacher.node_search.search_slice``: two of its 13 k
+  slices);
+- the blind benchmark's per-point search (``mdr_drive_agents.benchmarks.blind.best_drive`` at the first
+  points of a seed).
 
 Every task's own duration is measured in the worker, so the projection to P CPUs uses measured
 costs: the full sweep's task count times the measured mean cost, scheduled longest first on P
@@ -78,20 +80,20 @@ def reproduce_sweep(n: int):
 
 
 def teacher_sweep(n: int):
-    from mdr_drive_agents.blind import trapezoid_critical
-    from mdr_drive_agents.field_search import search_slice
-    from mdr_drive_agents.recipe import DEFAULT_CONFIG, load_recipe
+    from mdr_drive_agents.protocol import trapezoid_critical_load
+    from mdr_drive_agents.teacher.node_search import search_slice
+    from mdr_drive_agents.train.recipe import DEFAULT_CONFIG, load_recipe
 
-    config = load_recipe(DEFAULT_CONFIG)["teacher"]
+    config = load_recipe(DEFAULT_CONFIG).teacher
     ks = config.ks[1::max(1, len(config.ks) // n)][:n]  # k slices of the shipped recipe's grid
-    crit = trapezoid_critical([float(k) for k in ks])
+    crit = trapezoid_critical_load([float(k) for k in ks])
     return search_slice, [(float(k), config.fractions * c, config, i) for i, (k, c) in enumerate(zip(ks, crit))], \
         config.k_values
 
 
 def blind_sweep(n: int):
-    from mdr_drive_agents.baselines import CMA_BUDGET, CYCLE_SEARCH
-    from mdr_drive_agents.blind import best_drive, draw_points
+    from mdr_drive_agents.benchmarks.blind import best_drive, draw_points
+    from mdr_drive_agents.search import CMA_BUDGET, CYCLE_SEARCH
 
     points, _ = draw_points(n, seed=1)
     return best_drive, [(k, m, CMA_BUDGET, CYCLE_SEARCH["budget"]) for k, m in points], 24

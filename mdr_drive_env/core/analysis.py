@@ -29,6 +29,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 
 from .params import DriveParams, Numerics
@@ -185,6 +187,35 @@ class CriticalLoad:
     evaluations: int
 
 
+def bisect_critical_load(moves, low: float, high: float, tolerance: float | None = None,
+                         iterations: int | None = None, grow: bool = True,
+                         max_load: float = math.inf) -> tuple[float, float] | None:
+    """The bracket (moves, stalls) of the largest load at which ``moves(load)`` is True, by bisection.
+
+    None if the drive does not move at ``low``. With ``grow``, the upper end doubles while the drive
+    still moves there (``ValueError`` once it passes ``max_load``); then the bracket is halved
+    ``iterations`` times, or until it is at most ``tolerance`` wide. Assumes the drive moves below
+    its critical load and stalls above it. ``moves`` may keep state (a search that starts from the
+    drive found at the last load that moved): it is called at increasing loads while the bracket
+    grows, then at each midpoint in turn."""
+    if not moves(low):
+        return None
+    if grow:
+        while moves(high):
+            low, high = high, 2.0 * high
+            if high > max_load:
+                raise ValueError(f"the drive still moves at {low!r} kg; raise max_mass={max_load!r}")
+    steps = 0
+    while (tolerance is not None and high - low > tolerance) or (iterations is not None and steps < iterations):
+        mid = 0.5 * (low + high)
+        if moves(mid):
+            low = mid
+        else:
+            high = mid
+        steps += 1
+    return low, high
+
+
 def critical_load(
     params: DriveParams,
     waveform: Waveform | None = None,
@@ -211,18 +242,9 @@ def critical_load(
         sv = steady_velocity(params.with_cargo_mass(m), waveform, numerics, rule)
         return sv.state != "runaway" and sv.velocity > 0.0
 
-    if not moves(0.0):
+    bracket = bisect_critical_load(moves, 0.0, upper_guess, tolerance=tolerance, max_load=max_mass)
+    if bracket is None:
         return CriticalLoad(0.0, 0.0, (0.0, 0.0), evaluations)
-    lo, hi = 0.0, upper_guess
-    while moves(hi):
-        lo, hi = hi, 2.0 * hi
-        if hi > max_mass:
-            raise ValueError(f"the drive still moves at {lo!r} kg; raise max_mass={max_mass!r}")
-    while hi - lo > tolerance:
-        mid = 0.5 * (lo + hi)
-        if moves(mid):
-            lo = mid
-        else:
-            hi = mid
+    lo, hi = bracket
     g = params.drive.gravity
     return CriticalLoad(lo, lo * g, (lo, hi), evaluations)

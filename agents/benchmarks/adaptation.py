@@ -1,0 +1,297 @@
+"""How a sensor policy drives when k, the load and friction are hidden, and when the load steps.
+
+    mdr-drive adaptation --seed 20261125 --out results/adaptation    # make adaptation
+
+Two experiments on draws of ``MDRDriveSensor-v0``'s hidden parameters (k in [0, 0.6], the load
+from 0 to 0.4 of mu F_ref, mu in [0.2, 0.4], mu1 in [0.07, 0.13]) from ``--seed``:
+
+1. **blind points** (``--blind N``): the steady velocity (mean of periods 21-30) of the sensor
+   policy, and of its baselines at the same hidden values: the trapezoid; the *tuned-once* fixed
+   waveform (CMA-ES at the middle of the ranges: k = 0.3, load 0.2 of mu F_ref, mu = 0.3,
+   mu1 = 0.1; what an engineer would tune once); the full-observation policy (told k, the load and
+   friction: an upper bound); and the best drive found at the point: the search's
+   (``benchmarks.blind.best_drive``: CMA-ES over fixed actions and two-action cycles at that point's
+   friction) or any of the drives above where one beats it. Statistics as the blind benchmark's
+   (``benchmarks.targets.velocity_statistics``).
+2. **load steps** (``--load-steps M``): 40-period episodes whose cargo changes before period 20 to
+   another draw of the same range; per drive, the velocity per period, and whether it is back to
+   ``RECOVERY_FRACTION`` of its own steady velocity at the new load (mean of the last 10 periods)
+   within ``RECOVERY_PERIODS`` periods: the mean of the two periods after them (20 + 5 and 20 + 6)
+   reaches it. Scored where that steady velocity is at least 2 mm/s.
+
+Writes ``adaptation.json``, ``adaptation.md``, ``points.csv``, ``load_steps.csv`` and the plots
+``adaptation_load_steps.png`` and ``adaptation_tracking.png``. The per-point searches run on the
+sweep executor (``--workers``, ``--ray-address``) and are kept as they finish (``--resume``);
+``--reuse-search ADAPTATION.json`` takes them from an earlier run of the same seed, sizes and
+budgets, so that several sensor policies are compared on one search (only the drives run).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from mdr_drive_env.files import json_safe, save_figure, write_csv, write_text
+from mdr_drive_env.sweep import Executor, TaskStore, task_folder
+
+from ..policy import load_policy
+from ..protocol import ACTION_MAP, AVERAGE_PERIODS, EVAL_PERIODS, env_rollout, format_velocity, steady_velocity_of
+from ..search import CMA_BUDGET, CYCLE_SEARCH, cma_optimize
+from ..student.estimator import SENSOR_ID
+from .blind import QUICK, best_drive
+from .targets import MOVING_THRESHOLD, velocity_statistics
+
+SENSOR_POLICY = "agents/pretrained/ppo_sensor"
+FULL_POLICY = "agents/pretrained/ppo_sensor/teacher"  # the sensor policy's teacher: the upper bound it approximates
+#: The tuned-once waveform's point: the middle of the sensor env's ranges (k, load ratio, mu, mu1).
+TUNED_ONCE_POINT = {"k": 0.3, "load_ratio": 0.2, "friction_coefficient": 0.3, "base_friction_coefficient": 0.1}
+STEP_PERIOD = 20
+STEP_EPISODE_PERIODS = 40
+RECOVERY_PERIODS = 5
+RECOVERY_FRACTION = 0.9
+#: The issue's floor on a sensor drive's fraction of the per-point best drive ("under 0.75" in the tables).
+FRACTION_FLOOR = 0.75
+DRIVES = ("sensor policy", "full-observation policy", "trapezoid", "tuned once")
+
+
+def draw_hidden(n: int, seed: int, load_step: bool = False) -> list[dict]:
+    """``n`` draws of the sensor env's hidden parameters (its own sampling, the first reset seeded
+    ``seed``): k, cargo_mass (kg), friction_coefficient, base_friction_coefficient, load_ratio
+    (load / (mu F_ref)) and, with ``load_step``, step_cargo_mass (kg) for period ``STEP_PERIOD``."""
+    env = gym.make(SENSOR_ID, max_periods=STEP_EPISODE_PERIODS,
+                   load_step_period=(STEP_PERIOD, STEP_PERIOD) if load_step else None)
+    draws = []
+    for i in range(n):
+        _, info = env.reset(seed=seed if i == 0 else None)
+        u = env.unwrapped
+        d = {key: float(info[key]) for key in ("k", "cargo_mass", "friction_coefficient", "base_friction_coefficient")}
+        d["load_ratio"] = info["load_force"] / (d["friction_coefficient"] * u.force_ref)
+        if load_step:
+            d["step_cargo_mass"] = float(u.load_step[1])
+        draws.append(d)
+    return draws
+
+
+def hidden_point(d: dict) -> tuple[float, float, float, float]:
+    """A draw of :func:`draw_hidden` (or a report's ``points`` entry) as a (k, cargo mass kg, mu, mu1)
+    point, as ``evaluate.open_loop_velocity`` and ``DriveField.best`` take it."""
+    return d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]
+
+
+def tuned_once_action(budget: int = CMA_BUDGET) -> np.ndarray:
+    """The best fixed action CMA-ES finds at ``TUNED_ONCE_POINT``."""
+    env = gym.make("MDRDrive-v0", **TUNED_ONCE_POINT)
+    _, info = env.reset(seed=0)
+    p = TUNED_ONCE_POINT
+    return cma_optimize(p["k"], info["cargo_mass"], budget,
+                        friction=(p["friction_coefficient"], p["base_friction_coefficient"])).action
+
+
+class FixedAction:
+    """``obs -> action``: the same action every period."""
+
+    def __init__(self, action):
+        self.action = np.asarray(action, dtype=np.float32)
+
+    def __call__(self, obs):
+        return np.tile(self.action, (len(obs), 1))
+
+
+def play(drive: str, policies: dict, d: dict, periods: int, load_step=None):
+    """One run of ``drive`` at the hidden values ``d``: (velocity per period (periods,) m/s, actions,
+    runaway)."""
+    friction = {"friction_coefficient": d["friction_coefficient"],
+                "base_friction_coefficient": d["base_friction_coefficient"]}
+    return env_rollout(policies[drive], d["k"], d["cargo_mass"], periods, load_step, **friction)  # in its own env
+
+
+def recovery(v: np.ndarray) -> tuple[float, float | None, bool | None]:
+    """(steady velocity at the new load m/s, periods to reach ``RECOVERY_FRACTION`` of it (2-period
+    mean), recovered within ``RECOVERY_PERIODS``) of one load-step run's velocities; None where the
+    steady velocity is below ``MOVING_THRESHOLD``."""
+    steady = float(np.mean(v[-AVERAGE_PERIODS:]))
+    if steady < MOVING_THRESHOLD:
+        return steady, None, None
+    pair = (v[STEP_PERIOD:-1] + v[STEP_PERIOD + 1:]) / 2.0
+    reached = np.flatnonzero(pair >= RECOVERY_FRACTION * steady)
+    periods = float(reached[0]) if reached.size else float("inf")
+    window = v[STEP_PERIOD + RECOVERY_PERIODS:STEP_PERIOD + RECOVERY_PERIODS + 2].mean()
+    return steady, periods, bool(window >= RECOVERY_FRACTION * steady)
+
+
+def reusable_search(path: str | Path, seed: int, n: int, search: dict) -> list[dict]:
+    """The per-point searches of the earlier ``adaptation.json`` at ``path`` if it drew and searched
+    as this run asks (``seed``, ``n`` blind points, ``search`` budgets), else ``ValueError`` saying
+    what differs."""
+    previous = json.loads(Path(path).read_text())
+    for key, value in (("seed", seed), ("n", n), ("search", search)):
+        if previous.get(key) != value:
+            raise ValueError(f"--reuse-search {path}: its {key} {previous.get(key)!r} is not this run's {value!r}")
+    return previous["best_search"]
+
+
+def run(sensor_policy: str, full_policy: str, n: int, n_steps: int, seed: int, out: str | Path, quick: bool = False,
+        executor: Executor | None = None, resume: bool = False, reuse: str | Path | None = None) -> dict:
+    """Both experiments (module docstring) into ``out``; returns what ``adaptation.json`` holds.
+    ``reuse``: an earlier ``adaptation.json`` whose per-point searches are taken (``reusable_search``)."""
+    out = Path(out)
+    executor = executor or Executor()
+    fixed_budget = QUICK["fixed_budget"] if quick else CMA_BUDGET
+    cycle_budget = QUICK["cycle_budget"] if quick else CYCLE_SEARCH["budget"]
+    policies = {"sensor policy": load_policy(sensor_policy), "full-observation policy": load_policy(full_policy),
+                "trapezoid": None, "tuned once": FixedAction(tuned_once_action(fixed_budget))}
+    search = {"fixed_budget": fixed_budget, "cycle_budget": cycle_budget}
+    points = draw_hidden(n, seed)
+    tasks = [(d["k"], d["cargo_mass"], fixed_budget, cycle_budget, d["friction_coefficient"],
+              d["base_friction_coefficient"]) for d in points]
+    store = TaskStore(task_folder(out, resume) / "best")
+    if reuse:
+        best_runs = reusable_search(reuse, seed, n, search)
+    else:
+        best_runs = executor.map(best_drive, tasks, "adaptation: best drive per point", store=store)
+    steady, actions = {}, {}
+    for drive in DRIVES:
+        runs = [play(drive, policies, d, EVAL_PERIODS) for d in points]
+        steady[drive] = steady_velocity_of(np.array([r[0] for r in runs]).T * ACTION_MAP.period,
+                                           runaway=[r[2] for r in runs])
+        actions[drive] = np.array([r[1][-AVERAGE_PERIODS:] for r in runs])
+    # the best drive found at each point: the search's, or any drive's that beat it
+    best = np.nanmax(np.array([[r["velocity"] for r in best_runs], *steady.values()]), axis=0)
+    stats = {drive: velocity_statistics(steady["trapezoid"], best, steady[drive]) for drive in DRIVES}
+
+    steps = draw_hidden(n_steps, seed + 1, load_step=True)
+    series, step_actions, recovered = {}, {}, {}
+    for drive in DRIVES:
+        runs = [play(drive, policies, d, STEP_EPISODE_PERIODS, (STEP_PERIOD, d["step_cargo_mass"])) for d in steps]
+        series[drive] = np.array([r[0] for r in runs])
+        step_actions[drive] = np.array([r[1] for r in runs])
+        rec = [recovery(v) for v in series[drive]]
+        scored = [r for r in rec if r[2] is not None]
+        up = [r for r, d in zip(rec, steps) if r[2] is not None and d["step_cargo_mass"] > d["cargo_mass"]]
+        recovered[drive] = {
+            "episodes_scored": len(scored),
+            "recovered_within": int(sum(r[2] for r in scored)),
+            "upward_steps_scored": len(up),
+            "upward_recovered_within": int(sum(r[2] for r in up)),
+            "share_recovered": float(np.mean([r[2] for r in scored])) if scored else None,
+            "median_periods_to_recover": float(np.median([r[1] for r in scored])) if scored else None,
+            "stalled_after_step": int(sum(r[0] <= 0.0 for r in rec)),
+        }
+    res = {"seed": seed, "n": n, "load_steps": n_steps, "quick": quick, "sensor_policy": str(sensor_policy),
+           "full_policy": str(full_policy), "tuned_once_point": TUNED_ONCE_POINT,
+           "tuned_once_action": policies["tuned once"].action.tolist(),
+           "search": search, "search_reused_from": None if reuse is None else str(reuse),
+           "protocol": f"steady velocity: mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}; "
+                       f"load steps before period {STEP_PERIOD} of {STEP_EPISODE_PERIODS}, recovery within "
+                       f"{RECOVERY_PERIODS} periods to {RECOVERY_FRACTION} of the steady velocity at the new load",
+           "points": points, "best_search": best_runs, "best_velocity_m_s": best, "steady_velocity_m_s": {d: steady[d] for d in DRIVES},
+           "statistics": stats, "load_step_episodes": steps,
+           "load_step_velocity_m_s": {d: series[d] for d in DRIVES}, "load_step_recovery": recovered,
+           "steady_actions": {d: actions[d] for d in DRIVES}, "load_step_actions": {d: step_actions[d] for d in DRIVES}}
+    write_outputs(res, out)
+    store.clear()
+    return res
+
+
+def markdown(res: dict) -> str:
+    lines = [f"# Adaptation: seed {res['seed']}{' (quick)' if res['quick'] else ''}", "",
+             f"{res['n']} blind points and {res['load_steps']} load-step episodes of MDRDriveSensor-v0's hidden "
+             f"parameters; {res['protocol']}.", "",
+             "| drive | below trapezoid | worst vs trapezoid (mm/s) | fraction of best: mean | min | scored |",
+             "|---|---|---|---|---|---|"]
+    for drive, s in res["statistics"].items():
+        lines.append(f"| {drive} | {s['points_below_trapezoid']} | {_f(s['worst_difference_to_trapezoid_mm_s'])} | "
+                     f"{_f(s['fraction_of_best_mean'])} | {_f(s['fraction_of_best_min'])} | {s['points_scored']} |")
+    lines += ["", "Load steps, where the drive's steady velocity at the new load is >= 2 mm/s:", "",
+              "| drive | recovered within 5 periods | of them upward steps | median periods to 0.9 | "
+              "stalled after the step |", "|---|---|---|---|---|"]
+    for drive, r in res["load_step_recovery"].items():
+        lines.append(f"| {drive} | {r['recovered_within']} of {r['episodes_scored']} | "
+                     f"{r['upward_recovered_within']} of {r['upward_steps_scored']} | "
+                     f"{_f(r['median_periods_to_recover'])} | {r['stalled_after_step']} of {res['load_steps']} |")
+    lines += ["", "Steady velocities (mm/s); best: the best drive found (the search's, or a drive's that beat it).", "",
+              "| k | load ratio | mu | mu1 | best | " + " | ".join(DRIVES) + " |",
+              "|---|---|---|---|---|" + "---|" * len(DRIVES)]
+    for i, d in enumerate(res["points"]):
+        cells = [format_velocity(res["steady_velocity_m_s"][drive][i], digits=2) for drive in DRIVES]
+        lines.append(f"| {d['k']:.3f} | {d['load_ratio']:.3f} | {d['friction_coefficient']:.3f} | "
+                     f"{d['base_friction_coefficient']:.3f} | {format_velocity(res['best_velocity_m_s'][i], digits=2)} | "
+                     + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _f(x) -> str:
+    return "-" if x is None else f"{x:.3f}"
+
+
+def write_outputs(res: dict, out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    write_text(out / "adaptation.json", json.dumps(json_safe(res), indent=1))
+    write_text(out / "adaptation.md", markdown(res))
+    header = ["k", "cargo_mass_kg", "friction_coefficient", "base_friction_coefficient", "load_ratio",
+              "best_m_s", *[f"{d.replace(' ', '_').replace('-', '_')}_m_s" for d in DRIVES]]
+    write_csv(out / "points.csv", header, [
+        [d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"], d["load_ratio"],
+         res["best_velocity_m_s"][i], *[res["steady_velocity_m_s"][drive][i] for drive in DRIVES]]
+        for i, d in enumerate(res["points"])])
+    write_csv(out / "load_steps.csv", ["episode", "drive", "period", "velocity_m_s"], [
+        [e, drive, t, v] for drive in DRIVES for e, row in enumerate(res["load_step_velocity_m_s"][drive])
+        for t, v in enumerate(row)])
+    plot(res, out)
+
+
+def plot(res: dict, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    steps = res["load_step_episodes"]
+    change = np.array([d["step_cargo_mass"] - d["cargo_mass"] for d in steps])
+    picks = [("load stepped up", int(np.argmax(change))), ("load stepped down", int(np.argmin(change)))]
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    colors = dict(zip(DRIVES, ("C0", "C1", "0.4", "C3")))
+    for col, (title, e) in enumerate(picks):
+        d = steps[e]
+        t = np.arange(1, STEP_EPISODE_PERIODS + 1)
+        for drive in DRIVES:
+            axes[0, col].plot(t, np.asarray(res["load_step_velocity_m_s"][drive][e]) * 1e3, color=colors[drive],
+                              label=drive, lw=1.5 if "policy" in drive else 1.0)
+            if "policy" in drive:
+                x_amp = [ACTION_MAP.to_params(a).x_amplitude * 1e6 for a in res["load_step_actions"][drive][e]]
+                axes[1, col].plot(t, x_amp, color=colors[drive], label=drive)
+        for ax in axes[:, col]:
+            ax.axvline(STEP_PERIOD + 0.5, color="k", ls=":", lw=0.8)
+        axes[0, col].set_title(f"{title}: k = {d['k']:.2f}, mu = {d['friction_coefficient']:.2f}, "
+                               f"{d['cargo_mass'] * 1e3:.0f} -> {d['step_cargo_mass'] * 1e3:.0f} g", fontsize=9)
+        axes[1, col].set_xlabel("period")
+    axes[0, 0].set_ylabel("mean velocity per period (mm/s)")
+    axes[1, 0].set_ylabel("x amplitude played (um)")
+    axes[0, 0].legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, out / "adaptation_load_steps.png")
+    plt.close(fig)
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    ratio = np.array([d["load_ratio"] for d in res["points"]])
+    ks = np.array([d["k"] for d in res["points"]])
+    panels = ((lambda ep: min(ACTION_MAP.to_params(a).x_amplitude for a in ep) * 1e6,
+               "smallest x amplitude, periods 21-30 (um)"),
+              (lambda ep: ACTION_MAP.to_params(ep[-1]).z_phase, "z phase of period 30 (-)"))
+    for ax, (value_of, label) in zip(axes, panels):
+        for drive, marker, alpha in (("full-observation policy", "o", 0.35), ("sensor policy", "x", 1.0)):
+            values = [value_of(ep) for ep in np.asarray(res["steady_actions"][drive])]
+            sc = ax.scatter(ratio, values, c=ks, cmap="viridis", vmin=0, vmax=0.6, marker=marker, label=drive,
+                            alpha=alpha)
+        ax.set_xlabel("hidden load / (mu F_ref)")
+        ax.set_ylabel(label)
+    axes[0].legend(fontsize=8)
+    fig.colorbar(sc, ax=axes, label="hidden k")
+    save_figure(fig, out / "adaptation_tracking.png")
+    plt.close(fig)
+
+
+__all__ = ["DRIVES", "FixedAction", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]

@@ -1,0 +1,352 @@
+"""Ship a trained policy: copy model, VecNormalize statistics and run record, and write its model card.
+
+    mdr-drive model-card runs/recipe/policy agents/pretrained/ppo_generalist [BLIND.json ...]
+    mdr-drive model-card runs/sensor/policy agents/pretrained/ppo_sensor ADAPTATION.json
+
+The card's evaluation table is computed here, from the shipped files, with the benchmark protocol.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from mdr_drive_env.files import write_text
+
+from ..policy import CODEBOOK_FILE, FILES, load_policy, policy_files, same_weights
+from ..protocol import (
+    AVERAGE_PERIODS,
+    EVAL_PERIODS,
+    TIME_QUANTUM,
+    format_velocity,
+    open_loop_velocity,
+    policy_velocity,
+    trapezoid_action,
+)
+from ..student.distill import FOCUS_KEYS
+from .record import blind_record
+
+CARD_KS = (0.0, 0.2, 0.4, 0.6)
+CARD_MASSES = (0.0, 0.05, 0.1, 0.2, 0.4)
+
+
+def evaluation_table(policy_dir: str | Path) -> str:
+    points = [(k, m) for k in CARD_KS for m in CARD_MASSES]
+    learned = policy_velocity(load_policy(policy_dir), points, mark_runaway=True)
+    trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
+    lines = ["| k | " + " | ".join(f"m = {m:g} kg" for m in CARD_MASSES) + " |", "|---|" + "---|" * len(CARD_MASSES)]
+    for i, k in enumerate(CARD_KS):
+        cells = [f"{format_velocity(learned[i * len(CARD_MASSES) + j])} "
+                 f"({format_velocity(trap[i * len(CARD_MASSES) + j])})" for j in range(len(CARD_MASSES))]
+        lines.append(f"| {k:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def jump_note(distilled: dict) -> str:
+    """The first round's bisection of the teacher's jumps, its focus episodes and the labels' quantum
+    centres, where used."""
+    d = distilled["distill"]
+    notes = []
+    if d.get("jump_levels"):
+        added = next((r.get("jump_points") for r in distilled.get("history") or [] if r.get("round") == 0), None)
+        notes.append(f"{added:,} more" if added is not None else "more")
+        notes[-1] += f" bisecting where its drive jumps ({d['jump_levels']} levels)"
+    for points, band in FOCUS_KEYS:
+        if d.get(points):
+            low, high = d[band]
+            notes.append(f"{d[points]:,} more at k = {low:g}-{high:g}")
+    if d.get("quantum_centres"):
+        notes.append("labels at the centres of their time quanta")
+    return f" and {', '.join(notes)}" if notes else ""
+
+
+def stall_note(distill: dict) -> str:
+    """The hole rounds' probes around the teacher's stall load (``DistillConfig.stall_probes``), if any."""
+    if not distill.get("stall_probes"):
+        return ""
+    low, high = distill["stall_band"]
+    return f", each with {distill['stall_probes']:,} probes at {low:g}-{high:g} of the teacher's stall load"
+
+
+def fit_loss_note(distill: dict) -> str:
+    """The loss the student was fitted with (``DistillConfig``'s settings as saved in run.json)."""
+    if distill.get("action_codebook"):
+        return "cross-entropy over the teacher grid's actions" + (" (raw logits)" if distill.get("raw_logits") else "")
+    return f"Huber loss, delta {distill['huber_delta']:g}" if distill.get("huber_delta") else "squared error"
+
+
+def training_note(run: dict) -> str:
+    """How the policy was made: distilled from a teacher (``agents.recipe``) or trained by PPO/SAC."""
+    distilled = run.get("distilled_from")
+    if distilled:
+        d = distilled["distill"]
+        loss = next((r["loss"] for r in reversed(distilled.get("history") or []) if r.get("loss") is not None),
+                    float("nan"))  # a hole round that found no hole did not fit
+        return (f"distilled (`mdr_drive_agents.student.distill`) from the drive-field teacher "
+                f"`{distilled['teacher']}` (`mdr_drive_agents.teacher`), recipe `{distilled['recipe']}`: a {'x'.join(map(str, d['net_arch']))} "
+                f"{d['activation']} network fitted for {d['steps']:,} steps ("
+                f"{fit_loss_note(d)}) to the teacher's actions on "
+                f"{d['points']:,} random episodes{jump_note(distilled)} (the teacher's neighbourhood radius "
+                f"{d.get('teacher_radius', 1)}; "
+                f"DAgger rounds after it: {d['rounds']}; hole rounds: {d.get('hole_rounds', 0)}{stall_note(d)}); final fit loss "
+                f"{loss:.2e}. No PPO update yet ({run['total_timesteps']:,} environment "
+                f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below (docs/ablations.md: "
+                f"it did not make it better)")
+    return (f"{run['algo'].upper()}, {run['total_timesteps']:,} environment steps (drive periods), "
+            f"warm start {run['hyperparameters'].get('warm_start', 'none')}")
+
+
+LOAD_POLICY = """```python
+from mdr_drive_agents import load_policy
+
+policy = load_policy("{dir}")   # from any working directory
+env = policy.make_env({overrides})   # the env it was trained for (run.json)
+obs, info = env.reset(seed=0)
+velocities = []
+for period in range(30):
+    obs, reward, terminated, truncated, info = env.step(policy.predict(obs))
+    velocities.append(info["mean_velocity"])
+print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
+```"""
+
+SNIPPET = """```python
+import gymnasium as gym
+import numpy as np
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+import mdr_drive_env  # registers {env_id}
+
+{comment}make = lambda: gym.make({make_args})
+venv = VecNormalize.load("{dir}/vecnormalize.pkl", DummyVecEnv([make]))
+venv.training, venv.norm_reward = False, False      # play: statistics frozen, raw rewards
+model = PPO.load("{dir}/model.zip", device="cpu")
+obs, velocities = venv.reset(), []
+for period in range(30):
+    action, _ = model.predict(obs, deterministic=True)
+    obs, reward, done, info = venv.step(action)
+    velocities.append(info[0]["mean_velocity"])
+print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
+```"""
+
+
+def load_snippet(dst: Path, run: dict) -> str:
+    """The card's tested ``load_policy`` snippet for the policy in ``dst``."""
+    overrides = "k=0.2, cargo_mass=0.1"
+    if run["env_id"] == "MDRDriveSensor-v0":
+        overrides += ", friction_coefficient=0.3, base_friction_coefficient=0.1"
+    return "import numpy as np\n".join(LOAD_POLICY.format(dir=dst.as_posix(), overrides=overrides).split("\n", 1))
+
+
+def snippet(dst: Path, run: dict) -> str:
+    """The card's tested plain-SB3 loading snippet for the policy in ``dst`` (full or sensor observation)."""
+    if run["env_id"] == "MDRDriveSensor-v0":
+        return SNIPPET.format(env_id="MDRDriveSensor-v0", dir=dst.as_posix(),
+                              comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
+                                      "here to try one drive\n",
+                              make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, max_periods=30, '
+                                        "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
+                                        "base_friction_coefficient=0.1")
+    # its actions mean what they mean in an env with its seam of the z phase and its time quantum
+    origin = run["env_kwargs"].get("z_phase_origin", 0.0)
+    quantum = run["env_kwargs"].get("time_quantum", TIME_QUANTUM)
+    args, notes = [], []
+    if origin:
+        args.append(f"z_phase_origin={origin:g}")
+        notes.append(f"z_phase_origin={origin:g} (phase 0 at action {2 * ((1 - origin) % 1) - 1:g})")
+    if quantum != TIME_QUANTUM:
+        args.append(f"time_quantum={quantum:g}")
+        notes.append(f"time_quantum={quantum:g} (rises and the z phase in {quantum * 1e6:g} us steps)")
+    if run["env_kwargs"].get("action_codebook"):
+        args.append(f'action_codebook="{dst.as_posix()}/{run["env_kwargs"]["action_codebook"]}"')
+        notes.append("its table of actions (Discrete: action i plays row i)")
+    comment = f"# {' and '.join(notes)}: the env it was trained in, as in its run.json\n" if notes else ""
+    return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(), comment=comment,
+                          make_args=", ".join(['"MDRDrive-v0", k=0.2, cargo_mass=0.1', *args]))
+
+
+def blind_key(blind_jsons, src: str | Path, dst: str | Path, ran_from: str | Path | None = None) -> str:
+    """The name the blind results ``blind_jsons`` give the policy shipped from ``src`` to ``dst``: the
+    folder they ran it from, ``src`` or ``dst``, or ``ran_from`` if given (a copy of the same network,
+    e.g. the build a record ran before ``make train`` rebuilt it: ``ValueError`` unless
+    :func:`same_weights`); ``ValueError`` if every file does not name it."""
+    names = [Path(src).as_posix(), Path(dst).as_posix()]
+    if ran_from is not None:
+        if not same_weights(src, ran_from):
+            raise ValueError(f"{Path(ran_from).as_posix()} is not the same network as {names[0]}: its results "
+                             "are not this policy's")
+        names = [Path(ran_from).as_posix()]
+    stats = [json.loads(Path(f).read_text())["statistics"] for f in blind_jsons]
+    for name in names:
+        if all(name in s for s in stats):
+            return name
+    raise ValueError(f"the blind results do not all name the policy as {' or '.join(names)}")
+
+
+def copy_policy(src: str | Path, dst: str | Path) -> tuple[Path, dict]:
+    """Copy ``FILES`` of the policy in ``src`` to ``dst`` (nothing if they are the same folder);
+    returns ``dst`` and its run record."""
+    src, dst = Path(src), Path(dst)
+    dst.mkdir(parents=True, exist_ok=True)
+    if src.resolve() != dst.resolve():
+        for name in policy_files(src):
+            shutil.copy2(src / name, dst / name)
+    return dst, json.loads((dst / "run.json").read_text())
+
+
+#: The card's limits of a policy that regresses its action (a Box).
+REGRESSION_LIMITS = """* Where the steady velocity is steep in the drive, a small imitation error costs much: the network can
+  fall under 0.85 of the teacher over bands of load even where the teacher's drive does not change.
+* Where the teacher's best drive jumps from one optimum to another, the network must switch between
+  them within a narrow band of k and load; there it can fall between them and stall or go backwards at
+  isolated (k, load) points, or, started there, stay in a slower drive (docs/results.md, Limits).
+"""
+#: The card's limits of a policy that picks its action from a table (Discrete).
+CODEBOOK_LIMITS = """* It plays only its teacher's grid drives (the network picks which, each period): never a drive between
+  two of them, so at a point it is at best as good as the best grid drive there; fine-tuning
+  (`--resume`) changes which it picks, not the drives.
+* Where the teacher's best drive jumps from one grid drive to another, the network must switch its pick
+  within a narrow band of k and load; a pick of the neighbouring drive there can be slower, and near
+  stall the velocity is steep in the drive (docs/results.md, Limits).
+"""
+
+
+def ship(src: str | Path, dst: str | Path, blind_json=None, ran_from: str | Path | None = None) -> Path:
+    """Copy the policy in ``src`` (``model.zip``, ``vecnormalize.pkl``, ``run.json``) to ``dst``
+    (nothing to copy if they are the same folder) and write its card; with ``blind_json`` (a path or
+    a list of them, one per report seed), the card quotes the policy's blind results from each, which
+    ran it from ``src``, ``dst`` or ``ran_from`` (:func:`blind_key`)."""
+    blind_jsons = [] if blind_json is None else [blind_json] if isinstance(blind_json, (str, Path)) else list(blind_json)
+    key = blind_key(blind_jsons, src, dst, ran_from) if blind_jsons else None  # before anything is copied
+    dst, run = copy_policy(src, dst)
+    size_kb = sum((dst / n).stat().st_size for n in policy_files(dst)) / 1024
+    table = run["env_kwargs"].get("action_codebook")
+    n_actions = len(np.load(dst / table)) if table else 0
+    hyper = {k: v for k, v in run["hyperparameters"].items() if k != "policy_kwargs"}
+    card = f"""# {dst.name}: a waveform policy for MDRDrive-v0
+
+One plain Stable-Baselines3 PPO policy for every grading exponent and load in its training range:
+it observes k and the load (observation entries 10-12) with the rest of the env's 14 observations
+and {f"picks each period's waveform among the {n_actions:,} drives of its teacher's grid (its action is an index, `Discrete({n_actions})`; the table ships as `{table}`, which the env takes as `action_codebook`)" if table else "sets each period's waveform within the paper's actuator limits"}. Nothing but the network acts.
+
+## Load it
+
+{load_snippet(dst, run)}
+
+With Stable-Baselines3 alone (paths from the repository's root):
+
+{snippet(dst, run)}
+
+(`tests/agents/test_pretrained.py` runs both snippets.) Or: `mdr-drive evaluate --policy {dst.as_posix()}
+--k 0.2 --cargo-mass 0.1 --json`; `mdr-drive train --resume {dst.as_posix()}` fine-tunes it with PPO (copy
+the folder first: a resumed run writes into it; the observation statistics stay as distilled).
+
+## How it was made
+
+* Command: `{run['command']}`
+* Training: {training_note(run)}
+* Training range (env kwargs): `{json.dumps(run['env_kwargs'])}`
+* PPO settings: `{json.dumps(hyper)}`, policy `{json.dumps(run['hyperparameters'].get('policy_kwargs', {}))}`
+* Versions: `{json.dumps(run['versions'])}`
+* Files: `model.zip` (SB3), `vecnormalize.pkl` (observation normalisation, needed to run it),
+  `run.json`{f", `{table}` (its actions)" if table else ""}; {size_kb:.0f} KiB in all.
+
+## Limits
+
+* Trained for the ranges above with the paper's friction (mu = 0.3, mu1 = 0.1) and material; `mdr-drive
+  evaluate` warns outside the trained k and loads and at other friction coefficients.
+* It observes k and the load: a drive that knows neither needs a sensor-only policy (`MDRDriveSensor-v0`).
+* Its drives are the teacher's: a grid search with a stated budget, polished from each node's
+  neighbours (docs/results.md), not a proven optimum; near stall it can be well short of a per-point
+  search, and the network with it (the blind misses in docs/results.md).
+{REGRESSION_LIMITS if not table else CODEBOOK_LIMITS}* `mdr-drive dense --policy {dst.as_posix()} --out DIR` maps where it is below the trapezoid on a
+  dense grid of the whole domain (no search needed; about a minute); check a working point with
+  `mdr-drive evaluate` before relying on it. Builds of one recipe differ with their seeds: a build
+  with another `student_seed` is another policy, to be judged again (docs/results.md).
+
+## Evaluation
+
+Steady slider velocity in mm/s, policy (trapezoid), mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS} of a
+fresh drive, computed by `mdr-drive model-card {Path(src).as_posix()} {dst.as_posix()}` from the shipped files.
+"runaway": the load accelerates the slider backwards without bound.
+
+{evaluation_table(dst)}
+
+{blind_record(blind_jsons, key) if blind_jsons else ''}"""
+    write_text(dst / "MODEL_CARD.md", card)
+    return dst / "MODEL_CARD.md"
+
+
+def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -> Path:
+    """Copy the sensor policy in ``src`` to ``dst`` (as :func:`ship`) and write its card, which
+    quotes its results from ``adaptation_json`` (``mdr-drive adaptation``)."""
+    dst, run = copy_policy(src, dst)
+    res = json.loads(Path(adaptation_json).read_text())
+    adapted = run["adapted_from"]
+    s_sensor = res["statistics"]["sensor policy"]
+    size_kb = sum((dst / n).stat().st_size for n in FILES) / 1024
+    lines = ["| drive | below trapezoid | fraction of best: mean | min | load steps recovered within 5 periods "
+             "(upward steps) |", "|---|---|---|---|---|"]
+    for drive, st in res["statistics"].items():
+        rec = res["load_step_recovery"][drive]
+        lines.append(f"| {drive} | {st['points_below_trapezoid']} | {st['fraction_of_best_mean']:.3f} | "
+                     f"{st['fraction_of_best_min']:.3f} | {rec['recovered_within']} of {rec['episodes_scored']} "
+                     f"({rec['upward_recovered_within']} of {rec['upward_steps_scored']}) |")
+    card = f"""# {dst.name}: a waveform policy that does not know its load (MDRDriveSensor-v0)
+
+One plain Stable-Baselines3 PPO policy that drives the slider from what a position encoder measures:
+the last {run['env_kwargs']['history']} periods of slider displacement, mean and end velocity, and the actions that
+produced them. It is not told k, the load or the friction coefficients (docs/adaptation.md).
+
+## Load it
+
+{load_snippet(dst, run)}
+
+With Stable-Baselines3 alone (paths from the repository's root):
+
+{snippet(dst, run)}
+
+(`tests/agents/test_pretrained.py` runs both snippets.) Or: `mdr-drive evaluate --policy {dst.as_posix()}
+--k 0.2 --cargo-mass 0.1 --friction-coefficient 0.25 --load-step 15:0.05 --json`.
+
+## How it was made
+
+* Command: `{run['command']}` (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s)
+* Teacher: the full-observation policy `{adapted['teacher']}`. An estimator of what the sensor hides
+  (k, the load over mu F_ref, the load) was fitted to the sensor history on episodes the teacher drove
+  (told the true values), then, round by round, on episodes the teacher drove on the estimator's guesses
+  (RMA's adaptation module, trained on its own state distribution). This network is that composition,
+  estimator then teacher, written exactly as one MlpPolicy (`mdr_drive_agents.student.estimator.merged_policy`; largest
+  action difference {adapted['merged']['merge_max_action_difference']:.1e}). Settings: `{json.dumps(adapted['adapt'])}`
+* Training range: the hidden parameters of `MDRDriveSensor-v0` (k 0-0.6, load up to 0.4 of mu F_ref,
+  mu 0.2-0.4, mu1 0.07-0.13), half of the episodes with a load step.
+* Versions: `{json.dumps(run['versions'])}`
+* Files: `model.zip` (SB3), `vecnormalize.pkl` (needed to run it), `run.json`; {size_kb:.0f} KiB in all.
+
+## Results on blind draws (`mdr-drive adaptation --seed {res['seed']}`)
+
+{res['n']} hidden-parameter draws and {res['load_steps']} load-step episodes of a seed not used to build or
+select the policy; fraction of the per-point best drive where it moves >= 2 mm/s.
+
+{chr(10).join(lines)}
+
+## Limits
+
+* Its drives are its teacher's, told the estimated k and load, and the teacher was trained at the
+  paper's friction only (mu = 0.3, mu1 = 0.1): at other friction coefficients both can be slower than
+  the trapezoid (this policy at {s_sensor['points_below_trapezoid']} of {res['n']} blind points, by up to
+  {-s_sensor['worst_difference_to_trapezoid_mm_s']:.1f} mm/s). Check a working point with `mdr-drive evaluate` first.
+* Before it has seen a few periods it plays an average drive: the first periods after a reset or a load
+  step are slower than a drive told the load (median {res['load_step_recovery']['sensor policy']['median_periods_to_recover']:g}
+  periods to 0.9 of its new steady velocity after a load step).
+* Outside the training ranges above it is untested.
+"""
+    write_text(dst / "MODEL_CARD.md", card)
+    return dst / "MODEL_CARD.md"
+
+
+__all__ = ["CODEBOOK_LIMITS", "REGRESSION_LIMITS", "blind_key", "copy_policy", "evaluation_table", "load_snippet", "ship",
+           "ship_sensor", "snippet"]

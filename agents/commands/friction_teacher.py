@@ -1,0 +1,43 @@
+"""``mdr-drive friction-teacher``: a full-observation teacher told friction (``train.friction_teacher``).
+
+    mdr-drive friction-teacher agents/configs/friction_teacher.yaml --out runs/friction_teacher
+"""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "a teacher told friction: drive fields at several mu1/mu, distilled into one network"
+DESCRIPTION = ("Search drive fields at several ratios mu1 / mu (OUT/fields/rho*.npz), then distil them into one "
+               "PPO MlpPolicy on MDRDrive-v0's privileged observation with friction drawn per episode "
+               "(OUT/policy/): a teacher for a sensor policy that must estimate friction too. Ctrl-C keeps the "
+               "finished fields: continue with --resume.")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    from mdr_drive_env.cli_args import input_file, output_dir
+    from mdr_drive_env.sweep import add_executor_arguments
+
+    from ..train.friction_teacher import DEFAULT_CONFIG
+
+    p.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
+                   help="YAML with seed, friction, teacher, distill, ppo and env_kwargs "
+                        "(default: agents/configs/friction_teacher.yaml)")
+    p.add_argument("--out", default="runs/friction_teacher", type=output_dir, help="output folder")
+    p.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    add_executor_arguments(p)
+
+
+def main(args: argparse.Namespace) -> int:
+    from mdr_drive_env.cli_args import run_command
+    from mdr_drive_env.sweep import executor_from
+
+    from ..blas import pin_command
+    from ..train.friction_teacher import run
+
+    pin_command()
+    return run_command("mdr-drive friction-teacher",
+                       lambda: run(args.config, args.out, executor_from(args), resume=args.resume, force=args.force,
+                                   progress=not args.no_progress),
+                       f"finished fields are kept, continue with --resume --out {args.out}")

@@ -1,0 +1,49 @@
+"""``mdr-drive recipe``: the shipped policy's recipe, teacher to student (``train.recipe``).
+
+    mdr-drive recipe agents/configs/recipe.yaml --out runs/recipe --force      # make train
+"""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "the shipped policy's recipe: CMA-ES teacher, then the distilled PPO student"
+DESCRIPTION = ("Build a policy as the shipped one was built (agents/configs/recipe.yaml, docs/results.md): "
+               "1. the teacher, the best open-loop drives CMA-ES finds on a grid of k and load, polished and refined "
+               "stage by stage (OUT/teacher_field.npz); 2. the student, a plain SB3 PPO MlpPolicy fitted to the "
+               "teacher's actions by DAgger (OUT/policy/). Each stage's wall time is printed and kept in "
+               "OUT/recipe.json. Ctrl-C keeps the teacher's finished k slices and the student's first fit: "
+               "continue with --resume.")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    from mdr_drive_env.cli_args import input_file, output_dir
+    from mdr_drive_env.sweep import add_executor_arguments
+
+    from ..train.recipe import DEFAULT_CONFIG
+
+    p.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
+                   help="recipe YAML (default: agents/configs/recipe.yaml)")
+    p.add_argument("--out", default="runs/recipe", type=output_dir, help="output folder")
+    p.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--teacher", type=input_file, default=None,
+                   help="a saved teacher field (.npz, a recipe's teacher_field.npz): skip the teacher search")
+    p.add_argument("--snapshots", action="store_true",
+                   help="also save the student after each hole round, in OUT/snapshots/hole_round<H>/")
+    add_executor_arguments(p)
+
+
+def main(args: argparse.Namespace) -> int:
+    from mdr_drive_env.cli_args import run_command
+    from mdr_drive_env.sweep import executor_from
+
+    from ..blas import pin_command
+    from ..train.recipe import run
+
+    pin_command()
+    return run_command("mdr-drive recipe",
+                       lambda: run(args.config, args.out, executor_from(args), resume=args.resume, force=args.force,
+                                   progress=not args.no_progress, teacher=args.teacher, snapshots=args.snapshots),
+                       f"the teacher's finished slices and the student's first fit are kept, continue with --resume "
+                       f"--out {args.out}")

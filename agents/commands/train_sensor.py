@@ -1,0 +1,36 @@
+"""``mdr-drive train-sensor``: the sensor policy's recipe (``train.sensor``).
+
+    mdr-drive train-sensor agents/configs/sensor.yaml --out runs/sensor --force      # make train-sensor
+"""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "the sensor policy's recipe: an estimator of k, the load and friction, merged with its teacher"
+DESCRIPTION = ("Build a policy that drives MDRDriveSensor-v0 without being told k, the load or friction "
+               "(agents/configs/sensor.yaml, docs/adaptation.md): an estimator of what the sensor hides is fitted on "
+               "episodes its full-observation teacher drives, round by round on its own guesses (DAgger), then "
+               "written with the teacher as one plain SB3 MlpPolicy (OUT/policy/, OUT/adapt.json).")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    from mdr_drive_env.cli_args import input_file, output_dir
+
+    from ..train.sensor import DEFAULT_CONFIG
+
+    p.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
+                   help="YAML with seed, validation_seed and the AdaptConfig fields (default: agents/configs/sensor.yaml)")
+    p.add_argument("--out", default="runs/sensor", type=output_dir, help="output folder")
+    p.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+
+
+def main(args: argparse.Namespace) -> int:
+    from mdr_drive_env.cli_args import run_command
+
+    from ..train.sensor import run
+
+    return run_command("mdr-drive train-sensor",
+                       lambda: run(args.config, args.out, force=args.force, progress=not args.no_progress),
+                       "nothing was saved")

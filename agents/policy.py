@@ -1,0 +1,281 @@
+"""A policy folder: a trained SB3 policy, its observation normalisation and its run record.
+
+    from mdr_drive_agents import load_policy
+
+    policy = load_policy("agents/pretrained/ppo_generalist")   # any folder, from any working directory
+    env = policy.make_env(k=0.2, cargo_mass=0.1)               # the env it was trained for (run.json)
+    obs, _ = env.reset(seed=0)
+    for _ in range(30):
+        obs, reward, terminated, truncated, info = env.step(policy.predict(obs))
+
+A folder holds ``model.zip`` (SB3), ``vecnormalize.pkl`` (SB3's ``VecNormalize``: the observation
+statistics the network was trained on), ``run.json`` (how it was made, and the env keywords it acts
+in) and, for a policy that picks its action from a table, that table (``action_codebook.npy``). The
+same files load with plain ``PPO.load`` + ``VecNormalize.load`` (each model card shows how).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from mdr_drive_env.gym_envs.spaces import load_action_codebook
+
+#: The shipped policies.
+PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
+SENSOR_PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_sensor"
+#: The files every policy folder holds; a codebook policy's table too (``CODEBOOK_FILE``).
+FILES = ("model.zip", "vecnormalize.pkl", "run.json")
+CODEBOOK_FILE = "action_codebook.npy"
+#: Keys of a policy's env keywords (run.json) that shape its observation, and that set what its
+#: Box actions mean: the closed-loop protocol builds its envs with them.
+OBSERVATION_KEYS = ("observation", "history", "sensor_forces")
+ACTION_KEYS = ("z_phase_origin", "time_quantum")
+PLAY_KEYS = OBSERVATION_KEYS + ACTION_KEYS
+ALGORITHMS = ("ppo", "sac")
+
+
+def package_path(path: str | Path) -> Path:
+    """``path`` as given if it exists (or is absolute); a relative ``agents/...`` path that does not
+    exist from here names the package's own files (``agents/pretrained/ppo_generalist`` from any
+    working directory, in a checkout or an installed package)."""
+    path = Path(path)
+    if path.is_absolute() or path.exists() or path.parts[:1] != ("agents",):
+        return path
+    return Path(__file__).parent.joinpath(*path.parts[1:])
+
+
+def run_env_kwargs(folder: str | Path, run: dict) -> dict:
+    """A policy folder's run.json ``env_kwargs`` with a relative ``action_codebook`` file name resolved
+    against ``folder`` (an absolute path): ``gym.make(run["env_id"], **run_env_kwargs(folder, run))``
+    is the env it was trained in, from any working directory."""
+    env_kwargs = dict(run.get("env_kwargs", {}))
+    if isinstance(env_kwargs.get("action_codebook"), str):
+        env_kwargs["action_codebook"] = str((Path(folder) / env_kwargs["action_codebook"]).resolve())
+    return env_kwargs
+
+
+def sb3_class(algo: str):
+    """The Stable-Baselines3 class of ``algo`` ("ppo" or "sac"); ``ValueError`` for another."""
+    from stable_baselines3 import PPO, SAC
+
+    classes = {"ppo": PPO, "sac": SAC}
+    if algo not in classes:
+        raise ValueError(f"algo={algo!r} is not one of {sorted(classes)}")
+    return classes[algo]
+
+
+@dataclass
+class Policy:
+    """A trained network as a drive: ``act`` (a batch of observations -> Box actions) for the
+    evaluation protocol, ``predict`` (one observation -> one action of its env) for a user's loop.
+
+    Attributes:
+        model: the SB3 model (``PPO`` or ``SAC``).
+        normalize: its observation normalisation, ``obs -> normalised obs`` (an ``ObsNormalization``,
+            or a training VecNormalize's ``normalize_obs``), or None (raw observations).
+        codebook: the (N, 5) Box actions a ``Discrete(N)`` policy picks among, or None.
+        run: its run record (run.json), ``{}`` if none.
+        folder: the folder it was loaded from, or None.
+    """
+
+    model: object
+    normalize: Callable[[np.ndarray], np.ndarray] | None
+    codebook: np.ndarray | None = None
+    run: dict = field(default_factory=dict)
+    folder: Path | None = None
+
+    @property
+    def env_id(self) -> str:
+        """The env it was trained in (run.json's ``env_id``, default ``MDRDrive-v0``)."""
+        return self.run.get("env_id", "MDRDrive-v0")
+
+    @property
+    def env_kwargs(self) -> dict:
+        """Its training env's keywords (run.json), a codebook file as an absolute path."""
+        return run_env_kwargs(self.folder or ".", self.run)
+
+    @property
+    def play_kwargs(self) -> dict:
+        """The env keywords that shape the observation it was trained on and what its Box actions mean
+        (``PLAY_KEYS`` of its run.json): an ``MDRDrive-v0`` built with them is the env it expects when it
+        plays Box actions (``act``)."""
+        env_kwargs = self.run.get("env_kwargs", {})
+        return {key: env_kwargs[key] for key in PLAY_KEYS if key in env_kwargs}
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Box actions (n, 5) at observations ``obs`` (n, d), deterministic: the mean action, or the
+        codebook row of the most likely index (so it plays in an env without the codebook alike)."""
+        action, _ = self.model.predict(self.normalized(obs), deterministic=True)
+        return action if self.codebook is None else self.codebook[action]
+
+    def normalized(self, obs: np.ndarray) -> np.ndarray:
+        """Observations as the network takes them (its normalisation, if any)."""
+        return obs if self.normalize is None else self.normalize(obs)
+
+    def predict(self, obs: np.ndarray):
+        """The action of its own env (``make_env``) at one observation ``obs`` (d,), deterministic and
+        normalised with its statistics: a Box action (5,), or a codebook index."""
+        action, _ = self.model.predict(self.normalized(np.asarray(obs)[None]), deterministic=True)
+        return action[0]
+
+    def make_env(self, **overrides):
+        """The gymnasium env it was trained for, built from its run.json (observation layout, time
+        quantum, z phase origin, action codebook, training ranges), with ``overrides`` (``k=0.2,
+        cargo_mass=0.1``: one point; a ``cargo_mass`` replaces the trained ``load_ratio``)."""
+        import gymnasium as gym
+
+        import mdr_drive_env  # noqa: F401  registers the envs
+
+        kwargs = self.env_kwargs
+        if overrides.get("cargo_mass") is not None:
+            kwargs.pop("load_ratio", None)
+        return gym.make(self.env_id, **{**kwargs, **overrides})
+
+    def check_env(self, env) -> None:
+        """``ValueError`` naming the fix unless ``env``'s action space is the one it acts in."""
+        space = getattr(env, "single_action_space", env.action_space)
+        if space == self.model.action_space:
+            return
+        if self.codebook is not None:
+            raise ValueError(f"this policy picks one of {len(self.codebook)} drives (action space "
+                             f"{self.model.action_space}); the env's action space is {space}: build it with "
+                             f"action_codebook={str(self.env_kwargs['action_codebook'])!r} (policy.make_env() does)")
+        raise ValueError(f"this policy acts in {self.model.action_space}, the env in {space}: build the env with "
+                         "policy.make_env()")
+
+    def play(self, env=None, periods: int = 30, seed: int = 0, **overrides) -> np.ndarray:
+        """Play ``periods`` periods in ``env`` (default ``make_env(**overrides)``), reset with ``seed``;
+        returns the mean velocity of each period (periods,) (m/s)."""
+        env = self.make_env(**overrides) if env is None else env
+        self.check_env(env)
+        obs, _ = env.reset(seed=seed)
+        velocities = []
+        for _ in range(periods):
+            obs, _, _, _, info = env.step(self.predict(obs))
+            velocities.append(info["mean_velocity"])
+        return np.array(velocities)
+
+
+@dataclass(frozen=True)
+class ObsNormalization:
+    """VecNormalize's observation normalisation with fixed statistics (``obs -> float32``).
+
+    Attributes:
+        mean, var: the running mean and variance of each observation entry.
+        clip_obs: normalised entries are clipped to [-clip_obs, clip_obs].
+        epsilon: added to the variance before its square root.
+    """
+
+    mean: np.ndarray
+    var: np.ndarray
+    clip_obs: float
+    epsilon: float
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return np.clip((obs - self.mean) / np.sqrt(self.var + self.epsilon), -self.clip_obs,
+                       self.clip_obs).astype(np.float32)
+
+    @classmethod
+    def of_vecnormalize(cls, path: str | Path) -> "ObsNormalization":
+        """The statistics of a saved SB3 ``VecNormalize`` (``vecnormalize.pkl``)."""
+        import pickle
+
+        with open(path, "rb") as f:
+            vn = pickle.load(f)
+        return cls(vn.obs_rms.mean, vn.obs_rms.var, float(vn.clip_obs), float(vn.epsilon))
+
+
+def read_run(folder: str | Path) -> dict:
+    """A policy folder's run.json (``{}`` if it has none); ``ValueError`` if it is not JSON."""
+    path = Path(folder) / "run.json"
+    if not path.exists():
+        return {}
+    try:
+        return json.loads(path.read_text())
+    except ValueError as e:
+        raise ValueError(f"{path} is not a run record (JSON: {e})") from None
+
+
+def load_policy(folder: str | Path) -> Policy:
+    """The policy in ``folder`` (``model.zip``, its VecNormalize statistics, ``run.json``), from any
+    working directory."""
+    folder = package_path(folder).resolve()
+    if not (folder / "model.zip").is_file():
+        raise ValueError(f"{folder} is not a policy folder (no model.zip)")
+    run = read_run(folder)
+    model = sb3_class(run.get("algo", "ppo")).load(folder / "model.zip", device="cpu")
+    normalize = None
+    if (folder / "vecnormalize.pkl").exists():
+        normalize = ObsNormalization.of_vecnormalize(folder / "vecnormalize.pkl")
+    return Policy(model, normalize, load_action_codebook(run_env_kwargs(folder, run).get("action_codebook")), run,
+                  folder)
+
+
+def policy_label(path: str | Path) -> str:
+    """How plots and tables name a policy: "shipped policy" for the shipped one, else what its run.json
+    says (algorithm and seed) or its folder's name, never a path of the machine that trained it."""
+    path = Path(path)
+    if path.resolve() == PRETRAINED.resolve():
+        return "shipped policy"
+    run = read_run(path)
+    if run:
+        return f"{run.get('algo', 'policy').upper()} seed {run.get('seed', '?')} ({path.name})"
+    return f"policy {path.stem}"
+
+
+def policy_files(folder: str | Path) -> tuple[str, ...]:
+    """The files a policy in ``folder`` is: ``FILES``, and its action table if its run.json names one."""
+    return FILES + ((CODEBOOK_FILE,) if read_run(folder).get("env_kwargs", {}).get("action_codebook") else ())
+
+
+def save_policy(out: str | Path, model, venv, record: dict, codebook: np.ndarray | None = None) -> None:
+    """``model.zip``, ``vecnormalize.pkl`` (``venv``'s statistics) and ``run.json`` (``record``) into
+    ``out``, each written atomically; a codebook policy's table too, as ``CODEBOOK_FILE``, which
+    run.json's ``env_kwargs`` then name (``action_codebook``, relative to ``out``)."""
+    from mdr_drive_env.files import atomic_path, write_text
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / "model.zip") as tmp:
+        model.save(tmp)
+    with atomic_path(out / "vecnormalize.pkl") as tmp:
+        venv.save(str(tmp))
+    if codebook is not None:
+        with atomic_path(out / CODEBOOK_FILE) as tmp:
+            with open(tmp, "wb") as f:
+                np.save(f, np.asarray(codebook))
+        record = {**record, "env_kwargs": {**record["env_kwargs"], "action_codebook": CODEBOOK_FILE}}
+    write_text(out / "run.json", json.dumps(record, indent=2))
+
+
+def same_weights(a: str | Path, b: str | Path) -> bool:
+    """Whether the policies in folders ``a`` and ``b`` are the same network: equal tensors in their
+    ``model.zip``'s ``policy.pth``, equal observation statistics and equal action tables."""
+    import zipfile
+
+    import torch
+
+    def tensors(folder):
+        with zipfile.ZipFile(Path(folder) / "model.zip") as z, z.open("policy.pth") as f:
+            return torch.load(f, map_location="cpu", weights_only=True)
+
+    ta, tb = tensors(a), tensors(b)
+    if ta.keys() != tb.keys() or not all(torch.equal(ta[k], tb[k]) for k in ta):
+        return False
+    sa, sb = (ObsNormalization.of_vecnormalize(Path(f) / "vecnormalize.pkl") for f in (a, b))
+    if not (np.array_equal(sa.mean, sb.mean) and np.array_equal(sa.var, sb.var)):
+        return False
+    tables = [Path(f) / CODEBOOK_FILE for f in (a, b)]
+    if any(t.exists() for t in tables):
+        return all(t.exists() for t in tables) and np.array_equal(np.load(tables[0]), np.load(tables[1]))
+    return True
+
+
+__all__ = ["ACTION_KEYS", "CODEBOOK_FILE", "FILES", "OBSERVATION_KEYS", "ObsNormalization", "PLAY_KEYS", "PRETRAINED", "Policy", "package_path",
+           "SENSOR_PRETRAINED", "load_policy", "policy_files", "policy_label", "read_run", "run_env_kwargs",
+           "same_weights", "save_policy", "sb3_class"]

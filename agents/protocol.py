@@ -1,0 +1,271 @@
+"""The evaluation protocol: how every drive, open loop or closed loop, is judged.
+
+One protocol for every method: a fresh drive runs ``EVAL_PERIODS`` periods, and the steady velocity
+is the mean slider velocity over the last ``AVERAGE_PERIODS`` (after the transient; a mean over
+several periods also averages states that alternate between two period velocities). A drive whose
+load runs away with the slider (``mdr_drive_env.core.analysis.is_runaway``) has no steady velocity:
+with ``mark_runaway=True`` its velocity is NaN, printed as "runaway" in tables.
+
+The critical load of a drive at k is the largest cargo mass before its steady velocity first
+drops to <= 0 (or runs away), on a fine load grid (``critical_loads``). The paper's trapezoid is
+the reference every result is compared with (``trapezoid_action``, ``trapezoid_critical_load``).
+
+A closed-loop drive is any ``act(observations) -> Box actions`` callable, or an object with such an
+``act`` method (a loaded policy, ``mdr_drive_agents.policy.Policy``); one with a ``play_kwargs``
+attribute plays in an env built with those keywords (its observation layout, time quantum, z phase
+origin).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import gymnasium as gym
+import numpy as np
+
+import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
+from mdr_drive_env.core import DriveParams, Waveform
+from mdr_drive_env.core import kernel as K
+from mdr_drive_env.core.analysis import is_runaway
+from mdr_drive_env.core.batch import BatchedDriveSimulator
+from mdr_drive_env.gym_envs.spaces import ActionMap, shift_phase_origin
+
+EVAL_PERIODS = 30
+AVERAGE_PERIODS = 10
+ACTION_MAP = ActionMap()
+#: The env's default time quantum of rises and the z phase (s): the action units every search and
+#: teacher uses unless told otherwise.
+TIME_QUANTUM = ACTION_MAP.time_quantum
+#: Fine load grid of the critical-load scan: loads per pass (two passes, ``critical_loads``).
+CRITICAL_GRID = 64
+
+
+@functools.lru_cache(maxsize=None)
+def action_map_at(time_quantum: float = TIME_QUANTUM) -> ActionMap:
+    """``ACTION_MAP`` with rises and the z phase quantised to ``time_quantum`` (s) instead
+    (``MDRDrive-v0``'s ``time_quantum``)."""
+    return dataclasses.replace(ACTION_MAP, time_quantum=float(time_quantum))
+
+
+#: The fastest backward x stroke any action can make (m/s): full amplitude over the shortest fall.
+INDENTER_MIN_VELOCITY = -ACTION_MAP.x_amplitude_max / ((1.0 - ACTION_MAP.max_rise_fraction) * ACTION_MAP.period)
+
+
+def steady_velocity_of(displacements: np.ndarray, average: int = AVERAGE_PERIODS, runaway=None) -> np.ndarray:
+    """Steady velocity (m/s): mean of the last ``average`` rows of per-period displacements (m) / T;
+    NaN where ``runaway`` (a bool per point) is True."""
+    v = np.asarray(displacements)[-average:].mean(axis=0) / ACTION_MAP.period
+    return v if runaway is None else np.where(runaway, np.nan, v)
+
+
+def runaway_of(displacements: np.ndarray, peak_normal_force: np.ndarray, params: list[DriveParams]) -> np.ndarray:
+    """Per point, whether the load ran away with the slider (core.analysis.is_runaway) in a run with
+    per-period ``displacements`` (periods, n) (m) and the last period's ``peak_normal_force`` (n,) (N)."""
+    margin = np.array([(p.contact.friction_coefficient + p.contact.base_friction_coefficient) * fz - p.drive.load
+                       for p, fz in zip(params, peak_normal_force)])
+    return is_runaway(np.asarray(displacements) / ACTION_MAP.period, INDENTER_MIN_VELOCITY, margin)
+
+
+def format_velocity(v: float, width: int = 0, digits: int = 2) -> str:
+    """A velocity (m/s) in mm/s for a table, or "runaway" for NaN or None (no steady velocity)."""
+    return f"{'runaway' if v is None or np.isnan(v) else f'{v * 1e3:.{digits}f}':>{width}}"
+
+
+def csv_velocity(v):
+    """A velocity (m/s) as a CSV cell: the number, or "runaway" for NaN or None (no steady velocity)."""
+    return "runaway" if v is None or (isinstance(v, float) and np.isnan(v)) else v
+
+
+def trapezoid_action() -> np.ndarray:
+    """The env action of the paper's waveform (Fig. 2)."""
+    return ACTION_MAP.to_action(Waveform.paper())
+
+
+def point_params(point, variant: str = "as-specified") -> DriveParams:
+    """The paper's model at ``point``: (k, cargo mass kg), or (k, cargo mass, mu, mu1) with those
+    friction coefficients (indenter-slider, slider-base)."""
+    params = DriveParams.paper(k=point[0], cargo_mass=point[1], variant=variant)
+    if len(point) == 4:
+        params = dataclasses.replace(params, contact=dataclasses.replace(
+            params.contact, friction_coefficient=point[2], base_friction_coefficient=point[3]))
+    return params
+
+
+# ---------------------------------------------------------------------------------------- open loop
+def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS,
+                       mark_runaway: bool = False, variant: str = "as-specified",
+                       time_quantum: float = TIME_QUANTUM) -> np.ndarray:
+    """Steady velocity (m/s) of open-loop drives, one per (k, cargo mass) point, batched in one call per period.
+
+    ``actions`` is one action (5,), one per point (n, 5), or a cycle of p actions per point
+    (n, p, 5) played in turn (period t uses action t mod p), e.g. p = 2 alternates two waveforms.
+    ``mark_runaway``: NaN where the load runs away with the slider (for tables); without it the
+    mean is returned there too (a large negative number, as optimisers want). ``time_quantum`` (s):
+    the actions' rises and z phase are quantised to it (``action_map_at``).
+    """
+    disp, runaway = open_loop_displacements(points, actions, periods, variant, time_quantum)
+    return steady_velocity_of(disp, average, runaway if mark_runaway else None)
+
+
+def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, variant: str = "as-specified",
+                            time_quantum: float = TIME_QUANTUM):
+    """Per-period displacements (periods, n) (m) of open-loop drives (see :func:`open_loop_velocity`;
+    ``points`` as :func:`point_params` takes them) and whether each ran away (n,).
+
+    Drives that play the same waveforms at the same point once quantised to ``time_quantum`` (the
+    teacher's candidates, ``DriveField.best``, share nodes' drives) are simulated once and their
+    results copied: each drive of the batch runs on its own, so the results are those of simulating
+    every one."""
+    actions = np.asarray(actions, dtype=np.float64)
+    if actions.ndim < 3:
+        actions = np.atleast_2d(actions)[:, None, :]
+    if len(actions) == 1 and len(points) > 1:
+        actions = np.repeat(actions, len(points), axis=0)
+    action_map = action_map_at(time_quantum)
+    cycle = np.array([[[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
+                       for p in (action_map.to_params(a) for a in actions[:, j])]
+                      for j in range(actions.shape[1])]).reshape(actions.shape[1], len(points), 5)
+    point_keys = [tuple(map(float, point)) for point in points]
+    drive_of, unique = {}, []  # drive_of: each drive's row among the simulated ones
+    inverse = np.empty(len(points), dtype=np.int64)
+    for i, point_key in enumerate(point_keys):
+        key = (point_key, cycle[:, i].tobytes())
+        if key not in drive_of:
+            drive_of[key] = len(unique)
+            unique.append(i)
+        inverse[i] = drive_of[key]
+    sim = BatchedDriveSimulator(len(unique))
+    params, first_of = [], {}  # the model is built once per distinct point (searches play many drives at one)
+    for row, i in enumerate(unique):
+        key = point_keys[i]
+        if key in first_of:
+            sim.copy_params(row, first_of[key])
+        else:
+            first_of[key] = row
+            sim.set_params(row, point_params(points[i], variant))
+        params.append(sim.params[row])
+    rows = np.array(unique)
+    disp = np.array([sim.step(cycle[t % len(cycle)][rows], action_map.period)[:, K.O_DISPLACEMENT].copy()
+                     for t in range(periods)])
+    runaway = runaway_of(disp, sim.out[:, K.O_PEAK_FZ], params)
+    return np.ascontiguousarray(disp[:, inverse]), runaway[inverse]  # C order: means over periods as before
+
+
+# -------------------------------------------------------------------------------------- closed loop
+def play_kwargs_of(policy) -> dict:
+    """The env keywords a closed-loop drive plays in (its ``play_kwargs``; none for a plain callable)."""
+    return dict(getattr(policy, "play_kwargs", None) or {})
+
+
+def actions_of(policy):
+    """A closed-loop drive as ``obs (n, d) -> Box actions``: its ``act`` method, or the drive itself."""
+    return policy.act if hasattr(policy, "act") else policy
+
+
+def policy_rollout(policy, points, periods: int = EVAL_PERIODS, variant: str = "as-specified"):
+    """Run ``policy`` (``act(obs) -> Box actions``) closed loop at each (k, cargo mass) point, in the
+    batched env it expects (:func:`play_kwargs_of`); returns (displacements (periods, n) m, actions
+    (periods, n, 5) in the default action units (``ACTION_MAP``, whatever the policy's
+    ``z_phase_origin``), runaway (n,) bool)."""
+    n = len(points)
+    play, act = play_kwargs_of(policy), actions_of(policy)
+    venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods,
+                        variant=variant, **play)
+    obs, _ = venv.reset(seed=0, options={"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]})
+    disp, acts = [], []
+    for _ in range(periods):
+        a = np.asarray(act(obs), dtype=np.float32).reshape(n, ActionMap.SIZE)
+        obs, _, _, _, info = venv.step(a)
+        disp.append(info["displacement"])
+        acts.append(a)
+    params = [DriveParams.paper(k=k, cargo_mass=m, variant=variant) for k, m in points]
+    acts = shift_phase_origin(np.array(acts), play.get("z_phase_origin", 0.0), ACTION_MAP.z_phase_origin)
+    return np.array(disp), acts.astype(np.float32), runaway_of(np.array(disp), info["peak_normal_force"], params)
+
+
+def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS,
+                    mark_runaway: bool = False, variant: str = "as-specified") -> np.ndarray:
+    """Steady velocity (m/s) of a closed-loop policy at each point (NaN where runaway, with ``mark_runaway``)."""
+    disp, _, runaway = policy_rollout(policy, points, periods, variant)
+    return steady_velocity_of(disp, average, runaway if mark_runaway else None)
+
+
+def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS, load_step=None,
+                seed: int = 0, **env_kwargs):
+    """One run of the single env ``MDRDrive-v0`` at (k, cargo mass): closed loop with ``policy``
+    (``act(obs) -> Box actions``), or the trapezoid every period if ``policy`` is None.
+    ``load_step``: (period, cargo mass in kg); a policy plays in the env it expects
+    (:func:`play_kwargs_of`, under ``env_kwargs``). Returns (per-period mean velocities (periods,) m/s,
+    actions (periods, 5) in the default action units (``ACTION_MAP``, whatever ``z_phase_origin``
+    the env has), whether the load ran away)."""
+    env = gym.make("MDRDrive-v0", k=k, cargo_mass=cargo_mass, max_periods=periods,
+                   **{**play_kwargs_of(policy), **env_kwargs})
+    obs, _ = env.reset(seed=seed, options={"load_step": load_step} if load_step else None)
+    trapezoid = env.unwrapped.trapezoid_action()
+    act = None if policy is None else actions_of(policy)
+    velocities, actions = [], []
+    for _ in range(periods):
+        a = trapezoid if act is None else np.asarray(act(obs[None]), dtype=np.float32).reshape(ActionMap.SIZE)
+        obs, _, _, _, info = env.step(a)
+        velocities.append(info["mean_velocity"])
+        actions.append(a)
+    v = np.array(velocities)
+    runaway = runaway_of(v[:, None] * ACTION_MAP.period, [info["peak_normal_force"]], [env.unwrapped.params])
+    actions = shift_phase_origin(np.array(actions), env.unwrapped.action_map.z_phase_origin, ACTION_MAP.z_phase_origin)
+    return v, actions.astype(np.float32), bool(runaway[0])
+
+
+def play_time_quantum(policies) -> float:
+    """The time quantum (s) that ``policies`` act at (their ``play_kwargs``' ``time_quantum``, default
+    ``TIME_QUANTUM``): a search that references them runs at it. Raises ``ValueError`` if they differ."""
+    quanta = {float(play_kwargs_of(p).get("time_quantum", TIME_QUANTUM)) for p in policies}
+    if len(quanta) > 1:
+        raise ValueError(f"the policies act at different time quanta {sorted(quanta)} s: benchmark them apart")
+    return quanta.pop() if quanta else TIME_QUANTUM
+
+
+# ----------------------------------------------------------------------------------- critical load
+def first_stall(masses: np.ndarray, velocity: np.ndarray) -> float:
+    """Largest mass of the grid before the velocity first drops to <= 0 (0 if it never moves)."""
+    bad = np.flatnonzero(~(np.asarray(velocity) > 0.0))  # NaN (a runaway) stalls too
+    if bad.size == 0:
+        return float(masses[-1])
+    return float(masses[bad[0] - 1]) if bad[0] > 0 else 0.0
+
+
+def upper_mass(k: float, variant: str = "as-specified") -> float:
+    """A load (kg) above every method's critical load at k: 0.8 of mu F_ref / g (the trapezoid stalls
+    at 0.18-0.33 of it)."""
+    env = gym.make("MDRDrive-v0", k=k, load_ratio=0.8, variant=variant).unwrapped
+    env.reset(seed=0)
+    return env.cargo_mass
+
+
+def critical_loads(ks, velocity_fn, variant: str = "as-specified") -> dict[float, float]:
+    """Critical load (kg) per k from ``velocity_fn(points) -> velocities`` on a fine load grid (two
+    passes of ``CRITICAL_GRID`` loads up to :func:`upper_mass`): the largest load before the
+    velocity first drops to <= 0 (or runs away)."""
+    out = {}
+    for k in ks:
+        hi = upper_mass(k, variant)
+        masses = np.linspace(0.0, hi, CRITICAL_GRID)
+        m1 = first_stall(masses, velocity_fn([(k, m) for m in masses]))
+        step = masses[1]
+        fine = np.linspace(m1, min(m1 + step, hi), CRITICAL_GRID)  # refine between the last mover and the stall
+        out[k] = first_stall(fine, velocity_fn([(k, m) for m in fine])) if m1 < hi else hi
+    return out
+
+
+def trapezoid_critical_load(ks, variant: str = "as-specified") -> np.ndarray:
+    """The trapezoid's critical load (kg) at each k (:func:`critical_loads`)."""
+    crit = critical_loads(sorted(set(ks)), lambda pts: open_loop_velocity(pts, trapezoid_action(), variant=variant),
+                          variant)
+    return np.array([crit[k] for k in ks])
+
+
+__all__ = ["ACTION_MAP", "AVERAGE_PERIODS", "actions_of", "CRITICAL_GRID", "EVAL_PERIODS", "TIME_QUANTUM", "action_map_at",
+           "critical_loads", "csv_velocity", "env_rollout", "first_stall", "format_velocity", "open_loop_displacements",
+           "open_loop_velocity", "play_kwargs_of", "play_time_quantum", "point_params", "policy_rollout",
+           "policy_velocity", "runaway_of", "steady_velocity_of", "trapezoid_action", "trapezoid_critical_load",
+           "upper_mass"]

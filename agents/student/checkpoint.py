@@ -1,0 +1,86 @@
+"""The student's first fit (round 0 of ``distill``), kept so that an interrupted student stage resumes
+after it instead of fitting it again (on the shipped recipe: about 560 of the stage's 730 s).
+
+A checkpoint holds the student's weights and observation statistics after round 0, the episodes
+gathered so far, the state of the random generator that draws the later rounds' points, round 0's
+record and a fingerprint of everything round 0 depended on: the teacher's field, the student's seed,
+the env keywords, the PPO settings and every distillation setting but those only later rounds read
+(``LATER_ROUND_KEYS``). Continuing from it gives the weights an uninterrupted run gives
+(tested). A checkpoint whose fingerprint differs is not used: round 0 is fitted
+again and the checkpoint replaced.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import pickle
+from pathlib import Path
+
+import numpy as np
+
+from mdr_drive_env.files import atomic_path
+
+#: DistillConfig fields that round 0 does not read: a checkpoint serves runs that differ in them.
+LATER_ROUND_KEYS = frozenset({"rounds", "round_steps", "hole_rounds", "hole_probes", "hole_shortfall", "hole_floor",
+                              "hole_neighbours", "hole_steps", "hole_learning_rate", "stall_probes", "stall_band"})
+
+
+def field_digest(field_) -> str:
+    """SHA-256 of a teacher's arrays (a ``DriveField``, or each field of a ``FrictionField``)."""
+    digest = hashlib.sha256()
+    for sub in getattr(field_, "fields", [field_]):
+        for name in ("ks", "fractions", "trapezoid_critical", "drives", "velocities"):
+            digest.update(np.ascontiguousarray(getattr(sub, name), dtype=np.float64).tobytes())
+        digest.update(repr(sub.friction).encode())
+    return digest.hexdigest()
+
+
+def fingerprint(field_, config, seed: int, env_kwargs: dict, hyperparameters: dict, friction=None) -> dict:
+    """What round 0 of ``distill`` depended on, as plain JSON values (``config``: a DistillConfig)."""
+    round0 = {key: value for key, value in dataclasses.asdict(config).items() if key not in LATER_ROUND_KEYS}
+    return json.loads(json.dumps({"teacher": field_digest(field_), "seed": int(seed), "distill": round0,
+                                  "env_kwargs": env_kwargs, "hyperparameters": hyperparameters,
+                                  "friction": friction}, default=float))
+
+
+def save(path: str | Path, student, rng: np.random.Generator, obs_all: list, drive_all: list, record: dict,
+         fingerprint_: dict) -> None:
+    """Write the checkpoint after round 0 (atomically)."""
+    state = {"fingerprint": fingerprint_, "policy": student.model.policy.state_dict(),
+             "obs_rms": student.venv.obs_rms, "obs_all": obs_all, "drive_all": drive_all,
+             "rng": rng.bit_generator.state, "record": record}
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL))
+
+
+def load(path: str | Path, fingerprint_: dict) -> tuple[dict | None, str]:
+    """The checkpoint at ``path`` if it was written for ``fingerprint_``, and why not otherwise
+    (``(None, reason)``; no file is not a reason: ``(None, "")``)."""
+    path = Path(path)
+    if not path.exists():
+        return None, ""
+    try:
+        state = pickle.loads(path.read_bytes())
+    except Exception as e:  # a truncated or foreign file: fit again
+        return None, f"{path} is not a round-0 checkpoint ({type(e).__name__})"
+    saved = state.get("fingerprint") if isinstance(state, dict) else None
+    if saved is None:
+        return None, f"{path} has no fingerprint (not a student checkpoint)"
+    if saved != fingerprint_:
+        differ = sorted(key for key in fingerprint_ if saved.get(key) != fingerprint_[key])
+        if "distill" in differ:
+            differ[differ.index("distill")] = "distill: " + ", ".join(
+                sorted(k for k, v in fingerprint_["distill"].items() if saved.get("distill", {}).get(k) != v))
+        return None, f"{path} was fitted with another {'; '.join(differ)}"
+    return state, ""
+
+
+def restore(state: dict, student, rng: np.random.Generator) -> tuple[list, list, dict]:
+    """Put a checkpoint's weights, observation statistics and generator state into ``student`` and
+    ``rng``; returns its episodes (observations, drives) and round 0's record."""
+    student.model.policy.load_state_dict(state["policy"])
+    student.venv.obs_rms = state["obs_rms"]
+    rng.bit_generator.state = state["rng"]
+    return list(state["obs_all"]), list(state["drive_all"]), dict(state["record"])

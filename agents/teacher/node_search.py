@@ -1,0 +1,105 @@
+"""The teacher's searches at its grid nodes: CMA-ES (``mdr_drive_agents.search``) from the starts the
+drive field gives them, one k slice per task so that an executor (``mdr_drive_env.sweep.Executor``) can
+spread the slices over processes or a Ray cluster (``DriveField.search``); the polish passes and the
+refinements (``mdr_drive_agents.teacher.refine``) one node per task.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..protocol import open_loop_velocity, trapezoid_action
+from ..search import PUSH_CLAMP, best_cma_run, search_point
+
+if TYPE_CHECKING:
+    from .config import FieldConfig
+
+
+def search_node(k: float, load: float, previous: np.ndarray | None, config: FieldConfig,
+                seed: int = 0) -> tuple[np.ndarray, float]:
+    """The best drive (2, 5) found at (k, load kg) and its steady velocity (m/s): ``search_point``
+    with ``config``'s budgets and step size, over fixed actions from the lighter point's first action
+    (or the trapezoid) and over two-action cycles from the lighter point's drive, the trapezoid and
+    the push/clamp cycle."""
+    starts = ([] if previous is None else [previous]) + [np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP]
+    found = search_point(k, load, config.fixed_budget, config.cycle_budget, fixed_sigma=config.sigma0,
+                         cycle_sigma=config.sigma0, fixed_start=None if previous is None else previous[0],
+                         cycle_starts=starts, seed=seed, friction=tuple(config.friction))
+    return found.drive, found.velocity
+
+
+def search_slice(args) -> tuple[np.ndarray, np.ndarray]:
+    """Drives (n_loads, 2, 5) and velocities (n_loads,) along one k, light to heavy (continuation)."""
+    k, loads, config, seed = args
+    drives, velocities, previous = [], [], None
+    for j, load in enumerate(loads):
+        drive, v = search_node(float(k), float(load), previous, config, seed=seed + j)
+        drives.append(drive)
+        velocities.append(v)
+        previous = drive
+    return np.array(drives), np.array(velocities)
+
+
+def polish_slice(args) -> list[tuple[np.ndarray, float]]:
+    """Per node of one k slice, the best two-action cycle (2, 5) and its velocity (m/s) found by
+    CMA-ES from each of its starts (``DriveField.polish``)."""
+    nodes, budget, sigma, seed, friction = args
+    out = []
+    for j, (k, load, starts) in enumerate(nodes):
+        run = best_cma_run(k, load, list(starts), budget, popsize=16, sigma0=sigma, cycle=2, seed=seed + 31 * j,
+                           friction=tuple(friction))
+        out.append((np.asarray(run.action, dtype=np.float64), float(run.velocity)))
+    return out
+
+
+def map_polish_by_node(line_tasks: list, desc: str, executor=None) -> list:
+    """What ``executor.map(polish_slice, line_tasks, desc)`` returns (per line task, its nodes' drives
+    and velocities), computed one task per node: node ``j`` of a line seeded ``seed`` runs as the
+    line's task runs it (``seed + 31 j``), so the results are the same bit for bit, but the workers
+    stay busy to the end instead of waiting on the last, longest lines."""
+    from mdr_drive_env.sweep import Executor
+
+    node_tasks, owner = [], []
+    for n, (nodes, budget, sigma, seed, friction) in enumerate(line_tasks):
+        for j, node in enumerate(nodes):
+            node_tasks.append(([node], budget, sigma, seed + 31 * j, friction))
+            owner.append(n)
+    found = (executor or Executor()).map(polish_slice, node_tasks, desc)
+    lines: list = [[] for _ in line_tasks]
+    for n, result in zip(owner, found):
+        lines[n].extend(result)
+    return lines
+
+
+def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: int, friction, label: str,
+                     executor=None) -> tuple[np.ndarray, np.ndarray]:
+    """Drives (n_lines, n, 2, 5) and velocities (n_lines, n) m/s of new grid nodes (``DriveField.refine_k``,
+    ``refine_load``), ``lines`` of [((k, load kg), trial drives (t, 2, 5)), ...] at ``friction`` (mu,
+    mu1): every node plays its trials (one batched call), CMA-ES over two-action cycles runs from the
+    ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``; one task per node on
+    ``executor``) and the node keeps the fastest drive found or played."""
+    tasks, trial_d, trial_v = [], [], []  # per line: its task, its nodes' fastest trial drives and velocities
+    for n, line in enumerate(lines):
+        played = open_loop_velocity([(*node, *friction) for node, t in line for _ in t],
+                                    np.concatenate([t for _, t in line]))
+        nodes, fastest_d, fastest_v, at = [], [], [], 0
+        for node, t in line:
+            order = np.argsort(-played[at:at + len(t)])
+            fastest_d.append(t[order[0]])
+            fastest_v.append(played[at + order[0]])
+            nodes.append((*node, t[order[:starts]]))
+            at += len(t)
+        tasks.append((nodes, budget, sigma, seed + 7919 * (n + 1), friction))
+        trial_d.append(fastest_d)
+        trial_v.append(fastest_v)
+    found = map_polish_by_node(tasks, label, executor)
+    searched_d = np.array([[d for d, _ in line] for line in found])
+    searched_v = np.array([[v for _, v in line] for line in found], dtype=np.float64)
+    trial_d, trial_v = np.array(trial_d), np.array(trial_v, dtype=np.float64)
+    keep_search = searched_v > trial_v
+    return np.where(keep_search[:, :, None, None], searched_d, trial_d), np.where(keep_search, searched_v, trial_v)
+
+
+__all__ = ["map_polish_by_node", "polish_slice", "search_new_nodes", "search_node", "search_slice"]

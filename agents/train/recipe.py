@@ -1,0 +1,180 @@
+"""The shipped policy's recipe, teacher to student, as one function driven by one YAML file.
+
+    mdr-drive recipe agents/configs/recipe.yaml --out runs/recipe                  # make train
+    mdr-drive recipe agents/configs/recipe.yaml --out runs/recipe --ray-address auto
+
+Stages (each one's wall time is printed and kept in ``recipe.json``):
+
+1. **teacher**: the best open-loop drives on a grid of k and load (``mdr_drive_agents.teacher``),
+   one task per k slice on the sweep executor (local processes or Ray), kept in ``OUT/.tasks`` as
+   they finish (``--resume`` continues an interrupted search); written to ``OUT/teacher_field.npz``.
+2. **student**: a plain SB3 PPO ``MlpPolicy`` fitted to the teacher's actions on its episodes, with
+   optional DAgger and hole rounds (``mdr_drive_agents.student.distill``); written to ``OUT/policy/``
+   as ``model.zip``, ``vecnormalize.pkl`` and ``run.json``, which ``PPO.load`` +
+   ``VecNormalize.load`` play, ``mdr-drive evaluate`` and ``benchmark`` judge, and ``mdr-drive train
+   --resume OUT/policy`` fine-tunes with PPO.
+
+An existing ``OUT`` is refused unless ``--resume`` or ``--force``. ``--resume`` continues an
+interrupted run: the teacher's finished k slices are reused, and so is the student's first fit
+(round 0, most of the student stage) if it finished, kept in ``OUT/.tasks/student_round0.pkl`` for
+the same teacher and settings (``mdr_drive_agents.student.checkpoint``); the student's hole rounds
+run again. ``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
+``teacher_field.npz``), for trying student settings without searching the teacher again.
+``--snapshots`` also saves the student after each hole round into ``OUT/snapshots/hole_round<H>/``
+(the same files as ``OUT/policy/``), so one run shows what each further hole round changes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import shutil
+import sys
+import time
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mdr_drive_env.files import write_text
+from mdr_drive_env.sweep import Executor, TaskStore, task_folder
+
+from ..blas import PINNED_CORE, blas_core
+from ..run_record import command_line, start_run, versions
+from ..student.distill import DistillConfig, distill
+from ..student.network import save_student
+from ..teacher import DriveField, FieldConfig
+from ..yaml_config import from_yaml
+from .sb3 import ENV_ID, HELD_OUT_POINTS
+
+DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "recipe.yaml"
+
+
+@dataclass(frozen=True)
+class RecipeConfig:
+    """The recipe YAML (``agents/configs/recipe.yaml``).
+
+    Attributes:
+        seed: seed of the teacher's search (-).
+        teacher: the teacher's grid, budgets and stages.
+        distill: the student's distillation.
+        ppo: the saved model's SB3 PPO settings (what ``mdr-drive train --resume`` fine-tunes it with).
+        env_kwargs: the training domain and the env the student acts in, as ``MDRDrive-v0`` keywords.
+        student_seed: seed of the student's network, episodes and minibatches (-); default ``seed``.
+    """
+
+    seed: int
+    teacher: FieldConfig
+    distill: DistillConfig
+    ppo: dict = field(default_factory=dict)
+    env_kwargs: dict = field(default_factory=dict)
+    student_seed: int | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("seed", "student_seed"):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
+                raise ValueError(f"{name}={value!r} must be an integer")
+
+    @property
+    def seeds(self) -> tuple[int, int]:
+        """(the teacher's seed, the student's seed)."""
+        return self.seed, self.seed if self.student_seed is None else self.student_seed
+
+
+def load_recipe(path: str | Path) -> RecipeConfig:
+    """The recipe YAML at ``path``; unknown keys and bad values are a ``ValueError`` naming them."""
+    return from_yaml(RecipeConfig, path)
+
+
+def student_record(seed: int, env_kwargs: dict, ppo: dict, config: DistillConfig, student, wall_time_s: float,
+                   command: str, teacher: dict) -> dict:
+    """The distilled student's ``run.json``: what ``mdr-drive train --resume`` and ``evaluate`` read
+    (env keywords, PPO settings, network), and where it came from (``teacher``: {"teacher" or
+    "fields", "recipe"}, with the distillation settings and fit history added)."""
+    return {
+        "algo": "ppo", "seed": seed, "env_id": ENV_ID, "env_kwargs": env_kwargs,
+        "hyperparameters": {**dict(ppo), "normalize": True, "warm_start": "none",
+                            "policy_kwargs": {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]},
+                                              "activation_fn": config.activation, "log_std_init": config.log_std}},
+        "distilled_from": {**teacher, "distill": {key: getattr(config, key) for key in config.__dataclass_fields__},
+                           "history": student.history},
+        "command": command, "versions": versions(), "torch_threads": config.torch_threads,
+        "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall_time_s, "steps_per_s_this_run": 0.0,
+        "resumes": 0, "held_out_points": HELD_OUT_POINTS, "interrupted": False,
+    }
+
+
+def searched_with_another_config(field: DriveField, config: FieldConfig) -> bool:
+    """Whether ``field`` was searched with settings other than ``config`` (keys its saved config
+    lacks, added to ``FieldConfig`` since, count at their defaults)."""
+    def as_json(c) -> dict:
+        return json.loads(json.dumps(dataclasses.asdict(c)))
+
+    return {**as_json(FieldConfig()), **field.meta.get("config", {})} != as_json(config)
+
+
+def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
+        force: bool = False, progress: bool = True, teacher: str | Path | None = None, snapshots: bool = False) -> dict:
+    """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1; with
+    ``snapshots``: the student after each hole round in ``out/snapshots/hole_round<H>/`` too); returns
+    what ``recipe.json`` holds."""
+    recipe = load_recipe(config_path)
+    out, executor = start_run(out, resume, force, executor, progress)
+    (seed, student_seed), stages = recipe.seeds, {}
+    command = command_line()
+
+    tasks = task_folder(out, resume)
+    core = blas_core()
+    if teacher is None and core not in (None, PINNED_CORE):
+        print(f"recipe: warning: numpy's OpenBLAS runs its {core!r} kernels, not {PINNED_CORE!r} (numpy was loaded "
+              f"before mdr_drive_agents, or OPENBLAS_CORETYPE is set): the teacher's CMA-ES searches round differently "
+              f"in the last bits, and its drives will differ from the shipped teacher's", file=sys.stderr)
+    t0 = time.perf_counter()
+    if teacher is None:
+        field = DriveField.search(recipe.teacher, seed=seed, executor=executor, store=TaskStore(tasks / "teacher"))
+    else:
+        try:
+            field = DriveField.load(teacher)
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as e:
+            raise ValueError(f"--teacher {teacher} is not a saved teacher field ({type(e).__name__}: {e})") from None
+        if searched_with_another_config(field, recipe.teacher):
+            print(f"recipe: warning: {teacher} was searched with another teacher config than {config_path}'s",
+                  file=sys.stderr)
+    field.save(out / "teacher_field.npz")
+    stages["teacher_s"] = round(time.perf_counter() - t0, 1)
+    print(f"recipe: teacher {stages['teacher_s']:.0f} s{' (loaded)' if teacher else ''}: {field.velocities.size} "
+          f"grid points, {field.meta.get('exchanged', 0)} drives taken from a neighbour", flush=True)
+
+    t1 = time.perf_counter()
+    teacher_record = {"teacher": str(out / "teacher_field.npz"), "recipe": str(config_path)}
+
+    def save_snapshot(student, round_record: dict) -> None:
+        if snapshots and "hole_round" in round_record:
+            record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student,
+                                    round(time.perf_counter() - t1, 1), command, teacher_record)
+            save_student(student, out / "snapshots" / f"hole_round{round_record['hole_round']}", record)
+
+    student = distill(field, recipe.distill, seed=student_seed, env_kwargs=recipe.env_kwargs,
+                      hyperparameters=recipe.ppo, progress=progress, on_round=save_snapshot,
+                      checkpoint=tasks / "student_round0.pkl")
+    stages["student_s"] = round(time.perf_counter() - t1, 1)
+    record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student, stages["student_s"],
+                            command, teacher_record)
+    save_student(student, out / "policy", record)
+    stages["total_s"] = round(time.perf_counter() - t0, 1)
+    print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
+          flush=True)
+    summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
+               "stage_wall_time_s": stages,
+               "teacher_loaded_from": None if teacher is None else str(teacher), "blas_core": core,
+               "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
+               "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},
+               "teacher_mean_velocity_m_s": float(np.mean(field.velocities))}
+    write_text(out / "recipe.json", json.dumps(summary, indent=2))
+    shutil.rmtree(tasks, ignore_errors=True)  # the teacher and the student are written: their task files are spent
+    return summary
+
+
+__all__ = ["DEFAULT_CONFIG", "RecipeConfig", "load_recipe", "run", "searched_with_another_config", "student_record"]
