@@ -1,10 +1,10 @@
 """mdr-drive bench's parts that run in seconds: the vector env's rates by thread count and the report."""
 
 import json
-from pathlib import Path
 
 from mdr_drive_env import bench
 from mdr_drive_env.core import batch
+from tests import ROOT
 
 
 def test_vector_rates_measure_every_thread_count():
@@ -15,7 +15,7 @@ def test_vector_rates_measure_every_thread_count():
 
 
 def test_markdown_reports_the_scaling_curve_with_its_ratio():
-    res = json.loads((Path(__file__).parents[1] / "results" / "bench" / "bench_speed.json").read_text())
+    res = json.loads((ROOT / "results" / "bench" / "bench_speed.json").read_text())
     res["vector_env_scaling"] = {"8": {"1": 100.0, "2": 150.0}, "64": {"1": 200.0, "2": 380.0}}
     res["min_drives_per_thread"] = 8
     text = bench.markdown(res)

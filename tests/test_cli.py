@@ -4,7 +4,6 @@ import json
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -209,16 +208,30 @@ def test_console_script_help_runs():
     assert "--cargo-mass" in out and "(kg)" in out
 
 
-@pytest.mark.parametrize("command", ["train", "evaluate", "benchmark", "demo"])
-def test_agents_modules_run_as_scripts(command, tmp_path):
-    """``python -m mdr_drive_agents.<command>`` (anywhere) and ``python -m agents.<command>`` (in a
-    checkout) are ``mdr-drive <command>``."""
+AGENT_COMMANDS = ("train", "recipe", "train-sensor", "friction-teacher", "evaluate", "benchmark", "dense",
+                  "adaptation", "model-card", "demo")
+
+
+def test_the_agents_package_adds_its_subcommands_through_the_entry_point_group():
     pytest.importorskip("stable_baselines3")
-    root = Path(__file__).parents[1]
-    for module, cwd in ((f"mdr_drive_agents.{command}", tmp_path), (f"agents.{command}", root)):
-        out = subprocess.run([sys.executable, "-m", module, "--help"], capture_output=True, text=True, check=True,
-                             cwd=cwd).stdout
-        assert out.startswith(f"usage: mdr-drive {command}")
+    from mdr_drive_env.cli import COMMAND_GROUP, plugin_commands
+
+    assert {ep.name for ep in plugin_commands()} == set(AGENT_COMMANDS)
+    assert all(ep.group == COMMAND_GROUP and ep.value.startswith("mdr_drive_agents.commands.")
+               for ep in plugin_commands())
+    for command in AGENT_COMMANDS:  # each with its own --help
+        text = _all_subparsers()[command].format_help()
+        assert text.startswith(f"usage: mdr-drive {command}") and len(text.splitlines()) > 5
+
+
+def test_the_physics_package_runs_without_the_agents_package(tmp_path):
+    """With ``mdr_drive_agents`` not importable, ``mdr-drive`` still simulates, and an agents command
+    says in one line what to install."""
+    code = ("import sys; sys.modules['mdr_drive_agents'] = None; from mdr_drive_env.cli import main; "
+            "print(main(['simulate', '--periods', '1', '--json']) == 0); sys.exit(main(['recipe']))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 2 and run.stdout.strip().splitlines()[-1] == "True"
+    assert run.stderr.strip().startswith("mdr-drive recipe needs the train extra") and len(run.stderr.splitlines()) == 1
 
 
 def test_the_install_adds_no_top_level_agents_module(tmp_path):

@@ -16,7 +16,7 @@ import numpy as np
 
 from mdr_drive_env.files import write_text
 
-from ..policy import CODEBOOK_FILE, FILES, load_policy, policy_files, same_weights
+from ..policy import FILES, load_policy, policy_files, same_weights
 from ..protocol import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -100,6 +100,7 @@ def training_note(run: dict) -> str:
 
 
 LOAD_POLICY = """```python
+import numpy as np
 from mdr_drive_agents import load_policy
 
 policy = load_policy("{dir}")   # from any working directory
@@ -138,7 +139,7 @@ def load_snippet(dst: Path, run: dict) -> str:
     overrides = "k=0.2, cargo_mass=0.1"
     if run["env_id"] == "MDRDriveSensor-v0":
         overrides += ", friction_coefficient=0.3, base_friction_coefficient=0.1"
-    return "import numpy as np\n".join(LOAD_POLICY.format(dir=dst.as_posix(), overrides=overrides).split("\n", 1))
+    return LOAD_POLICY.format(dir=dst.as_posix(), overrides=overrides)
 
 
 def snippet(dst: Path, run: dict) -> str:
@@ -147,7 +148,8 @@ def snippet(dst: Path, run: dict) -> str:
         return SNIPPET.format(env_id="MDRDriveSensor-v0", dir=dst.as_posix(),
                               comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
                                       "here to try one drive\n",
-                              make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, max_periods=30, '
+                              make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, '
+                                        f'max_periods={run["env_kwargs"]["max_periods"]}, '
                                         "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
                                         "base_friction_coefficient=0.1")
     # its actions mean what they mean in an env with its seam of the z phase and its time quantum

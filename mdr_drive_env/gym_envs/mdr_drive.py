@@ -372,9 +372,9 @@ class MDRDriveEnv(gym.Env):
 
     def box_action(self, action) -> np.ndarray:
         """The Box action (5,) float64 that ``action`` plays: itself, or with ``action_codebook`` the
-        table's row it indexes (``ValueError`` for an index outside it)."""
+        table's row it indexes, in float32 as a Box action (``ValueError`` for an index outside it)."""
         if self.action_codebook is not None:
-            return codebook_rows(self.action_codebook, np.asarray(action).reshape(()))
+            action = codebook_rows(self.action_codebook, np.asarray(action).reshape(()))
         return np.asarray(action, dtype=np.float64).reshape(ActionMap.SIZE)
 
     def action_to_waveform(self, action: np.ndarray) -> Waveform:

@@ -52,8 +52,9 @@ def load_action_codebook(value) -> np.ndarray | None:
 
 
 def codebook_rows(table: np.ndarray, indices) -> np.ndarray:
-    """The Box actions (..., 5) that codebook ``indices`` (integers, any shape) select; ``ValueError``
-    for an index that is not an integer in [0, N)."""
+    """The Box actions (..., 5) that codebook ``indices`` (integers, any shape) select, as float32 like
+    every action of the Box space (so a codebook index plays exactly what its row played as a Box
+    action plays); ``ValueError`` for an index that is not an integer in [0, N)."""
     idx = np.asarray(indices)
     shown = idx.tolist()
     if idx.dtype.kind not in "iu":
@@ -63,7 +64,7 @@ def codebook_rows(table: np.ndarray, indices) -> np.ndarray:
         idx = as_int
     if idx.size and (idx.min() < 0 or idx.max() >= len(table)):
         raise ValueError(f"codebook action {shown!r} is outside the allowed range [0, {len(table) - 1}]")
-    return table[idx]
+    return table[idx].astype(np.float32)
 
 
 @dataclass(frozen=True)

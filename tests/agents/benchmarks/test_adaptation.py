@@ -1,0 +1,44 @@
+"""The sensor policy's report (mdr_drive_agents.benchmarks.adaptation, mdr-drive adaptation), CI-sized."""
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from mdr_drive_agents.benchmarks import adaptation  # noqa: E402
+
+
+def test_recovery_counts_the_periods_to_nine_tenths_of_the_new_steady_velocity():
+    s = adaptation.STEP_PERIOD
+    v = np.full(adaptation.STEP_EPISODE_PERIODS, 10e-3)
+    v[s:s + 3] = 1e-3  # three slow periods after the step, then back at 10 mm/s
+    steady, periods, ok = adaptation.recovery(v)
+    assert steady == pytest.approx(10e-3) and periods == 3 and ok
+    v[s:s + 7] = 1e-3  # seven slow periods: too late
+    assert adaptation.recovery(v)[2] is False
+    assert adaptation.recovery(np.zeros_like(v))[1:] == (None, None)  # nothing to recover to
+
+
+def test_the_adaptation_report_runs_in_quick_mode(tmp_path):
+    from mdr_drive_env.sweep import Executor
+
+    res = adaptation.run(adaptation.SENSOR_POLICY, adaptation.FULL_POLICY, 2, 2, seed=5, out=tmp_path, quick=True,
+                         executor=Executor(workers=1, progress=False))
+    assert set(res["statistics"]) == set(adaptation.DRIVES)
+    assert all(0.0 <= d["k"] <= 0.6 and 0.2 <= d["friction_coefficient"] <= 0.4 for d in res["points"])
+    assert all(np.asarray(res["load_step_velocity_m_s"][d]).shape == (2, adaptation.STEP_EPISODE_PERIODS)
+               for d in adaptation.DRIVES)
+    for name in ("adaptation.json", "adaptation.md", "points.csv", "load_steps.csv", "adaptation_load_steps.png",
+                 "adaptation_tracking.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    assert res["points"] == adaptation.draw_hidden(2, 5)  # the draws follow the seed
+
+    again = adaptation.run(adaptation.SENSOR_POLICY, adaptation.FULL_POLICY, 2, 1, seed=5, out=tmp_path / "again", quick=True,
+                           reuse=tmp_path / "adaptation.json")  # another policy judged on the same searches
+    assert again["best_search"] == json.loads((tmp_path / "adaptation.json").read_text())["best_search"]
+    assert again["search_reused_from"] == str(tmp_path / "adaptation.json")
+    with pytest.raises(ValueError, match="--reuse-search .* seed"):
+        adaptation.run(adaptation.SENSOR_POLICY, adaptation.FULL_POLICY, 2, 1, seed=6, out=tmp_path / "other", quick=True,
+                       reuse=tmp_path / "adaptation.json")

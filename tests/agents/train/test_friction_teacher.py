@@ -1,0 +1,91 @@
+"""The friction-aware teacher's recipe (mdr_drive_agents.train.friction_teacher, mdr-drive
+friction-teacher) and its use by the sensor training, CI-sized."""
+
+from __future__ import annotations
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+import mdr_drive_env  # noqa: F401
+from mdr_drive_agents.train import friction_teacher
+from mdr_drive_env.cli import main
+from mdr_drive_agents.teacher import DriveField
+from tests import DATA
+from tests.agents.fields import friction_field as _field
+
+TINY = DATA / "friction_teacher_tiny.yaml"
+
+
+@pytest.fixture(scope="module")
+def teacher_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("friction_teacher")
+    _field(0.1).save(tmp / "paper.npz")
+    config = yaml.safe_load(TINY.read_text())
+    config["friction"]["fields"] = [str(tmp / "paper.npz")]
+    (tmp / "config.yaml").write_text(yaml.safe_dump(config))
+    summary = friction_teacher.run(tmp / "config.yaml", tmp / "out", progress=False)
+    return tmp / "out", summary
+
+
+def test_the_friction_teacher_searches_its_ratios_and_distils_a_privileged_sb3_policy(teacher_run):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    out, summary = teacher_run
+    assert summary["rhos"] == pytest.approx([1 / 3, 0.5])
+    assert DriveField.load(out / "fields" / "rho0.500.npz").friction == (0.3, 0.15)
+    run = json.loads((out / "policy" / "run.json").read_text())
+    assert run["env_kwargs"]["observation"] == "privileged" and run["env_kwargs"]["friction_coefficient"] == [0.2, 0.4]
+    venv = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"),
+                             DummyVecEnv([lambda: gym.make("MDRDrive-v0", **run["env_kwargs"])]))
+    model = PPO.load(out / "policy" / "model.zip", device="cpu")
+    action, _ = model.predict(venv.normalize_obs(venv.reset()), deterministic=True)
+    assert action.shape == (1, 5)
+    with pytest.raises(ValueError, match="not empty"):
+        friction_teacher.run(TINY, out, progress=False)
+
+
+def test_a_sensor_policy_learns_friction_too_from_a_privileged_teacher(teacher_run):
+    from mdr_drive_agents.train.sensor import AdaptConfig, collect, sensor_env_kwargs, sensor_envs
+    from mdr_drive_agents.student.estimator import Estimator, SensorTeacher, hidden_entries, merged_policy, teacher_layout
+    from mdr_drive_agents.policy import load_policy
+    from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
+
+    out, _ = teacher_run
+    teacher = load_policy(out / "policy")
+    assert teacher_layout(teacher) is PrivilegedLayout and hidden_entries(PrivilegedLayout) == [10, 11, 12, 14, 15]
+    config = AdaptConfig(teacher=str(out / "policy"), history=2, episodes=4, periods=6, load_step_periods=(1, 4),
+                         estimator_arch=(8, 8))
+    sensed, privileged, _ = collect(*sensor_envs(config, 4, seed=2), lambda s, p: teacher.act(p), friction=True)
+    assert privileged.shape[1] == 16
+    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0, n_out=5)
+    estimator.fit(sensed, privileged[:, hidden_entries(PrivilegedLayout)], 5, 16, 1e-3, 0, False)
+    composed = SensorTeacher(teacher, estimator, SensorLayout(2).structure)
+    merged = merged_policy(composed, sensor_env_kwargs(config), config.log_std)
+    assert np.abs(merged.act(sensed) - np.clip(composed(sensed), -1, 1)).max() < 1e-4
+
+
+def test_a_friction_teacher_config_with_a_missing_field_is_one_line(tmp_path, capsys):
+    config = yaml.safe_load(TINY.read_text())
+    config["friction"]["fields"] = [str(tmp_path / "nowhere.npz")]
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    assert main(["friction-teacher", str(tmp_path / "config.yaml"), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "nowhere.npz" in err and "friction.fields" in err
+
+
+def test_stall_probes_with_a_drawn_friction_are_refused_before_any_work(tmp_path, capsys):
+    from mdr_drive_agents.student.distill import DistillConfig, distill
+
+    config = yaml.safe_load(TINY.read_text())
+    config["distill"]["stall_probes"] = 4
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    assert main(["friction-teacher", str(tmp_path / "config.yaml"), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "stall_probes" in err and not (tmp_path / "out").exists()
+    with pytest.raises(ValueError, match="stall_probes"):  # no field, no student: refused before either is used
+        distill(None, DistillConfig(stall_probes=4), friction=((0.2, 0.4), (0.07, 0.13)))

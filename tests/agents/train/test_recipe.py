@@ -1,0 +1,348 @@
+"""The recipe (mdr_drive_agents.train.recipe, mdr-drive recipe) end to end at CI size: the policy it
+writes is a plain SB3 model."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import mdr_drive_env  # noqa: F401
+from mdr_drive_agents.train import recipe
+from mdr_drive_agents.student.distill import DistillConfig
+from mdr_drive_agents.policy import PRETRAINED
+from mdr_drive_agents.teacher import FieldConfig
+from mdr_drive_agents.teacher.config import PolishPass
+from mdr_drive_env.cli import main
+from tests import DATA
+
+TINY = DATA / "recipe_tiny.yaml"
+
+
+@pytest.fixture(scope="module")
+def recipe_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("recipe")
+    summary = recipe.run(TINY, out, progress=False, force=True)
+    return out, summary
+
+
+def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    out, summary = recipe_run
+    assert set(summary["stage_wall_time_s"]) == {"teacher_s", "student_s", "total_s"}
+    assert "blas_core" in summary  # the BLAS kernels the teacher was searched with (mdr_drive_env.blas)
+    venv = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"),
+                             DummyVecEnv([lambda: gym.make("MDRDrive-v0", k=0.1, cargo_mass=0.05)]))
+    venv.training, venv.norm_reward = False, False
+    model = PPO.load(out / "policy" / "model.zip", device="cpu")
+    obs = venv.reset()
+    for _ in range(3):
+        action, _ = model.predict(obs, deterministic=True)
+        obs, *_ = venv.step(action)
+    assert action.shape == (1, 5) and np.all(np.abs(action) <= 1.0)
+    run = json.loads((out / "policy" / "run.json").read_text())
+    assert run["algo"] == "ppo" and "residual_scale" not in run["hyperparameters"]
+    history = run["distilled_from"]["history"]
+    assert len(history) == 3  # the teacher's round, one DAgger round, one hole round
+    assert history[0]["samples"] == (16 + history[0]["jump_points"]) * 4  # round 0: random points and bisection
+    assert history[2]["hole_round"] == 1 and history[2]["probes"] == 16 + 4 and 0 <= history[2]["holes"] <= 20
+    assert 0 <= history[2]["stall_holes"] <= min(4, history[2]["holes"])  # the stall probes ran (the shipped recipe's)
+    assert not (out / ".tasks").exists()
+    from mdr_drive_agents.teacher import DriveField
+
+    field = DriveField.load(out / "teacher_field.npz")
+    assert [p["budget"] for p in field.meta["polished"]] == [8]  # the polish ran
+    assert np.allclose(field.ks, [0.0, 0.15, 0.3]) and field.meta["refined_k"]["new_nodes"] == 2  # and the refinement
+    assert field.meta["polished_stall"]["k_max"] == 0.15 and field.meta["polished_stall"]["nodes"] == 4  # and the last
+
+
+def test_the_distilled_policy_fine_tunes_with_train_resume(recipe_run):
+    import pickle
+
+    from mdr_drive_agents.train.sb3 import train
+
+    out, _ = recipe_run
+    before = pickle.loads((out / "policy" / "vecnormalize.pkl").read_bytes()).obs_rms
+    record = train(resume=out / "policy", steps=64, progress_bar=False, eval_freq=10_000)
+    assert record["resumes"] == 1 and record["total_timesteps"] >= 64
+    after = pickle.loads((out / "policy" / "vecnormalize.pkl").read_bytes()).obs_rms
+    # the observation statistics the network was distilled on are not moved by PPO's rollouts
+    np.testing.assert_array_equal(after.mean, before.mean)
+    np.testing.assert_array_equal(after.var, before.var)
+
+
+def test_an_existing_output_is_refused_without_resume_or_force(recipe_run, capsys):
+    out, _ = recipe_run
+    assert main(["recipe", str(TINY), "--out", str(out), "--no-progress", "--workers", "1"]) == 2
+    assert "--resume" in capsys.readouterr().err
+
+
+def test_a_saved_teacher_is_distilled_without_searching_again(recipe_run, tmp_path, capsys):
+    from mdr_drive_agents.teacher import DriveField
+
+    out, _ = recipe_run
+    assert main(["recipe", str(TINY), "--out", str(tmp_path / "again"), "--no-progress", "--workers", "1",
+                        "--teacher", str(out / "teacher_field.npz"), "--snapshots"]) == 0
+    assert "(loaded)" in capsys.readouterr().out
+    again, first = DriveField.load(tmp_path / "again" / "teacher_field.npz"), DriveField.load(out / "teacher_field.npz")
+    assert np.array_equal(again.drives, first.drives)
+    summary = json.loads((tmp_path / "again" / "recipe.json").read_text())
+    assert summary["teacher_loaded_from"] == str(out / "teacher_field.npz")
+    assert (tmp_path / "again" / "policy" / "model.zip").exists()
+    # --snapshots: the student after its one hole round, which is the final student
+    from stable_baselines3 import PPO
+
+    snapshot = tmp_path / "again" / "snapshots" / "hole_round1"
+    assert sorted(p.name for p in snapshot.iterdir()) == ["model.zip", "run.json", "vecnormalize.pkl"]
+    final, saved = PPO.load(tmp_path / "again" / "policy" / "model.zip"), PPO.load(snapshot / "model.zip")
+    for a, b in zip(final.policy.parameters(), saved.policy.parameters()):
+        assert np.array_equal(a.detach().numpy(), b.detach().numpy())
+    assert json.loads((snapshot / "run.json").read_text())["distilled_from"]["history"][-1]["hole_round"] == 1
+    with pytest.raises(SystemExit) as exit_:
+        main(["recipe", str(TINY), "--out", str(tmp_path / "x"), "--teacher", str(tmp_path / "missing.npz")])
+    assert exit_.value.code == 2 and "missing.npz" in capsys.readouterr().err
+    (tmp_path / "bad.npz").write_text("not a field")
+    assert main(["recipe", str(TINY), "--out", str(tmp_path / "y"), "--teacher", str(tmp_path / "bad.npz")]) == 2
+    err = capsys.readouterr().err
+    assert "--teacher" in err and "bad.npz" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_student_taught_with_the_phase_seam_moved_acts_in_that_env_and_reports_default_actions(recipe_run, tmp_path):
+    import yaml
+
+    from mdr_drive_agents.student.data import labelled_episodes, rollout
+    from mdr_drive_agents.teacher import DriveField
+    from mdr_drive_agents.policy import load_policy
+    from mdr_drive_agents.protocol import policy_rollout, steady_velocity_of
+    from mdr_drive_env.gym_envs.spaces import shift_phase_origin
+
+    out, _ = recipe_run
+    field = DriveField.load(out / "teacher_field.npz")
+    config = yaml.safe_load(TINY.read_text())
+    # the teacher's episodes, translated: the same observations bar the phase entry, the same motion
+    points = [(0.05, 0.01), (0.2, 0.03), (0.25, 0.0)]
+    cfg = recipe.load_recipe(TINY).distill
+    obs0, drives0 = labelled_episodes(field, points, None, cfg, 0)
+    obs5, drives5 = labelled_episodes(field, points, None, cfg, 0, z_phase_origin=0.5)
+    np.testing.assert_allclose(drives5, shift_phase_origin(drives0, 0.0, 0.5))
+    phase = 9  # prev_z_phase, the only entry that differs
+    assert np.array_equal(np.delete(obs0, phase, axis=1), np.delete(obs5, phase, axis=1))
+    _, _, d0 = rollout(points, drives0[:3], None, 6)
+    _, _, d5 = rollout(points, drives5[:3], None, 6, z_phase_origin=0.5)
+    assert np.array_equal(steady_velocity_of(d0, 3), steady_velocity_of(d5, 3))
+
+    config["env_kwargs"]["z_phase_origin"] = 0.5
+    (tmp_path / "moved.yaml").write_text(yaml.safe_dump(config))
+    recipe.run(tmp_path / "moved.yaml", tmp_path / "moved", progress=False, teacher=out / "teacher_field.npz")
+    policy = load_policy(tmp_path / "moved" / "policy")
+    assert policy.play_kwargs == {"z_phase_origin": 0.5}
+    disp, acts, _ = policy_rollout(policy, points, periods=3)
+    env = gym.make("MDRDrive-v0", k=points[1][0], cargo_mass=points[1][1], max_periods=3, z_phase_origin=0.5)
+    obs, _ = env.reset(seed=0)
+    raw = []
+    for _ in range(3):
+        raw.append(policy.act(obs[None])[0])
+        obs, _, _, _, info = env.step(raw[-1])
+    assert info["displacement"] == pytest.approx(disp[-1, 1], rel=1e-5)  # played in the env it was taught in (the batched solver rounds otherwise)
+    np.testing.assert_allclose(acts[:, 1], shift_phase_origin(np.array(raw), 0.5, 0.0), atol=1e-6)  # reported in default units
+
+
+def test_the_shipped_teacher_field_counts_as_searched_with_the_shipped_config():
+    import dataclasses
+
+    from mdr_drive_agents.teacher import DriveField
+
+    field, config = DriveField.load(PRETRAINED / "teacher_field.npz"), recipe.load_recipe(recipe.DEFAULT_CONFIG).teacher
+    assert not recipe.searched_with_another_config(field, config)
+    assert recipe.searched_with_another_config(field, dataclasses.replace(config, cycle_budget=701))
+    assert recipe.searched_with_another_config(field, dataclasses.replace(config, friction=(0.3, 0.13)))
+    older = DriveField(field.ks, field.fractions, field.trapezoid_critical, field.drives, field.velocities,
+                       {"config": {key: value for key, value in json.loads(json.dumps(dataclasses.asdict(config))).items()
+                                   if key not in ("friction", "refine_k")}})  # saved before those keys existed
+    assert not recipe.searched_with_another_config(older, dataclasses.replace(config, refine_k=None))  # defaults count
+    assert recipe.searched_with_another_config(older, config)
+
+
+def test_the_student_seed_reaches_the_student_alone(recipe_run, tmp_path):
+    import yaml
+    from stable_baselines3 import PPO
+
+    out, first = recipe_run
+    config = yaml.safe_load(TINY.read_text())
+    assert "student_seed" not in config and recipe.load_recipe(TINY).seeds[1] == config["seed"]
+    (tmp_path / "other_student.yaml").write_text(yaml.safe_dump({**config, "student_seed": config["seed"] + 1}))
+    summary = recipe.run(tmp_path / "other_student.yaml", tmp_path / "other", progress=False,
+                         teacher=out / "teacher_field.npz")
+    assert (summary["seed"], summary["student_seed"], first["student_seed"]) == (config["seed"], config["seed"] + 1,
+                                                                       config["seed"])
+    assert json.loads((tmp_path / "other" / "policy" / "run.json").read_text())["seed"] == config["seed"] + 1
+    a, b = PPO.load(out / "policy" / "model.zip"), PPO.load(tmp_path / "other" / "policy" / "model.zip")
+    assert not all(np.array_equal(x.detach().numpy(), y.detach().numpy())
+                   for x, y in zip(a.policy.parameters(), b.policy.parameters()))
+    (tmp_path / "typo.yaml").write_text(yaml.safe_dump({**config, "student_sed": 3}))
+    with pytest.raises(ValueError, match=r"unknown key\(s\) \['student_sed'\]"):
+        recipe.load_recipe(tmp_path / "typo.yaml")
+
+
+def _weights(policy_dir: Path) -> list[np.ndarray]:
+    from stable_baselines3 import PPO
+
+    return [x.detach().numpy() for x in PPO.load(policy_dir / "model.zip").policy.parameters()]
+
+
+def test_an_interrupted_student_stage_resumes_after_its_first_fit_with_the_same_weights(recipe_run, tmp_path,
+                                                                                        monkeypatch, capsys):
+    import pickle
+
+    import yaml
+
+    from mdr_drive_agents.student import distill
+
+    out, _ = recipe_run
+    teacher = out / "teacher_field.npz"
+    run = tmp_path / "run"
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:  # Ctrl-C in the hole round, after the first fit and the DAgger round
+        m.setattr(distill, "hole_round", interrupt)
+        assert main(["recipe", str(TINY), "--out", str(run), "--no-progress", "--teacher", str(teacher)]) == 130
+    assert "first fit are kept" in capsys.readouterr().err
+    saved = run / ".tasks" / "student_round0.pkl"
+    assert saved.exists() and not (run / "policy").exists()
+    fits = []
+    real_fit = distill.fit
+    monkeypatch.setattr(distill, "fit", lambda *a, **k: fits.append(a[3]) or real_fit(*a, **k))
+    recipe.run(TINY, run, progress=False, resume=True, teacher=teacher)
+    assert f"round 0 read from {saved}" in capsys.readouterr().out
+    # the DAgger round and the hole round were fitted, round 0 was not
+    tiny = recipe.load_recipe(TINY).distill
+    assert fits == [tiny.round_steps, tiny.hole_steps]
+    assert not (run / ".tasks").exists()
+    fits.clear()
+    recipe.run(TINY, tmp_path / "whole", progress=False, teacher=teacher)  # (the fixture's policy is fine-tuned by
+    assert fits == [tiny.steps, tiny.round_steps, tiny.hole_steps]      # another test: not the reference)
+    for a, b in zip(_weights(run / "policy"), _weights(tmp_path / "whole" / "policy"), strict=True):
+        np.testing.assert_array_equal(a, b)  # the resumed run's weights are the uninterrupted run's
+    history = json.loads((run / "policy" / "run.json").read_text())["distilled_from"]["history"]
+    assert [h.get("round", h.get("hole_round")) for h in history] == [0, 1, 1]
+
+    # a checkpoint is used only for the round-0 settings and teacher it was fitted with
+    config = yaml.safe_load(TINY.read_text())
+    monkeypatch.setattr(distill, "hole_round", interrupt)
+    assert main(["recipe", str(TINY), "--out", str(run), "--no-progress", "--force", "--teacher", str(teacher)]) == 130
+    capsys.readouterr()
+    state = pickle.loads(saved.read_bytes())
+    (tmp_path / "later.yaml").write_text(yaml.safe_dump({**config, "distill": {**config["distill"], "hole_steps": 12}}))
+    (tmp_path / "round0.yaml").write_text(yaml.safe_dump({**config, "distill": {**config["distill"], "steps": 41}}))
+    fits.clear()
+    with pytest.raises(KeyboardInterrupt):  # a later round's setting: round 0 is read
+        recipe.run(tmp_path / "later.yaml", run, progress=False, resume=True, teacher=teacher)
+    assert "round 0 read from" in capsys.readouterr().out and fits == [tiny.round_steps]
+    fits.clear()
+    with pytest.raises(KeyboardInterrupt):  # a round-0 setting: fitted again, and said why
+        recipe.run(tmp_path / "round0.yaml", run, progress=False, resume=True, teacher=teacher)
+    err = capsys.readouterr().err
+    assert "another distill: steps: round 0 is fitted again" in err and fits == [41, tiny.round_steps]
+    assert pickle.loads(saved.read_bytes())["fingerprint"]["distill"]["steps"] == 41 != state["fingerprint"]["distill"]["steps"]
+    saved.write_bytes(b"truncated")
+    fits.clear()
+    with pytest.raises(KeyboardInterrupt):
+        recipe.run(TINY, run, progress=False, resume=True, teacher=teacher)
+    assert "is not a round-0 checkpoint" in capsys.readouterr().err and fits == [tiny.steps, tiny.round_steps]
+
+
+def test_configs_reject_bad_values_naming_them():
+    with pytest.raises(ValueError, match="k_values"):
+        FieldConfig(k_values=1)
+    with pytest.raises(ValueError, match="learning_rate"):
+        DistillConfig(learning_rate=0.0)
+    with pytest.raises(ValueError, match="activation"):
+        DistillConfig(activation="gelu")
+    with pytest.raises(ValueError, match="huber_delta"):
+        DistillConfig(huber_delta=-1.0)
+    with pytest.raises(ValueError, match="jump_levels"):
+        DistillConfig(jump_levels=-1)
+    with pytest.raises(ValueError, match=r"bf16_share=1\.5 is outside the allowed range \[0, 1\]"):
+        DistillConfig(bf16_share=1.5)
+    with pytest.raises(ValueError, match="fused_adam='yes' must be true or false"):
+        DistillConfig(fused_adam="yes")
+    with pytest.raises(ValueError, match="jump_threshold"):
+        DistillConfig(jump_threshold=0.0)
+    with pytest.raises(ValueError, match="polish budget"):
+        FieldConfig(polish=(PolishPass(0, 0.1),))
+    with pytest.raises(ValueError, match="polish"):
+        FieldConfig(polish=((10, 0.1, 3),))
+
+
+def test_a_codebook_student_picks_the_teachers_grid_actions_and_loads_as_plain_sb3(recipe_run, tmp_path):
+    import yaml
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from mdr_drive_agents.teacher import DriveField
+    from mdr_drive_agents.policy import load_policy, run_env_kwargs
+    from mdr_drive_agents.protocol import policy_rollout
+    from mdr_drive_agents.student.data import grid_actions
+    from mdr_drive_agents.train.sb3 import train
+
+    out, _ = recipe_run
+    config = yaml.safe_load(TINY.read_text())
+    config["distill"].update(action_codebook=True, quantum_centres=True)
+    (tmp_path / "codebook.yaml").write_text(yaml.safe_dump(config))
+    run = tmp_path / "run"
+    recipe.run(tmp_path / "codebook.yaml", run, progress=False, teacher=out / "teacher_field.npz")
+    folder = run / "policy"
+    table = np.load(folder / "action_codebook.npy")
+    np.testing.assert_array_equal(table, grid_actions(DriveField.load(out / "teacher_field.npz")))
+    saved = json.loads((folder / "run.json").read_text())
+    assert saved["env_kwargs"]["action_codebook"] == "action_codebook.npy"  # beside model.zip, found from there
+
+    # plain SB3: the env with the shipped table, PPO.load, VecNormalize.load, predict gives indices
+    env_kwargs = {**run_env_kwargs(folder, saved), "k": 0.2, "load_ratio": 0.1}
+    venv = VecNormalize.load(str(folder / "vecnormalize.pkl"), DummyVecEnv([lambda: gym.make("MDRDrive-v0", **env_kwargs)]))
+    venv.training, venv.norm_reward = False, False
+    model = PPO.load(folder / "model.zip", device="cpu")
+    assert model.action_space == gym.spaces.Discrete(len(table))
+    obs, played = venv.reset(), []
+    for _ in range(4):
+        index, _ = model.predict(obs, deterministic=True)
+        obs, *_ = venv.step(index)
+        played.append(table[index[0]])
+    # the package's evaluation plays the rows those indices select, in an env without the table
+    policy = load_policy(folder)
+    cargo = venv.envs[0].unwrapped.cargo_mass
+    _, actions, _ = policy_rollout(policy, [(0.2, cargo)], periods=4)
+    np.testing.assert_allclose(actions[:, 0], np.array(played), atol=1e-6)
+    assert all(any(np.array_equal(a, row) for row in table) for a in played)
+
+    # shipped: the table is copied, and the card's snippet (with the table) runs as written
+    import subprocess
+    import sys
+
+    from mdr_drive_agents.benchmarks.model_card import ship
+
+    card = ship(folder, tmp_path / "shipped").read_text()
+    assert (tmp_path / "shipped" / "action_codebook.npy").exists() and f"Discrete({len(table)})" in card
+    snippets = re.findall(r"```python\n(.*?)```", card, flags=re.S)
+    assert "load_policy(" in snippets[0] and "action_codebook=" in snippets[1]
+    for snippet in snippets:
+        done = subprocess.run([sys.executable, "-c", snippet], capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0 and "steady velocity" in done.stdout, done.stderr
+
+    record = train(resume=folder, steps=64, progress_bar=False, eval_freq=10_000)  # fine-tunes over the indices
+    assert record["resumes"] == 1 and record["env_kwargs"]["action_codebook"] == "action_codebook.npy"
+    with pytest.raises(ValueError, match="quantum_centres"):
+        DistillConfig(action_codebook=True)
+    from mdr_drive_agents.student.distill import check_drawn_friction
+
+    with pytest.raises(ValueError, match="action_codebook: not with a drawn friction"):  # a friction teacher's
+        check_drawn_friction(DistillConfig(action_codebook=True, quantum_centres=True), friction_drawn=True)
+

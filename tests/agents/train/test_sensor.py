@@ -1,0 +1,154 @@
+"""The sensor policy's recipe (mdr_drive_agents.train.sensor, mdr-drive train-sensor), CI-sized."""
+
+from __future__ import annotations
+
+import json
+import pickle
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import mdr_drive_env  # noqa: F401
+from mdr_drive_agents.train import sensor as adapt
+from mdr_drive_env.cli import main
+from mdr_drive_agents.train.sensor import AdaptConfig
+from tests import DATA
+
+TINY = DATA / "sensor_tiny.yaml"
+
+
+@pytest.fixture(scope="module")
+def sensor_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sensor")
+    summary = adapt.run(TINY, out, force=True, progress=False)
+    return out, summary
+
+
+@pytest.mark.parametrize("forces", [False, True])
+def test_the_merged_network_is_the_estimator_informed_teacher(forces):
+    from mdr_drive_agents.train.sensor import sensor_env_kwargs, sensor_envs
+    from mdr_drive_agents.student.estimator import Estimator, SensorTeacher, merged_policy
+    from mdr_drive_agents.policy import load_policy
+    from mdr_drive_env.gym_envs.spaces import SensorLayout
+
+    config = AdaptConfig(history=2, episodes=4, periods=6, load_step_periods=(1, 4), estimator_arch=(8, 8, 8),
+                         sensor_forces=forces)
+    envs, first = sensor_envs(config, 4, seed=2)
+    assert first.shape[1] == len(SensorLayout(2, forces).names) == (21 if forces else 17)
+    assert sensor_env_kwargs(config).get("sensor_forces", False) == forces  # what evaluation plays it in
+    sensed = np.vstack([first, np.random.default_rng(0).normal(size=(50, first.shape[1])).astype(np.float32)])
+    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0)
+    estimator.fit(sensed, np.random.default_rng(1).uniform(size=(len(sensed), 3)), 5, 16, 1e-3, 0, False)
+    composed = SensorTeacher(load_policy(config.teacher), estimator, SensorLayout(2, forces).structure)
+    merged = merged_policy(composed, sensor_env_kwargs(config), config.log_std)
+    assert merged.model.observation_space.shape == first.shape[1:]
+    assert np.abs(merged.act(sensed) - np.clip(composed(sensed), -1, 1)).max() < 1e-4
+
+
+def test_the_sensor_student_is_a_plain_sb3_policy_on_the_sensor_observation(sensor_run):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    out, summary = sensor_run
+    assert [r["round"] for r in summary["rounds"]] == [0, 1]
+    assert summary["rounds"][1]["samples"] == 2 * 8 * 12
+    assert "val_mean_fraction_of_teacher" in summary["rounds"][0]
+    assert "action_fit" not in summary["rounds"][0] and summary["rounds"][1]["action_fit"] == 10  # action_rounds: 1
+    assert summary["merged"]["merge_max_action_difference"] < 1e-4  # one MlpPolicy = estimator + teacher
+    run = json.loads((out / "policy" / "run.json").read_text())
+    assert run["env_id"] == "MDRDriveSensor-v0" and run["env_kwargs"]["history"] == 3
+    venv = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"),
+                             DummyVecEnv([lambda: gym.make("MDRDriveSensor-v0", history=3)]))
+    venv.training, venv.norm_reward = False, False
+    model = PPO.load(out / "policy" / "model.zip", device="cpu")
+    obs = venv.reset()
+    for _ in range(3):
+        action, _ = model.predict(obs, deterministic=True)
+        obs, *_ = venv.step(action)
+    assert action.shape == (1, 5) and np.all(np.abs(action) <= 1.0)
+    assert main(["train-sensor", str(TINY), "--out", str(out), "--no-progress"]) == 2  # no overwrite without --force
+
+
+@pytest.mark.parametrize("kwargs, name", [({"history": 0}, "history"), ({"action_noise": 2.0}, "action_noise"),
+                                          ({"load_step_periods": (5, 40)}, "load_step_periods"),
+                                          ({"estimator_arch": ()}, "estimator_arch"),
+                                          ({"action_rounds": 9}, "action_rounds"),
+                                          ({"action_learning_rate": 0.0}, "action_learning_rate")])
+def test_bad_adapt_settings_name_themselves(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        AdaptConfig(**kwargs)
+
+
+def test_a_config_with_a_missing_teacher_is_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_sensor/teacher", "teacher: no/such/folder"))
+    assert main(["train-sensor", str(bad), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "teacher='no/such/folder'" in err and err.count("\n") == 1
+
+
+def test_a_codebook_teacher_is_refused_in_one_line(tmp_path, capsys):
+    import shutil
+
+    teacher = tmp_path / "picks"  # a policy folder with an action table: Discrete actions
+    shutil.copytree("agents/pretrained/ppo_sensor/teacher", teacher)
+    np.save(teacher / "action_codebook.npy", np.zeros((3, 5)))
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_sensor/teacher", f"teacher: {teacher}"))
+    assert main(["train-sensor", str(bad), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "picks from an action table" in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
+
+
+def test_the_sensor_policy_fine_tunes_with_ppo_through_train_resume(sensor_run, tmp_path):
+    import shutil
+
+    from mdr_drive_agents.train.sb3 import train
+
+    out, _ = sensor_run
+    shutil.copytree(out / "policy", tmp_path / "policy")
+    before = pickle.loads((tmp_path / "policy" / "vecnormalize.pkl").read_bytes()).obs_rms
+    record = train(resume=tmp_path / "policy", steps=64, progress_bar=False, eval_freq=10_000, n_envs=2)
+    assert record["resumes"] == 1 and record["total_timesteps"] >= 64
+    assert record["env_id"] == "MDRDriveSensor-v0" and record["env_kwargs"]["observation"] == "sensor"
+    after = pickle.loads((tmp_path / "policy" / "vecnormalize.pkl").read_bytes()).obs_rms
+    # the statistics the sensor network was adapted on stay as they were
+    np.testing.assert_array_equal(after.mean, before.mean)
+    np.testing.assert_array_equal(after.var, before.var)
+
+
+def test_fitting_the_estimator_through_the_teacher_brings_its_actions_to_the_told_truth():
+    import torch
+
+    from mdr_drive_agents.train.sensor import collect, sensor_envs
+    from mdr_drive_agents.student.network import edge_loss
+    from mdr_drive_agents.student.estimator import Estimator, SensorTeacher, hidden_entries, teacher_layout
+    from mdr_drive_agents.policy import load_policy
+    from mdr_drive_env.gym_envs.spaces import SensorLayout
+
+    from mdr_drive_agents.policy import SENSOR_PRETRAINED
+
+    # the sensor recipe's own pinned teacher, so the check does not move with the shipped generalist
+    config = AdaptConfig(history=2, episodes=8, periods=6, load_step_periods=(1, 4), estimator_arch=(16,),
+                         teacher=str(Path(SENSOR_PRETRAINED) / "teacher"))
+    teacher = load_policy(config.teacher)
+    sensed, privileged, _ = collect(*sensor_envs(config, 8, seed=4), lambda s, p: teacher.act(p))
+    hidden = hidden_entries(teacher_layout(teacher))
+    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0)
+    estimator.fit(sensed, privileged[:, hidden], 3, 16, 1e-3, 0, False)  # a poor estimate to start from
+    composed = SensorTeacher(teacher, estimator, SensorLayout(2).structure)
+    labels = composed.told_truth(sensed, privileged)
+    told = composed.full_observation(sensed)
+    told[:, hidden] = privileged[:, hidden]
+    assert np.allclose(np.clip(labels, -1, 1), teacher.act(told), atol=1e-5)  # the teacher's action told the truth
+
+    def loss() -> float:
+        with torch.no_grad():
+            return float(edge_loss(torch.as_tensor(composed(sensed)), torch.as_tensor(labels), 0.05))
+
+    before = loss()
+    composed.fit_actions(sensed, labels, 300, 16, 1e-3, 0, progress=False)
+    assert loss() < 0.85 * before
+    assert all(p.requires_grad for p in teacher.model.policy.parameters())  # the teacher is left as it was
