@@ -8,10 +8,13 @@
     for _ in range(30):
         obs, reward, terminated, truncated, info = env.step(policy.predict(obs))
 
-A folder holds ``model.zip`` (SB3), ``vecnormalize.pkl`` (SB3's ``VecNormalize``: the observation
-statistics the network was trained on), ``run.json`` (how it was made, and the env keywords it acts
-in) and, for a policy that picks its action from a table, that table (``action_codebook.npy``). The
-same files load with plain ``PPO.load`` + ``VecNormalize.load`` (each model card shows how).
+A folder holds ``model.zip`` (SB3), ``vecnormalize.npz`` and ``vecnormalize.pkl`` (the observation
+statistics the network was trained on, as numbers and as SB3's pickled ``VecNormalize``),
+``run.json`` (how it was made, and the env keywords it acts in) and, for a policy that picks its
+action from a table, that table (``action_codebook.npy``). ``load_policy`` reads them without
+unpickling anything (``mdr_drive_agents.sb3_files``); the same files load with plain ``PPO.load`` +
+``VecNormalize.load`` (each model card shows how), which run code from the files: load those only
+from a source you trust.
 """
 
 from __future__ import annotations
@@ -25,11 +28,13 @@ import numpy as np
 
 from mdr_drive_env.gym_envs.spaces import load_action_codebook
 
+from .sb3_files import NORMALIZATION_FILE, NormalizationState, read_model
+
 #: The shipped policies.
 PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
 SENSOR_PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_sensor"
 #: The files every policy folder holds; a codebook policy's table too (``CODEBOOK_FILE``).
-FILES = ("model.zip", "vecnormalize.pkl", "run.json")
+FILES = ("model.zip", NORMALIZATION_FILE, "vecnormalize.pkl", "run.json")
 CODEBOOK_FILE = "action_codebook.npy"
 #: Keys of a policy's env keywords (run.json) that shape its observation, and that set what its
 #: Box actions mean: the closed-loop protocol builds its envs with them.
@@ -127,14 +132,10 @@ class Policy:
         """The gymnasium env it was trained for, built from its run.json (observation layout, time
         quantum, z phase origin, action codebook, training ranges), with ``overrides`` (``k=0.2,
         cargo_mass=0.1``: one point; a ``cargo_mass`` replaces the trained ``load_ratio``)."""
-        import gymnasium as gym
 
         import mdr_drive_env  # noqa: F401  registers the envs
 
-        kwargs = self.env_kwargs
-        if overrides.get("cargo_mass") is not None:
-            kwargs.pop("load_ratio", None)
-        return gym.make(self.env_id, **{**kwargs, **overrides})
+        return make_env_of(self.folder or ".", self.run, **overrides)
 
     def check_env(self, env) -> None:
         """``ValueError`` naming the fix unless ``env``'s action space is the one it acts in."""
@@ -149,9 +150,10 @@ class Policy:
                          "policy.make_env()")
 
     def play(self, env=None, periods: int = 30, seed: int = 0, **overrides) -> np.ndarray:
-        """Play ``periods`` periods in ``env`` (default ``make_env(**overrides)``), reset with ``seed``;
-        returns the mean velocity of each period (periods,) (m/s)."""
-        env = self.make_env(**overrides) if env is None else env
+        """Play ``periods`` periods in ``env`` (default ``make_env(max_periods=periods, **overrides)``,
+        an episode as long as the run, as ``mdr-drive evaluate`` plays it), reset with ``seed``; returns
+        the mean velocity of each period (periods,) (m/s)."""
+        env = self.make_env(**{"max_periods": periods, **overrides}) if env is None else env
         self.check_env(env)
         obs, _ = env.reset(seed=seed)
         velocities = []
@@ -181,13 +183,28 @@ class ObsNormalization:
                        self.clip_obs).astype(np.float32)
 
     @classmethod
-    def of_vecnormalize(cls, path: str | Path) -> "ObsNormalization":
-        """The statistics of a saved SB3 ``VecNormalize`` (``vecnormalize.pkl``)."""
+    def of_state(cls, state: NormalizationState) -> "ObsNormalization":
+        """The observation normalisation of a saved VecNormalize state."""
+        return cls(state.obs_mean, state.obs_var, state.clip_obs, state.epsilon)
+
+    @classmethod
+    def of_folder(cls, folder: str | Path, trust_pickle: bool = False) -> "ObsNormalization | None":
+        """The normalisation of the policy in ``folder``: its ``vecnormalize.npz``; with
+        ``trust_pickle`` and no such file, its ``vecnormalize.pkl`` (a pickle, which runs code when
+        read); None if it has neither (a policy trained without normalisation)."""
+        folder = Path(folder)
+        if (folder / NORMALIZATION_FILE).exists():
+            return cls.of_state(NormalizationState.load(folder / NORMALIZATION_FILE))
+        if not (folder / "vecnormalize.pkl").exists():
+            return None
+        if not trust_pickle:
+            raise ValueError(f"{folder} has vecnormalize.pkl but no {NORMALIZATION_FILE}: a pickle runs code when it is "
+                             "read, so it is not read; if you trust where the folder came from, load it with "
+                             "load_policy(folder, trust_pickle=True) (mdr-drive evaluate --trust-pickle)")
         import pickle
 
-        with open(path, "rb") as f:
-            vn = pickle.load(f)
-        return cls(vn.obs_rms.mean, vn.obs_rms.var, float(vn.clip_obs), float(vn.epsilon))
+        with open(folder / "vecnormalize.pkl", "rb") as f:
+            return cls.of_state(NormalizationState.of(pickle.load(f)))
 
 
 def read_run(folder: str | Path) -> dict:
@@ -201,17 +218,31 @@ def read_run(folder: str | Path) -> dict:
         raise ValueError(f"{path} is not a run record (JSON: {e})") from None
 
 
-def load_policy(folder: str | Path) -> Policy:
-    """The policy in ``folder`` (``model.zip``, its VecNormalize statistics, ``run.json``), from any
-    working directory."""
+def make_env_of(folder: str | Path, run: dict, **overrides):
+    """The gymnasium env a policy folder's run.json describes (``Policy.make_env``)."""
+    import gymnasium as gym
+
+    import mdr_drive_env  # noqa: F401  registers the envs
+
+    kwargs = run_env_kwargs(folder, run)
+    if overrides.get("cargo_mass") is not None:
+        kwargs.pop("load_ratio", None)
+    return gym.make(run.get("env_id", "MDRDrive-v0"), **{**kwargs, **overrides})
+
+
+def load_policy(folder: str | Path, trust_pickle: bool = False) -> Policy:
+    """The policy in ``folder`` (``model.zip``, its ``vecnormalize.npz``, ``run.json``), from any
+    working directory, without unpickling anything (``sb3_files.read_model``). ``trust_pickle``
+    reads a folder that has only SB3's ``vecnormalize.pkl`` (a pickle runs code when read: only for
+    a folder from a source you trust)."""
     folder = package_path(folder).resolve()
     if not (folder / "model.zip").is_file():
         raise ValueError(f"{folder} is not a policy folder (no model.zip)")
     run = read_run(folder)
-    model = sb3_class(run.get("algo", "ppo")).load(folder / "model.zip", device="cpu")
-    normalize = None
-    if (folder / "vecnormalize.pkl").exists():
-        normalize = ObsNormalization.of_vecnormalize(folder / "vecnormalize.pkl")
+    normalize = ObsNormalization.of_folder(folder, trust_pickle)  # refused before anything else is read
+    env = make_env_of(folder, run)
+    model = read_model(folder / "model.zip", sb3_class(run.get("algo", "ppo")), env.observation_space,
+                       env.action_space, run.get("hyperparameters"))
     return Policy(model, normalize, load_action_codebook(run_env_kwargs(folder, run).get("action_codebook")), run,
                   folder)
 
@@ -234,8 +265,8 @@ def policy_files(folder: str | Path) -> tuple[str, ...]:
 
 
 def save_policy(out: str | Path, model, venv, record: dict, codebook: np.ndarray | None = None) -> None:
-    """``model.zip``, ``vecnormalize.pkl`` (``venv``'s statistics) and ``run.json`` (``record``) into
-    ``out``, each written atomically; a codebook policy's table too, as ``CODEBOOK_FILE``, which
+    """``model.zip``, ``vecnormalize.npz`` and ``vecnormalize.pkl`` (``venv``'s statistics) and
+    ``run.json`` (``record``, last: it marks the set complete) into ``out``, each written atomically; a codebook policy's table too, as ``CODEBOOK_FILE``, which
     run.json's ``env_kwargs`` then name (``action_codebook``, relative to ``out``)."""
     from mdr_drive_env.files import atomic_path, write_text
 
@@ -243,6 +274,7 @@ def save_policy(out: str | Path, model, venv, record: dict, codebook: np.ndarray
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "model.zip") as tmp:
         model.save(tmp)
+    NormalizationState.of(venv).save(out / NORMALIZATION_FILE)
     with atomic_path(out / "vecnormalize.pkl") as tmp:
         venv.save(str(tmp))
     if codebook is not None:
@@ -255,7 +287,8 @@ def save_policy(out: str | Path, model, venv, record: dict, codebook: np.ndarray
 
 def same_weights(a: str | Path, b: str | Path) -> bool:
     """Whether the policies in folders ``a`` and ``b`` are the same network: equal tensors in their
-    ``model.zip``'s ``policy.pth``, equal observation statistics and equal action tables."""
+    ``model.zip``'s ``policy.pth`` (read as tensors only), equal observation statistics and equal action
+    tables."""
     import zipfile
 
     import torch
@@ -267,8 +300,9 @@ def same_weights(a: str | Path, b: str | Path) -> bool:
     ta, tb = tensors(a), tensors(b)
     if ta.keys() != tb.keys() or not all(torch.equal(ta[k], tb[k]) for k in ta):
         return False
-    sa, sb = (ObsNormalization.of_vecnormalize(Path(f) / "vecnormalize.pkl") for f in (a, b))
-    if not (np.array_equal(sa.mean, sb.mean) and np.array_equal(sa.var, sb.var)):
+    sa, sb = (ObsNormalization.of_folder(f) for f in (a, b))
+    if (sa is None) != (sb is None) or sa is not None and not (np.array_equal(sa.mean, sb.mean)
+                                                               and np.array_equal(sa.var, sb.var)):
         return False
     tables = [Path(f) / CODEBOOK_FILE for f in (a, b)]
     if any(t.exists() for t in tables):

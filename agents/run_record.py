@@ -3,12 +3,13 @@
 A run's ``run.json`` (``mdr_drive_agents.policy``) says how the policy was made: the command line
 (``command_line``), the package versions (``versions``), and the program's own settings; a command
 refuses an output folder that holds something unless told to continue or overwrite it
-(``start_run``).
+(``start_run``), and one that another command is writing into (``RunLock``).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import os
 import platform
 import sys
 from pathlib import Path
@@ -48,4 +49,37 @@ def start_run(out: str | Path, resume: bool, force: bool, executor=None, progres
     return out, executor if progress else dataclasses.replace(executor, progress=False)
 
 
-__all__ = ["command_line", "start_run", "versions"]
+class RunLock:
+    """One writer per output folder: ``with RunLock(out):`` holds an exclusive lock on ``out/.lock``
+    for as long as the block runs (the kernel releases it when the process ends, however it ends);
+    a second command on the same folder gets a ``ValueError`` at once."""
+
+    def __init__(self, out: str | Path):
+        self.path = Path(out) / ".lock"
+        self.file = None
+
+    def __enter__(self) -> "RunLock":
+        import fcntl
+
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.file = open(self.path, "a+")
+        try:
+            fcntl.flock(self.file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self.file.seek(0)
+            holder = self.file.read().strip() or "another process"
+            self.file.close()
+            raise ValueError(f"{self.path.parent} is being written by {holder}: wait for it to end, or write into "
+                             "another folder") from None
+        self.file.seek(0)
+        self.file.truncate()
+        self.file.write(f"process {os.getpid()} ({command_line()})")
+        self.file.flush()
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        self.file.close()  # releases the lock; the file stays (harmless, and no race on removing it)
+        return False
+
+
+__all__ = ["RunLock", "command_line", "start_run", "versions"]

@@ -197,81 +197,106 @@ def _jsonable(obj):
     return obj
 
 
-#: Most periods one ``simulate`` run may ask for (a long run streams with a progress bar).
+#: Most periods one ``simulate`` run may ask for (it streams its periods: memory does not grow with them).
 MAX_PERIODS = 1_000_000
-#: Most periods of a ``simulate --plot`` run (the plot keeps a trace row every 10 us).
+#: Most periods of a ``simulate --plot`` run (the plot keeps every period's trace).
 MAX_PLOT_PERIODS = 10_000
+#: Most trace rows a ``simulate --plot`` run may keep (7 numbers each: about 400 MB).
+MAX_TRACE_ROWS = 7_000_000
 #: Units of the per-period fields of ``simulate --json`` (core.PeriodResult).
 PERIOD_UNITS = {"displacement": "m", "mean_velocity": "m/s", "peak_tangential_force": "N",
                 "peak_normal_force": "N", "indenter_dissipation": "J", "base_dissipation": "J", "load_work": "J",
                 "indenter_work_x": "J", "indenter_work_z": "J", "end_velocity": "m/s", "end_position": "m"}
+PERIOD_FIELDS = tuple(PERIOD_UNITS)
 
 
-def run_periods(sim: DriveSimulator, waveform: Waveform, periods: int, record_every: int = 0):
-    """Run up to ``periods`` periods with a progress bar on stderr (shown for long runs).
+def trace_rows(numerics: Numerics, period: float, periods: int, record_every: int) -> int:
+    """An upper bound of the trace rows a run keeps: its time steps per period (the node solver's
+    longest step, or the grid's step, plus the waveform's corners) over ``record_every``."""
+    steps = int(math.ceil(period / numerics.time_step)) + 16
+    return periods * (steps // max(record_every, 1) + 1)
 
-    Returns ``(results, interrupted)``: Ctrl-C stops the run and keeps the periods computed so far.
-    """
-    from tqdm import tqdm
 
-    results = []
-    try:
-        for _ in tqdm(range(periods), desc="periods", unit="period", file=sys.stderr, disable=periods < 500,
-                      leave=False):
-            results.append(sim.step(waveform, record_every))
-    except KeyboardInterrupt:
-        return results, True
-    return results, False
+class PeriodStream:
+    """Where ``simulate`` writes each period as it is computed: a table row, or one element of the
+    JSON object's ``periods`` list, so nothing but two numbers a period is kept."""
+
+    def __init__(self, as_json: bool, header: str):
+        self.as_json, self.count = as_json, 0
+        if as_json:
+            sys.stdout.write('{"periods": [')
+        else:
+            print(header)
+            print(" period   displacement (µm)   mean velocity (mm/s)   peak F_x (N)   peak F_z (N)")
+
+    def period(self, r) -> None:
+        self.count += 1
+        if self.as_json:
+            sys.stdout.write(("," if self.count > 1 else "") + json.dumps({f: getattr(r, f) for f in PERIOD_FIELDS}))
+        else:
+            print(f"{self.count:7d} {r.displacement * 1e6:19.4f} {r.mean_velocity * 1e3:22.4f} "
+                  f"{r.peak_tangential_force:14.4g} {r.peak_normal_force:14.4g}")
+
+    def finish(self, rest: dict) -> None:
+        if self.as_json:
+            sys.stdout.write("], " + json.dumps(rest)[1:] + "\n")
+        else:
+            print(f"{self.count} periods in {rest['wall_time_s']:.2f} s" + (" (interrupted)" if rest["interrupted"] else ""))
+        sys.stdout.flush()
 
 
 def cmd_simulate(a: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
     params, numerics, waveform = params_from_args(a), numerics_from_args(a), waveform_from_args(a)
+    if a.record_every and not a.plot:
+        raise ValueError("--record-every sets the plot's trace: give --plot too")
     if a.plot and a.periods > MAX_PLOT_PERIODS:
         raise ValueError(f"--periods={a.periods} with --plot is outside the allowed range [1, {MAX_PLOT_PERIODS}] "
                          "(plot a shorter run, or drop --plot)")
-    sim = DriveSimulator(params, numerics, max_depth=max(waveform.max_depth, 1e-9))
     record = a.record_every or (max(1, int(round(1e-5 / numerics.time_step))) if a.plot else 0)
+    if a.plot and trace_rows(numerics, waveform.period, a.periods, record) > MAX_TRACE_ROWS:
+        raise ValueError(f"--periods={a.periods} --record-every {record} with --plot keeps up to "
+                         f"{trace_rows(numerics, waveform.period, a.periods, record):,} trace rows, more than the "
+                         f"{MAX_TRACE_ROWS:,} (about 400 MB) a plot may hold: plot fewer periods or record every more steps")
+    sim = DriveSimulator(params, numerics, max_depth=max(waveform.max_depth, 1e-9))
     check_numerics(numerics, waveform)  # a bad time step fails here, before the run
-    t0 = time.perf_counter()
-    results, interrupted = run_periods(sim, waveform, a.periods, record)
-    wall = time.perf_counter() - t0
-    if interrupted:
-        print(f"mdr-drive simulate: interrupted after {len(results)} of {a.periods} periods; "
-              "printing those", file=sys.stderr)
-    if not results:
-        return 130
     numerics_line = describe_numerics(numerics, a.numerics)
-    if a.plot:
-        plot_run(results, a.plot, f"k = {params.k:g}, load {params.drive.load:.4g} N, {params.variant}\n"
-                                  f"{numerics_line}", mu=params.contact.friction_coefficient)
-    v = [r.mean_velocity for r in results]
-    if a.json:
-        fields = [f.name for f in dataclasses.fields(results[0]) if f.name != "trace"]
-        print(json.dumps({
-            "period_mean_velocity": v,
-            "period_displacement": [r.displacement for r in results],
-            "periods": [{f: getattr(r, f) for f in fields} for r in results],
-            "units": {"period_mean_velocity": "m/s", "period_displacement": "m", "load_force": "N",
-                      "wall_time_s": "s", "periods": PERIOD_UNITS, "params": "SI (m, s, kg, Pa, N)"},
-            "periods_run": len(results),
-            "interrupted": interrupted,
-            "numerics_preset": a.numerics,
-            "params": _jsonable(params),
-            "numerics": _jsonable(numerics),
-            "waveform": _jsonable(waveform),
-            "load_force": params.drive.load,
-            "wall_time_s": wall,
-        }))
-    else:
-        print(f"k = {params.k:g}, load F_m = {params.drive.load:.4g} N, variant {params.variant}, "
-              f"{len(results)} periods in {wall:.2f} s")
-        print(numerics_line)
-        print(" period   displacement (µm)   mean velocity (mm/s)   peak F_x (N)   peak F_z (N)")
-        for i, r in enumerate(results, 1):
-            print(f"{i:7d} {r.displacement * 1e6:19.4f} {r.mean_velocity * 1e3:22.4f} "
-                  f"{r.peak_tangential_force:14.4g} {r.peak_normal_force:14.4g}")
-        if a.plot:
+    stream = PeriodStream(a.json, f"k = {params.k:g}, load F_m = {params.drive.load:.4g} N, variant {params.variant}\n"
+                                  f"{numerics_line}")
+    velocities, displacements, kept, interrupted = [], [], [], False
+    t0 = time.perf_counter()
+    try:
+        for _ in tqdm(range(a.periods), desc="periods", unit="period", file=sys.stderr, disable=a.periods < 500,
+                      leave=False):
+            r = sim.step(waveform, record)
+            velocities.append(r.mean_velocity)
+            displacements.append(r.displacement)
+            stream.period(r)
+            if a.plot:
+                kept.append(r)
+    except KeyboardInterrupt:
+        interrupted = True
+        print(f"mdr-drive simulate: interrupted after {len(velocities)} of {a.periods} periods; "
+              "printing those", file=sys.stderr)
+    wall = time.perf_counter() - t0
+    stream.finish({
+        "period_mean_velocity": velocities, "period_displacement": displacements,
+        "units": {"period_mean_velocity": "m/s", "period_displacement": "m", "load_force": "N", "wall_time_s": "s",
+                  "periods": PERIOD_UNITS, "params": "SI (m, s, kg, Pa, N)"},
+        "periods_run": len(velocities), "interrupted": interrupted, "numerics_preset": a.numerics,
+        "params": _jsonable(params), "numerics": _jsonable(numerics), "waveform": _jsonable(waveform),
+        "load_force": params.drive.load, "wall_time_s": wall})
+    if a.plot and kept:
+        try:
+            plot_run(kept, a.plot, f"k = {params.k:g}, load {params.drive.load:.4g} N, {params.variant}\n"
+                                   f"{numerics_line}", mu=params.contact.friction_coefficient)
+        except OSError as e:
+            raise ValueError(f"--plot {a.plot}: cannot be written ({e.strerror or e})") from None
+        if not a.json:
             print(f"plot: {a.plot}")
+    if not velocities:
+        return 130
     return 130 if interrupted else 0
 
 
@@ -341,10 +366,10 @@ def build_parser() -> argparse.ArgumentParser:
     add_waveform_arguments(s)
     o = s.add_argument_group("output")
     o.add_argument("--periods", type=int_range(1, MAX_PERIODS), default=6,
-                   help=f"drive periods to simulate, in [1, {MAX_PERIODS}]; long runs show a progress bar, "
-                        "Ctrl-C prints the periods done (-)")
+                   help=f"drive periods to simulate, in [1, {MAX_PERIODS}]; each period is printed as it is "
+                        "computed, long runs show a progress bar, Ctrl-C ends the output cleanly (-)")
     o.add_argument("--record-every", type=int_range(0), default=0,
-                   help="trace row every N time steps, 0: one every 10 us with --plot (-)")
+                   help="with --plot: a trace row every N time steps; 0: one every 10 us (-)")
     o.add_argument("--plot", metavar="OUT.png", default=None, type=output_file(".png", ".pdf", ".svg"),
                    help="write X(t), x(t), z(t), F_x, F_z as a PNG (or .pdf, .svg); its folder is created")
     o.add_argument("--json", action="store_true", help="print one JSON object (per-period results in SI units)")

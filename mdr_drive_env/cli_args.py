@@ -1,4 +1,4 @@
-"""argparse building blocks shared by every ``mdr-drive`` subcommand (and agents/).
+"""argparse building blocks shared by every ``mdr-drive`` subcommand (those of installed packages too).
 
 * :class:`Parser`: an ``ArgumentParser`` whose errors are one line (``prog: error: ...``, exit 2).
 * :class:`HelpFormatter`: appends ``(default: X)`` to an option's help only when the help does

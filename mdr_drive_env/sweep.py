@@ -9,10 +9,13 @@
 ``fn`` must be a module-level function (it is pickled to the workers) and each task must hold
 everything its result depends on (seeds included): results are then the same, bit for bit,
 whatever runs them, and ``map`` returns them in task order. With a ``TaskStore`` every finished
-task's result is written to its own file as it arrives (atomically), so a sweep stopped by Ctrl-C
-or a lost node continues where it stopped (``resume=True``): only missing tasks are computed. A
-task whose worker dies is run again (``max_retries`` times): Ray retries it itself; the local pool
-is rebuilt and the missing tasks resubmitted.
+task's result is written to its own file as it arrives (atomically, as data: JSON, never a
+pickle), so a sweep stopped by Ctrl-C or a lost node continues where it stopped (``resume=True``):
+only missing tasks are computed. A stored result is used only if its file names the same task and
+its checksum holds; any other file is recomputed, with a one-line warning. A task whose worker dies
+is run again (``max_retries`` times): Ray retries it itself; the local pool is rebuilt and the
+missing tasks resubmitted. The local pool's workers end when the process that started them ends,
+however it ends.
 
 Ray is optional (``pip install 'mdr-drive[ray]'``); the package and the local executor do not
 need it. Every node of a cluster needs this package installed in the Python its Ray workers run.
@@ -21,6 +24,7 @@ need it. Every node of a cluster needs this package installed in the Python its 
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import pickle
 import shutil
@@ -35,7 +39,7 @@ from typing import Any, Callable, Sequence
 
 from tqdm import tqdm
 
-from .files import atomic_path
+from .files import atomic_path, dumps_data, loads_data, remove_temporary
 
 #: Seconds to wait for a TCP answer from a Ray address before calling it unreachable.
 CONNECT_TIMEOUT = 5.0
@@ -54,28 +58,51 @@ def task_key(task: Any) -> str:
 
 
 class TaskStore:
-    """One file per finished task under ``folder`` (``000012.pkl`` holds task 12's key and result)."""
+    """One file per finished task under ``folder`` (``000012.json`` holds task 12's key, its result
+    as data and the checksum of both)."""
 
     def __init__(self, folder: str | Path):
         self.folder = Path(folder)
 
     def path(self, index: int) -> Path:
-        return self.folder / f"{index:06d}.pkl"
+        return self.folder / f"{index:06d}.json"
+
+    @staticmethod
+    def _digest(key: str, payload: str) -> str:
+        return hashlib.sha256(f"{key}\n{payload}".encode()).hexdigest()
 
     def load(self, index: int, key: str):
-        """(True, result) if task ``index`` with fingerprint ``key`` is stored, else (False, None)."""
+        """(True, result) if task ``index`` with fingerprint ``key`` is stored intact, else (False,
+        None): a missing file silently, a foreign, damaged or other task's file with a one-line
+        warning (it is recomputed; nothing in it is run)."""
+        path = self.path(index)
         try:
-            with open(self.path(index), "rb") as f:
-                stored_key, result = pickle.load(f)
-        except (OSError, EOFError, pickle.UnpicklingError):
+            stored = json.loads(path.read_text())
+        except FileNotFoundError:
             return False, None
-        return (True, result) if stored_key == key else (False, None)
+        except (OSError, ValueError) as e:
+            return self._refuse(path, f"not readable as JSON ({type(e).__name__})")
+        if not isinstance(stored, dict) or set(stored) != {"key", "sha256", "result"}:
+            return self._refuse(path, "not a task result")
+        if stored["key"] != key:
+            return self._refuse(path, "another task's result")
+        if self._digest(key, stored["result"]) != stored["sha256"]:
+            return self._refuse(path, "its checksum does not hold")
+        try:
+            return True, loads_data(stored["result"])
+        except ValueError as e:
+            return self._refuse(path, str(e))
+
+    @staticmethod
+    def _refuse(path: Path, why: str):
+        print(f"{path}: {why}; the task is computed again", file=sys.stderr)
+        return False, None
 
     def save(self, index: int, key: str, result: Any) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
+        payload = dumps_data(result)
         with atomic_path(self.path(index)) as tmp:
-            with open(tmp, "wb") as f:
-                pickle.dump((key, result), f, protocol=4)
+            tmp.write_text(json.dumps({"key": key, "sha256": self._digest(key, payload), "result": payload}))
 
     def clear(self) -> None:
         shutil.rmtree(self.folder, ignore_errors=True)
@@ -83,10 +110,13 @@ class TaskStore:
 
 def task_folder(out: str | Path, resume: bool) -> Path:
     """``out/.tasks``, where a command keeps its sweeps' finished tasks (one ``TaskStore`` per sweep);
-    emptied first unless ``resume``. The command removes it once every output is written."""
+    emptied first unless ``resume``; when it is, ``out`` and it are cleared of the temporary files of
+    writers that were killed. The command removes it once every output is written."""
     folder = Path(out) / ".tasks"
     if not resume:
         shutil.rmtree(folder, ignore_errors=True)
+    elif Path(out).exists():
+        remove_temporary(out)  # the tasks' and the outputs' (figures, tables) of writers that were killed
     return folder
 
 
@@ -198,16 +228,15 @@ class Executor:
     # ------------------------------------------------------------------ backends
     def _local(self, fn, tasks, pending, done, bar) -> None:
         """A process pool; if a worker dies, the pool is rebuilt and the missing tasks resubmitted. Each
-        worker's batched simulators use its share of the cores (``core.batch.set_process_threads``)."""
-        from .core.batch import set_process_threads
-
+        worker's batched simulators use its share of the cores (``core.batch.set_process_threads``),
+        and each ends when this process ends (``start_worker``)."""
         workers = min(self.workers or available_cores(), len(pending))
         share = max(1, available_cores() // workers)
         missing, failures = list(pending), 0
         while missing:
             try:
-                with ProcessPoolExecutor(max_workers=workers, initializer=set_process_threads,
-                                         initargs=(share,)) as pool:
+                with ProcessPoolExecutor(max_workers=workers, initializer=start_worker,
+                                         initargs=(share, os.getpid())) as pool:
                     futures = {pool.submit(fn, tasks[i]): i for i in missing}
                     while futures:
                         finished, _ = wait(futures, return_when=FIRST_COMPLETED)
@@ -232,6 +261,24 @@ class Executor:
                 i = refs.pop(ref)
                 done(i, ray.get(ref))
                 bar.update()
+
+
+def start_worker(threads: int, parent: int) -> None:
+    """A local pool worker's start: its batched simulators use ``threads`` cores, and it ends when
+    the process ``parent`` that started it ends, however that ends (Linux: the kernel sends it
+    SIGKILL then, ``PR_SET_PDEATHSIG``; a parent already gone ends it at once)."""
+    import signal
+
+    from .core.batch import set_process_threads
+
+    set_process_threads(threads)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        PR_SET_PDEATHSIG = 1
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+        if os.getppid() != parent:  # the parent ended before the request took effect
+            os._exit(1)
 
 
 def connect(address: str, workers: int | None = None):

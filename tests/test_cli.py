@@ -1,6 +1,7 @@
 """The mdr-drive CLI: JSON output, help with units, errors, and a quick paper reproduction."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -281,3 +282,31 @@ def test_run_command_turns_bad_values_and_ctrl_c_into_one_line_each(capsys):
     assert capsys.readouterr().err == "prog: error: k=2 is outside the allowed range [0, 1]\n"
     assert run_command("prog", interrupted, "finished parts are kept") == 130
     assert capsys.readouterr().err == "prog: interrupted; finished parts are kept\n"
+
+
+def test_simulate_streams_its_periods_and_refuses_a_trace_it_could_not_hold(capsys, tmp_path):
+    assert main(["simulate", "--periods", "5", "--json", "--k", "0.1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["periods"]) == out["periods_run"] == 5 and "trace" not in out["periods"][0]
+    assert main(["simulate", "--periods", "3", "--record-every", "1"]) == 2  # a trace without a plot keeps nothing
+    assert "--record-every sets the plot's trace" in capsys.readouterr().err
+    argv = ["simulate", "--periods", "10000", "--record-every", "1", "--numerics", "paper", "--plot",
+            str(tmp_path / "p.png")]
+    assert main(argv) == 2  # refused before any work: 10,000 periods of 20,000 steps
+    err = capsys.readouterr().err
+    assert "trace rows" in err and len(err.strip().splitlines()) == 1 and not (tmp_path / "p.png").exists()
+
+
+def test_a_plot_that_cannot_be_written_names_itself_not_a_temporary_file(tmp_path, capsys):
+    target = tmp_path / "ro" / "run.png"
+    target.parent.mkdir()
+    target.parent.chmod(0o500)
+    if os.access(target.parent, os.W_OK):  # root writes anywhere: a path under a file instead
+        target = tmp_path / "file" / "run.png"
+        (tmp_path / "file").write_text("a file")
+    try:
+        code = main(["simulate", "--periods", "1", "--plot", str(target)])
+    except SystemExit as e:  # argparse's own check catches the path under a file
+        code = e.code
+    err = capsys.readouterr().err
+    assert code == 2 and str(target.parent) in err and ".run.png." not in err and len(err.strip().splitlines()) == 1

@@ -188,3 +188,59 @@ class TestRay:
         finally:
             head.terminate()
             head.wait(timeout=60)
+
+
+def test_local_workers_end_with_the_process_that_started_them(tmp_path):
+    """A sweep killed with SIGKILL leaves no worker behind (its workers ask the kernel to end them with it)."""
+    import signal
+    import subprocess
+    import textwrap
+
+    script = tmp_path / "sweep.py"
+    script.write_text(textwrap.dedent("""
+        import os, sys, time
+        from mdr_drive_env.sweep import Executor
+
+        def slow(x):
+            open(os.path.join(sys.argv[1], str(os.getpid())), "w").close()
+            time.sleep(120)
+            return x
+
+        if __name__ == "__main__":
+            Executor(workers=2, progress=False).map(slow, [1, 2, 3, 4], "slow")
+    """))
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    parent = subprocess.Popen([sys.executable, str(script), str(pids)])
+    deadline = time.time() + 60
+    while len(list(pids.iterdir())) < 2 and time.time() < deadline:
+        time.sleep(0.1)
+    workers = [int(p.name) for p in pids.iterdir()]
+    assert len(workers) == 2
+    parent.send_signal(signal.SIGKILL)
+    parent.wait()
+    deadline = time.time() + 20
+    while any(_alive(pid) for pid in workers) and time.time() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(pid) for pid in workers)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            return "zombie" not in f.read()
+    except FileNotFoundError:
+        return False
+
+
+def test_resume_removes_the_temporary_files_of_killed_writers(tmp_path):
+    from mdr_drive_env.sweep import task_folder
+
+    folder = tmp_path / ".tasks" / "fig5"
+    folder.mkdir(parents=True)
+    (folder / ".000003.json.ab12cd34.json").write_text("half a task")
+    (tmp_path / ".fig5.png.x1y2z3w4.png").write_text("half a figure")
+    (folder / "000001.json").write_text("{}")
+    task_folder(tmp_path, resume=True)
+    assert not (folder / ".000003.json.ab12cd34.json").exists() and not (tmp_path / ".fig5.png.x1y2z3w4.png").exists()
+    assert (folder / "000001.json").exists()

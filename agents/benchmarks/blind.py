@@ -1,6 +1,6 @@
 """The blind benchmark: policies judged on random points nobody tuned to (``mdr-drive benchmark --blind``).
 
-    mdr-drive benchmark --blind 24 --seed 7 --policies agents/pretrained/ppo_generalist --out results/blind/seed7
+    mdr-drive benchmark --blind 24 --seed 7 --policies agents/pretrained/ppo_generalist --out runs/blind/seed7
 
 ``--seed`` draws N points (k, load) from the training domain: k uniform in [0, 0.6], the cargo
 mass uniform from 0 to 1.25 times the trapezoid's critical load at that k. At every point it
@@ -11,7 +11,7 @@ a critical-load scan over ``--scan-ks`` values of k in [0, 0.6] for the trapezoi
 the best two-action cycle (bisection with CMA-ES at every trial load, ``cycle_critical_load``):
 evenly spaced, the same for every seed, or with ``--scan-draw`` drawn with the seed, one uniform k
 in each of ``--scan-ks`` equal cells (``scan_k_values``), so that the critical-load target too is
-judged on k values no decision saw.
+judged on k values nobody tuned to.
 Every velocity follows the evaluation protocol (``mdr_drive_agents.protocol``: 30 periods, mean of
 the last 10, runaways marked). The searches quantise their drives to the time quantum the policies act
 at (their run.json's ``time_quantum``, default 10 us; policies with different quanta are refused),
@@ -21,7 +21,7 @@ quantum.
 Statistics, per policy (``mdr_drive_agents.benchmarks.targets``): points below the trapezoid by more
 than ``BELOW_TOLERANCE`` where either moves; the fraction of the best drive, only where the best
 drive moves at least ``MOVING_THRESHOLD`` (never a ratio to a near-zero number); critical load over
-the trapezoid's and over the best cycle's at every scanned k. Keep one seed for your own decisions
+the trapezoid's and over the best cycle's at every scanned k. Keep one seed for your own choices
 and report on another: a result on the seed you tuned on is not a blind result.
 
 Writes ``blind.json``, ``blind.md``, ``points.csv``, ``critical_loads.csv`` and two PNG plots.

@@ -16,7 +16,7 @@ import numpy as np
 
 from mdr_drive_env.files import write_text
 
-from ..policy import FILES, load_policy, policy_files, same_weights
+from ..policy import load_policy, policy_files, same_weights
 from ..protocol import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -104,7 +104,7 @@ import numpy as np
 from mdr_drive_agents import load_policy
 
 policy = load_policy("{dir}")   # from any working directory
-env = policy.make_env({overrides})   # the env it was trained for (run.json)
+env = policy.make_env({overrides}, max_periods=30)   # the env it was trained for (run.json)
 obs, info = env.reset(seed=0)
 velocities = []
 for period in range(30):
@@ -149,7 +149,7 @@ def snippet(dst: Path, run: dict) -> str:
                               comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
                                       "here to try one drive\n",
                               make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, '
-                                        f'max_periods={run["env_kwargs"]["max_periods"]}, '
+                                        "max_periods=30, "
                                         "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
                                         "base_friction_coefficient=0.1")
     # its actions mean what they mean in an env with its seam of the z phase and its time quantum
@@ -167,7 +167,7 @@ def snippet(dst: Path, run: dict) -> str:
         notes.append("its table of actions (Discrete: action i plays row i)")
     comment = f"# {' and '.join(notes)}: the env it was trained in, as in its run.json\n" if notes else ""
     return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(), comment=comment,
-                          make_args=", ".join(['"MDRDrive-v0", k=0.2, cargo_mass=0.1', *args]))
+                          make_args=", ".join(['"MDRDrive-v0", k=0.2, cargo_mass=0.1, max_periods=30', *args]))
 
 
 def blind_key(blind_jsons, src: str | Path, dst: str | Path, ran_from: str | Path | None = None) -> str:
@@ -253,8 +253,10 @@ the folder first: a resumed run writes into it; the observation statistics stay 
 * Training range (env kwargs): `{json.dumps(run['env_kwargs'])}`
 * PPO settings: `{json.dumps(hyper)}`, policy `{json.dumps(run['hyperparameters'].get('policy_kwargs', {}))}`
 * Versions: `{json.dumps(run['versions'])}`
-* Files: `model.zip` (SB3), `vecnormalize.pkl` (observation normalisation, needed to run it),
-  `run.json`{f", `{table}` (its actions)" if table else ""}; {size_kb:.0f} KiB in all.
+* Files: `model.zip` (SB3), `vecnormalize.npz` (observation normalisation, needed to run it, as numbers:
+  what `load_policy` reads), `vecnormalize.pkl` (the same for plain SB3: a pickle, which runs code when
+  read, so load it only from a source you trust), `run.json`{f", `{table}` (its actions)" if table else ""};
+  {size_kb:.0f} KiB in all.
 
 ## Limits
 
@@ -289,7 +291,7 @@ def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -
     res = json.loads(Path(adaptation_json).read_text())
     adapted = run["adapted_from"]
     s_sensor = res["statistics"]["sensor policy"]
-    size_kb = sum((dst / n).stat().st_size for n in FILES) / 1024
+    size_kb = sum((dst / n).stat().st_size for n in policy_files(dst)) / 1024
     lines = ["| drive | below trapezoid | fraction of best: mean | min | load steps recovered within 5 periods "
              "(upward steps) |", "|---|---|---|---|---|"]
     for drive, st in res["statistics"].items():
@@ -326,7 +328,9 @@ With Stable-Baselines3 alone (paths from the repository's root):
 * Training range: the hidden parameters of `MDRDriveSensor-v0` (k 0-0.6, load up to 0.4 of mu F_ref,
   mu 0.2-0.4, mu1 0.07-0.13), half of the episodes with a load step.
 * Versions: `{json.dumps(run['versions'])}`
-* Files: `model.zip` (SB3), `vecnormalize.pkl` (needed to run it), `run.json`; {size_kb:.0f} KiB in all.
+* Files: `model.zip` (SB3), `vecnormalize.npz` (observation normalisation as numbers, what
+  `load_policy` reads), `vecnormalize.pkl` (the same for plain SB3: a pickle, which runs code when read),
+  `run.json`; {size_kb:.0f} KiB in all.
 
 ## Results on blind draws (`mdr-drive adaptation --seed {res['seed']}`)
 

@@ -64,7 +64,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli import add_variant_argument
 
     p.add_argument("--policy", required=True, type=policy_path,
-                   help="folder with model.zip and vecnormalize.pkl")
+                   help="policy folder (model.zip, vecnormalize.npz, run.json), read as data")
+    p.add_argument("--trust-pickle", action="store_true",
+                   help="read a folder that has only SB3's vecnormalize.pkl: a pickle runs code when read, so only "
+                        "for a folder from a source you trust")
     p.add_argument("--k", type=float, nargs="+", required=True, metavar="K",
                    help="grading exponent(s) k, in [0, 1); several values pair with --cargo-mass (-)")
     p.add_argument("--cargo-mass", type=float, nargs="+", default=None, metavar="M",
@@ -126,6 +129,12 @@ def _velocity_record(k, m, variant, learned, trapezoid, last_action, time_quantu
             "protocol": f"mean over periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}, m/s"}
 
 
+def _speed(v: float) -> str:
+    """A steady velocity (m/s) for the text output: in mm/s, or "runaway" (no velocity, no unit)."""
+    text = format_velocity(v, digits=3)
+    return text if text == "runaway" else f"{text} mm/s"
+
+
 def main(args: argparse.Namespace) -> int:
     import sys
 
@@ -147,7 +156,7 @@ def main(args: argparse.Namespace) -> int:
             from mdr_drive_env.cli import FIELD_OPTIONS, with_option_name
 
             raise with_option_name(e, FIELD_OPTIONS) from None
-    policy = load_policy(args.policy)
+    policy = load_policy(args.policy, trust_pickle=args.trust_pickle)
     env_kwargs = policy.play_kwargs
     friction = {name: getattr(args, name) for name in ("friction_coefficient", "base_friction_coefficient")
                 if getattr(args, name) is not None}
@@ -192,9 +201,9 @@ def main(args: argparse.Namespace) -> int:
             r["trapezoid_period_velocity"] = v_trap[:, i].tolist()
             r.update(periods=args.periods, load_step=args.load_step, **friction)
             r["protocol"] = f"mean over periods {args.periods - AVERAGE_PERIODS + 1}-{args.periods}, m/s"
-        text = [f"k = {k:g}, m = {m:g} kg: learned {format_velocity(lv, digits=3)} mm/s, trapezoid "
-                f"{format_velocity(tv, digits=3)} mm/s (mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-"
-                f"{EVAL_PERIODS}, fast numerics)" for (k, m), lv, tv in zip(points, learned, trapezoid)]
+        text = [f"k = {k:g}, m = {m:g} kg: learned {_speed(lv)}, trapezoid {_speed(tv)} (mean of periods "
+                f"{args.periods - AVERAGE_PERIODS + 1}-{args.periods}, fast numerics)"
+                for (k, m), lv, tv in zip(points, learned, trapezoid)]
     if args.json:
         print(json.dumps(records[0] if len(records) == 1 else records))
     else:

@@ -21,7 +21,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     from ..policy import FILES
 
-    p.add_argument("src", type=folder_with(*FILES), help="the trained policy's folder (model.zip, vecnormalize.pkl, "
+    p.add_argument("src", type=folder_with(*FILES), help="the trained policy's folder (model.zip, vecnormalize.npz and .pkl, "
                                                          "run.json)")
     p.add_argument("dst", type=output_dir, help="where to ship it (its files are replaced, MODEL_CARD.md written)")
     p.add_argument("results", nargs="*", type=input_file, default=[],

@@ -20,7 +20,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import folder_with, input_file, int_range, output_dir, positive_int
     from mdr_drive_env.sweep import add_executor_arguments
 
-    p.add_argument("--algo", choices=["ppo", "sac"], default="ppo", help="SB3 algorithm")
+    p.add_argument("--algo", choices=["ppo", "sac"], default=None,
+                   help="SB3 algorithm (default: ppo; a resumed run keeps its own, and another is an error)")
     p.add_argument("--k", type=float, nargs="+", default=None,
                    help="grading exponent k, one value or a low high range sampled per episode (-)")
     p.add_argument("--cargo-mass", type=float, nargs="+", default=None,
@@ -29,8 +30,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--load-ratio", type=float, nargs="+", default=None,
                    help="load as a fraction of mu F_ref, one value or a low high range (-); default from the config")
     p.add_argument("--steps", type=positive_int, default=None,
-                   help="environment steps (drive periods) to train, >= 1; PPO rounds up to whole rollouts "
-                        "and says so (-); default from the config")
+                   help="the run's total of environment steps (drive periods), >= 1, critic warm-up included; "
+                        "with --resume a new total, said in one line; PPO rounds up to whole rollouts and says so "
+                        "(-); default: the config's, or a resumed run's own")
     p.add_argument("--seed", type=int, default=0, help="seed of the policy and the environments (-)")
     p.add_argument("--n-envs", type=positive_int, default=None,
                    help="drives stepped together in the batched env, >= 1 (-); default from the config")
@@ -39,12 +41,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
     p.add_argument("--config", default=None, type=input_file, help="RL-Zoo-style YAML (default: agents/configs/<algo>.yaml)")
     p.add_argument("--out", default=None, type=output_dir, help="output folder (default: runs/<algo>_s<seed>)")
-    p.add_argument("--resume", default=None, metavar="DIR", type=folder_with("model.zip", "run.json"), help="continue the run in DIR (same step counter); a distilled or adapted policy keeps the "
-                        "observation statistics it was fitted on")
+    p.add_argument("--resume", default=None, metavar="DIR", type=folder_with("model.zip", "run.json"),
+                   help="continue the run in DIR to its total (same step counter; --steps sets a new one); a "
+                        "distilled or adapted policy keeps the observation statistics it was fitted on and its "
+                        "provenance in run.json")
     p.add_argument("--critic-warmup", type=int_range(0), default=0, metavar="STEPS",
                    help="first train only the value function for STEPS environment steps, the actor frozen, >= 0 "
                         "(-); for fine-tuning a distilled or adapted policy, which has no trained critic")
-    from ..train.sb3 import key_value
+    from ..train.hyperparameters import key_value
 
     p.add_argument("--hyperparams", nargs="+", default=None, type=key_value, metavar="KEY:VALUE",
                    help="SB3 hyperparameters that replace the config's, or the run's when resuming, as the RL "
@@ -73,7 +77,7 @@ def main(args: argparse.Namespace) -> int:
         if args.resume:
             raise ValueError("--resume continues one run; with --seeds, run the same command again to train "
                              "the seeds that are missing")
-        out = args.out or f"runs/{args.algo}"
+        out = args.out or f"runs/{args.algo or 'ppo'}"
         folders = train_seeds(args.seeds, out, executor_from(args), force=args.force, algo=args.algo,
                               steps=args.steps, n_envs=args.n_envs, k=args.k, cargo_mass=args.cargo_mass,
                               load_ratio=args.load_ratio, config=args.config, eval_freq=args.eval_freq,
@@ -84,7 +88,7 @@ def main(args: argparse.Namespace) -> int:
             run = json.loads((folder / "run.json").read_text())
             print(f"seed {seed}: {folder} ({run['total_timesteps']} steps, {run['wall_time_s']} s)")
         return 0
-    out = args.out or f"runs/{args.algo}_s{args.seed}"
+    out = args.out or f"runs/{args.algo or 'ppo'}_s{args.seed}"
     record = train(args.algo, args.steps, args.seed, out, args.n_envs, args.k, args.cargo_mass, args.load_ratio,
                    args.config,
                    args.resume, args.eval_freq, args.checkpoint_freq, warm_start=args.warm_start,

@@ -7,7 +7,8 @@ record and a fingerprint of everything round 0 depended on: the teacher's field,
 the env keywords, the PPO settings and every distillation setting but those only later rounds read
 (``LATER_ROUND_KEYS``). Continuing from it gives the weights an uninterrupted run gives
 (tested). A checkpoint whose fingerprint differs is not used: round 0 is fitted
-again and the checkpoint replaced.
+again and the checkpoint replaced. The file is data only (an ``.npz`` of arrays and one JSON text,
+read with ``allow_pickle=False``): reading it runs no code.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import pickle
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -47,12 +48,18 @@ def fingerprint(field_, config, seed: int, env_kwargs: dict, hyperparameters: di
 
 def save(path: str | Path, student, rng: np.random.Generator, obs_all: list, drive_all: list, record: dict,
          fingerprint_: dict) -> None:
-    """Write the checkpoint after round 0 (atomically)."""
-    state = {"fingerprint": fingerprint_, "policy": student.model.policy.state_dict(),
-             "obs_rms": student.venv.obs_rms, "obs_all": obs_all, "drive_all": drive_all,
-             "rng": rng.bit_generator.state, "record": record}
+    """Write the checkpoint after round 0 (atomically; arrays and one JSON text)."""
+    arrays = {f"policy/{name}": tensor.detach().cpu().numpy() for name, tensor in student.model.policy.state_dict().items()}
+    arrays.update({f"obs/{i}": np.asarray(a) for i, a in enumerate(obs_all)})
+    arrays.update({f"drives/{i}": np.asarray(a) for i, a in enumerate(drive_all)})
+    rms = student.venv.obs_rms
+    arrays.update({"obs_rms/mean": np.asarray(rms.mean), "obs_rms/var": np.asarray(rms.var)})
+    meta = {"fingerprint": fingerprint_, "rng": rng.bit_generator.state, "record": record,
+            "obs_rms_count": float(rms.count), "episodes": len(obs_all)}
+    arrays["meta"] = np.array(json.dumps(meta, default=float))
     with atomic_path(path) as tmp:
-        tmp.write_bytes(pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL))
+        with open(tmp, "wb") as f:
+            np.savez(f, **arrays)
 
 
 def load(path: str | Path, fingerprint_: dict) -> tuple[dict | None, str]:
@@ -62,10 +69,12 @@ def load(path: str | Path, fingerprint_: dict) -> tuple[dict | None, str]:
     if not path.exists():
         return None, ""
     try:
-        state = pickle.loads(path.read_bytes())
-    except Exception as e:  # a truncated or foreign file: fit again
+        with np.load(path, allow_pickle=False) as f:
+            state = {key: f[key] for key in f.files}
+        meta = json.loads(str(state.pop("meta")))
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as e:  # a truncated or foreign file: fit again
         return None, f"{path} is not a round-0 checkpoint ({type(e).__name__})"
-    saved = state.get("fingerprint") if isinstance(state, dict) else None
+    saved = meta.get("fingerprint") if isinstance(meta, dict) else None
     if saved is None:
         return None, f"{path} has no fingerprint (not a student checkpoint)"
     if saved != fingerprint_:
@@ -74,13 +83,19 @@ def load(path: str | Path, fingerprint_: dict) -> tuple[dict | None, str]:
             differ[differ.index("distill")] = "distill: " + ", ".join(
                 sorted(k for k, v in fingerprint_["distill"].items() if saved.get("distill", {}).get(k) != v))
         return None, f"{path} was fitted with another {'; '.join(differ)}"
-    return state, ""
+    return {"meta": meta, "arrays": state}, ""
 
 
 def restore(state: dict, student, rng: np.random.Generator) -> tuple[list, list, dict]:
     """Put a checkpoint's weights, observation statistics and generator state into ``student`` and
     ``rng``; returns its episodes (observations, drives) and round 0's record."""
-    student.model.policy.load_state_dict(state["policy"])
-    student.venv.obs_rms = state["obs_rms"]
-    rng.bit_generator.state = state["rng"]
-    return list(state["obs_all"]), list(state["drive_all"]), dict(state["record"])
+    import torch
+
+    meta, arrays = state["meta"], state["arrays"]
+    student.model.policy.load_state_dict({name[len("policy/"):]: torch.from_numpy(value)
+                                          for name, value in arrays.items() if name.startswith("policy/")})
+    rms = student.venv.obs_rms
+    rms.mean, rms.var, rms.count = arrays["obs_rms/mean"], arrays["obs_rms/var"], meta["obs_rms_count"]
+    rng.bit_generator.state = meta["rng"]
+    episodes = range(meta["episodes"])
+    return [arrays[f"obs/{i}"] for i in episodes], [arrays[f"drives/{i}"] for i in episodes], dict(meta["record"])

@@ -32,7 +32,7 @@ from mdr_drive_env.core.params import check_range
 from mdr_drive_env.files import write_text
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
-from ..run_record import command_line, start_run
+from ..run_record import RunLock, command_line, start_run
 from ..student.distill import DistillConfig, check_drawn_friction, distill
 from ..student.network import save_student
 from ..teacher import DriveField, FieldConfig, FrictionField
@@ -127,31 +127,32 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     """Fields, then the student (module docstring), into ``out``; returns what ``friction_teacher.json`` holds."""
     cfg = load_config(config_path)
     out, executor = start_run(out, resume, force, executor, progress)
-    stages = {}
-    t0 = time.perf_counter()
-    field = FrictionField(search_fields(cfg.friction, cfg.teacher, out, cfg.seed, executor, resume))
-    stages["fields_s"] = round(time.perf_counter() - t0, 1)
-    t1 = time.perf_counter()
-    f = cfg.friction
-    env_kwargs = {**cfg.env_kwargs, "observation": "privileged", "friction_coefficient": list(f.friction_coefficient),
-                  "base_friction_coefficient": list(f.base_friction_coefficient)}
-    student = distill(field, cfg.distill, seed=cfg.seed, env_kwargs=env_kwargs, hyperparameters=cfg.ppo,
-                      progress=progress, friction=(f.friction_coefficient, f.base_friction_coefficient))
-    stages["student_s"] = round(time.perf_counter() - t1, 1)
-    command = command_line()
-    record = student_record(cfg.seed, env_kwargs, cfg.ppo, cfg.distill, student, stages["student_s"], command,
-                            {"fields": [str(p) for p in cfg.friction.fields] + [
-                                str(out / "fields" / f"rho{rho:.3f}.npz") for rho in cfg.friction.rhos],
-                             "recipe": str(config_path)})
-    save_student(student, out / "policy", record)
-    stages["total_s"] = round(time.perf_counter() - t0, 1)
-    summary = {"config": str(config_path), "command": command, "seed": cfg.seed, "stage_wall_time_s": stages,
-               "rhos": field.rhos.tolist(),
-               "field_mean_velocity_m_s": [float(np.mean(fl.velocities)) for fl in field.fields]}
-    write_text(out / "friction_teacher.json", json.dumps(summary, indent=2))
-    print(f"friction_teacher: fields {stages['fields_s']:.0f} s, student {stages['student_s']:.0f} s; policy in "
-          f"{out / 'policy'}", flush=True)
-    return summary
+    with RunLock(out):
+        stages = {}
+        t0 = time.perf_counter()
+        field = FrictionField(search_fields(cfg.friction, cfg.teacher, out, cfg.seed, executor, resume))
+        stages["fields_s"] = round(time.perf_counter() - t0, 1)
+        t1 = time.perf_counter()
+        f = cfg.friction
+        env_kwargs = {**cfg.env_kwargs, "observation": "privileged", "friction_coefficient": list(f.friction_coefficient),
+                      "base_friction_coefficient": list(f.base_friction_coefficient)}
+        student = distill(field, cfg.distill, seed=cfg.seed, env_kwargs=env_kwargs, hyperparameters=cfg.ppo,
+                          progress=progress, friction=(f.friction_coefficient, f.base_friction_coefficient))
+        stages["student_s"] = round(time.perf_counter() - t1, 1)
+        command = command_line()
+        record = student_record(cfg.seed, env_kwargs, cfg.ppo, cfg.distill, student, stages["student_s"], command,
+                                {"fields": [str(p) for p in cfg.friction.fields] + [
+                                    str(out / "fields" / f"rho{rho:.3f}.npz") for rho in cfg.friction.rhos],
+                                 "recipe": str(config_path)})
+        save_student(student, out / "policy", record)
+        stages["total_s"] = round(time.perf_counter() - t0, 1)
+        summary = {"config": str(config_path), "command": command, "seed": cfg.seed, "stage_wall_time_s": stages,
+                   "rhos": field.rhos.tolist(),
+                   "field_mean_velocity_m_s": [float(np.mean(fl.velocities)) for fl in field.fields]}
+        write_text(out / "friction_teacher.json", json.dumps(summary, indent=2))
+        print(f"friction_teacher: fields {stages['fields_s']:.0f} s, student {stages['student_s']:.0f} s; policy in "
+              f"{out / 'policy'}", flush=True)
+        return summary
 
 
 __all__ = ["DEFAULT_CONFIG", "FrictionRecipeConfig", "FrictionTeacherConfig", "load_config", "run", "search_fields"]

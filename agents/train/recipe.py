@@ -16,7 +16,7 @@ Stages (each one's wall time is printed and kept in ``recipe.json``):
 
 An existing ``OUT`` is refused unless ``--resume`` or ``--force``. ``--resume`` continues an
 interrupted run: the teacher's finished k slices are reused, and so is the student's first fit
-(round 0, most of the student stage) if it finished, kept in ``OUT/.tasks/student_round0.pkl`` for
+(round 0, most of the student stage) if it finished, kept in ``OUT/.tasks/student_round0.npz`` for
 the same teacher and settings (``mdr_drive_agents.student.checkpoint``); the student's hole rounds
 run again. ``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
 ``teacher_field.npz``), for trying student settings without searching the teacher again.
@@ -41,7 +41,7 @@ from mdr_drive_env.files import write_text
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from ..blas import PINNED_CORE, blas_core
-from ..run_record import command_line, start_run, versions
+from ..run_record import RunLock, command_line, start_run, versions
 from ..student.distill import DistillConfig, distill
 from ..student.network import save_student
 from ..teacher import DriveField, FieldConfig
@@ -122,59 +122,60 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
     what ``recipe.json`` holds."""
     recipe = load_recipe(config_path)
     out, executor = start_run(out, resume, force, executor, progress)
-    (seed, student_seed), stages = recipe.seeds, {}
-    command = command_line()
+    with RunLock(out):
+        (seed, student_seed), stages = recipe.seeds, {}
+        command = command_line()
 
-    tasks = task_folder(out, resume)
-    core = blas_core()
-    if teacher is None and core not in (None, PINNED_CORE):
-        print(f"recipe: warning: numpy's OpenBLAS runs its {core!r} kernels, not {PINNED_CORE!r} (numpy was loaded "
-              f"before mdr_drive_agents, or OPENBLAS_CORETYPE is set): the teacher's CMA-ES searches round differently "
-              f"in the last bits, and its drives will differ from the shipped teacher's", file=sys.stderr)
-    t0 = time.perf_counter()
-    if teacher is None:
-        field = DriveField.search(recipe.teacher, seed=seed, executor=executor, store=TaskStore(tasks / "teacher"))
-    else:
-        try:
-            field = DriveField.load(teacher)
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as e:
-            raise ValueError(f"--teacher {teacher} is not a saved teacher field ({type(e).__name__}: {e})") from None
-        if searched_with_another_config(field, recipe.teacher):
-            print(f"recipe: warning: {teacher} was searched with another teacher config than {config_path}'s",
-                  file=sys.stderr)
-    field.save(out / "teacher_field.npz")
-    stages["teacher_s"] = round(time.perf_counter() - t0, 1)
-    print(f"recipe: teacher {stages['teacher_s']:.0f} s{' (loaded)' if teacher else ''}: {field.velocities.size} "
-          f"grid points, {field.meta.get('exchanged', 0)} drives taken from a neighbour", flush=True)
+        tasks = task_folder(out, resume)
+        core = blas_core()
+        if teacher is None and core not in (None, PINNED_CORE):
+            print(f"recipe: warning: numpy's OpenBLAS runs its {core!r} kernels, not {PINNED_CORE!r} (numpy was loaded "
+                  f"before mdr_drive_agents, or OPENBLAS_CORETYPE is set): the teacher's CMA-ES searches round differently "
+                  f"in the last bits, and its drives will differ from the shipped teacher's", file=sys.stderr)
+        t0 = time.perf_counter()
+        if teacher is None:
+            field = DriveField.search(recipe.teacher, seed=seed, executor=executor, store=TaskStore(tasks / "teacher"))
+        else:
+            try:
+                field = DriveField.load(teacher)
+            except (OSError, ValueError, KeyError, zipfile.BadZipFile) as e:
+                raise ValueError(f"--teacher {teacher} is not a saved teacher field ({type(e).__name__}: {e})") from None
+            if searched_with_another_config(field, recipe.teacher):
+                print(f"recipe: warning: {teacher} was searched with another teacher config than {config_path}'s",
+                      file=sys.stderr)
+        field.save(out / "teacher_field.npz")
+        stages["teacher_s"] = round(time.perf_counter() - t0, 1)
+        print(f"recipe: teacher {stages['teacher_s']:.0f} s{' (loaded)' if teacher else ''}: {field.velocities.size} "
+              f"grid points, {field.meta.get('exchanged', 0)} drives taken from a neighbour", flush=True)
 
-    t1 = time.perf_counter()
-    teacher_record = {"teacher": str(out / "teacher_field.npz"), "recipe": str(config_path)}
+        t1 = time.perf_counter()
+        teacher_record = {"teacher": str(out / "teacher_field.npz"), "recipe": str(config_path)}
 
-    def save_snapshot(student, round_record: dict) -> None:
-        if snapshots and "hole_round" in round_record:
-            record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student,
-                                    round(time.perf_counter() - t1, 1), command, teacher_record)
-            save_student(student, out / "snapshots" / f"hole_round{round_record['hole_round']}", record)
+        def save_snapshot(student, round_record: dict) -> None:
+            if snapshots and "hole_round" in round_record:
+                record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student,
+                                        round(time.perf_counter() - t1, 1), command, teacher_record)
+                save_student(student, out / "snapshots" / f"hole_round{round_record['hole_round']}", record)
 
-    student = distill(field, recipe.distill, seed=student_seed, env_kwargs=recipe.env_kwargs,
-                      hyperparameters=recipe.ppo, progress=progress, on_round=save_snapshot,
-                      checkpoint=tasks / "student_round0.pkl")
-    stages["student_s"] = round(time.perf_counter() - t1, 1)
-    record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student, stages["student_s"],
-                            command, teacher_record)
-    save_student(student, out / "policy", record)
-    stages["total_s"] = round(time.perf_counter() - t0, 1)
-    print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
-          flush=True)
-    summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
-               "stage_wall_time_s": stages,
-               "teacher_loaded_from": None if teacher is None else str(teacher), "blas_core": core,
-               "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
-               "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},
-               "teacher_mean_velocity_m_s": float(np.mean(field.velocities))}
-    write_text(out / "recipe.json", json.dumps(summary, indent=2))
-    shutil.rmtree(tasks, ignore_errors=True)  # the teacher and the student are written: their task files are spent
-    return summary
+        student = distill(field, recipe.distill, seed=student_seed, env_kwargs=recipe.env_kwargs,
+                          hyperparameters=recipe.ppo, progress=progress, on_round=save_snapshot,
+                          checkpoint=tasks / "student_round0.npz")
+        stages["student_s"] = round(time.perf_counter() - t1, 1)
+        record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student, stages["student_s"],
+                                command, teacher_record)
+        save_student(student, out / "policy", record)
+        stages["total_s"] = round(time.perf_counter() - t0, 1)
+        print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
+              flush=True)
+        summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
+                   "stage_wall_time_s": stages,
+                   "teacher_loaded_from": None if teacher is None else str(teacher), "blas_core": core,
+                   "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
+                   "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},
+                   "teacher_mean_velocity_m_s": float(np.mean(field.velocities))}
+        write_text(out / "recipe.json", json.dumps(summary, indent=2))
+        shutil.rmtree(tasks, ignore_errors=True)  # the teacher and the student are written: their task files are spent
+        return summary
 
 
 __all__ = ["DEFAULT_CONFIG", "RecipeConfig", "load_recipe", "run", "searched_with_another_config", "student_record"]

@@ -1,21 +1,24 @@
-"""Train a waveform policy on MDRDrive-v0 with Stable-Baselines3 from scratch (``train``; its command
-line is ``mdr-drive train``, ``mdr_drive_agents.commands.train``).
+"""Train a waveform policy on MDRDrive-v0 with Stable-Baselines3 from scratch, or continue one
+(``train``; its command line is ``mdr-drive train``, ``mdr_drive_agents.commands.train``).
 
     mdr-drive train --algo ppo --k 0 0.6 --cargo-mass 0 1.0 --steps 1000000 --seed 0 --out runs/ppo_s0
-    mdr-drive train --resume runs/ppo_s0 --steps 500000      # continue, same step counter
+    mdr-drive train --resume runs/ppo_s0                     # finish the run's own 1,000,000 steps
+    mdr-drive train --resume runs/ppo_s0 --steps 2000000     # a new total, said in one line
 
-Writes into ``--out``: ``model.zip``, ``vecnormalize.pkl`` (normalisation statistics, needed to run
-the policy), ``checkpoints/``, ``best/`` (best evaluation on held-out points, with its own
-``vecnormalize.pkl``), ``tb/`` (TensorBoard), ``evaluations.npz`` and ``run.json`` (command,
-versions, seed, steps, wall time, steps/s). Ctrl-C or SIGTERM stops training, saves all of these and
-marks the run ``interrupted`` in run.json; ``--resume`` continues it. An existing run is never
-overwritten without ``--force``. torch uses one thread unless ``--torch-threads`` says otherwise
-(the policies are small MLPs; on a busy 2-core machine 2 threads made PPO 10-30 times slower).
+Writes into ``--out``: ``model.zip``, ``vecnormalize.npz`` and ``vecnormalize.pkl`` (normalisation
+statistics, needed to run the policy), ``checkpoints/``, ``best/`` (best evaluation on held-out
+points, with its own statistics), ``tb/`` (TensorBoard), ``evaluations.npz`` and ``run.json``
+(command, versions, seed, steps, wall time, steps/s). Every file is written atomically and
+``run.json`` last, so a run killed at any moment keeps its last good model. Ctrl-C or SIGTERM stops
+training, saves all of these and marks the run ``interrupted``; ``--resume`` continues it to its
+total. One command at a time writes a folder (``RunLock``); an existing run is never overwritten
+without ``--force``. Resuming reads nothing that runs code (``sb3_files``). torch uses one thread
+unless ``--torch-threads`` says otherwise (the policies are small MLPs; on a busy 2-core machine 2
+threads made PPO 10-30 times slower).
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -23,30 +26,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from mdr_drive_env import ENV_ID
+from mdr_drive_env.files import atomic_path, remove_temporary, write_text
 
 from ..policy import run_env_kwargs, sb3_class
 from ..protocol import trapezoid_action
-from ..run_record import versions
-from ..yaml_config import read_yaml
+from ..run_record import RunLock, command_line, versions
+from ..sb3_files import NORMALIZATION_FILE, NormalizationState, read_model
+from .hyperparameters import NOT_SB3_KEYS, check_hyperparameters, key_value, load_config  # noqa: F401
 
-CONFIG_DIR = Path(__file__).parents[1] / "configs"
-#: Config keys of this module itself: recorded in run.json, not passed to SB3.
-NOT_SB3_KEYS = ("warm_start",)
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
 HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0.25))
-
-
-def load_config(algo: str, path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(hyperparameters, env_kwargs) from an RL-Zoo-style YAML file; the top-level ``warm_start`` (not
-    an RL Zoo key) is returned among the hyperparameters."""
-    path = Path(path) if path else CONFIG_DIR / f"{algo}.yaml"
-    data = read_yaml(path)
-    if ENV_ID not in data:
-        raise ValueError(f"{path}: no '{ENV_ID}' section")
-    return {**data[ENV_ID], "warm_start": data.get("warm_start", "none")}, dict(data.get("env_kwargs", {}))
+#: run.json keys that say where a policy came from: a continued run keeps them.
+PROVENANCE_KEYS = ("distilled_from", "adapted_from")
 
 
 def _range(values: list[float] | None, default):
@@ -103,24 +96,15 @@ def warm_start_at(model, action: np.ndarray) -> None:
         net.bias.copy_(torch.as_tensor(a))
 
 
-def key_value(text: str) -> tuple[str, Any]:
-    """argparse type: ``KEY:VALUE`` as (key, value): a number as a number (``1e-5``, ``512``), anything
-    else read as YAML (``[64, 64]``, ``true``)."""
-    key, sep, value = text.partition(":")
-    if not sep or not key.isidentifier():
-        raise argparse.ArgumentTypeError(f"{text!r} is not KEY:VALUE (e.g. learning_rate:1e-5)")
-    for number in (int, float):
-        try:
-            return key, number(value)
-        except ValueError:
-            pass
-    try:
-        return key, yaml.safe_load(value)
-    except yaml.YAMLError:
-        raise argparse.ArgumentTypeError(f"{text!r}: {value!r} is not a YAML value") from None
+def save_normalization(venv, folder: Path) -> None:
+    """A VecNormalize's statistics into ``folder``, atomically: ``vecnormalize.npz`` (numbers, what
+    this package reads) and ``vecnormalize.pkl`` (what plain SB3 reads)."""
+    NormalizationState.of(venv).save(folder / NORMALIZATION_FILE)
+    with atomic_path(folder / "vecnormalize.pkl") as tmp:
+        venv.save(str(tmp))
 
 
-def _save_normalisation_callback(path: Path):
+def _save_normalisation_callback(folder: Path):
     """An SB3 callback (for EvalCallback's ``callback_on_new_best``) that saves the training env's
     VecNormalize statistics beside the best model, so ``best/`` loads like the run's own folder."""
     from stable_baselines3.common.callbacks import BaseCallback
@@ -130,19 +114,22 @@ def _save_normalisation_callback(path: Path):
         def _on_step(self) -> bool:
             env = self.model.get_env()
             if isinstance(env, VecNormalize):
-                path.parent.mkdir(parents=True, exist_ok=True)
-                env.save(str(path))
+                save_normalization(env, folder)
             return True
 
     return SaveNormalisation()
 
 
 def actor_parameters(model) -> list:
-    """The parameters that set a policy's actions (PPO: the policy net, the action net and the log
-    std; SAC: the actor): what ``frozen_actor`` holds still while the critic learns."""
+    """The parameters that set a policy's actions (PPO: the policy net, the action net and, for a
+    Box action, the log std; SAC: the actor): what ``frozen_actor`` holds still while the critic
+    learns."""
+    import torch
+
     policy = model.policy
     if hasattr(policy, "action_net"):
-        return [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters(), policy.log_std]
+        log_std = [policy.log_std] if isinstance(getattr(policy, "log_std", None), torch.nn.Parameter) else []
+        return [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters(), *log_std]
     return list(model.actor.parameters())
 
 
@@ -178,114 +165,150 @@ def rounded_steps(algo: str, steps: int, n_envs: int, hyper: dict[str, Any]) -> 
     return steps
 
 
-def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str | Path = "runs/ppo",
+def check_counts(**counts) -> None:
+    """``ValueError`` naming a count that is not an integer >= its bound: (value, bound) by name."""
+    for name, (value, low) in counts.items():
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low):
+            raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, inf)")
+
+
+def new_run_settings(algo, config, k, cargo_mass, load_ratio, n_envs) -> tuple[dict, dict]:
+    """(hyperparameters, env_kwargs) of a new run: the config's, with the command line's domain."""
+    sb3_class(algo)  # an unknown algo: ValueError
+    hyper, env_kwargs = load_config(algo, config)
+    env_kwargs["k"] = _range(k, env_kwargs.get("k", 0.2))
+    if cargo_mass is not None:  # an explicit cargo mass replaces the config's load ratio
+        env_kwargs.pop("load_ratio", None)
+        env_kwargs["cargo_mass"] = _range(cargo_mass, None)
+    if load_ratio is not None:
+        env_kwargs["load_ratio"] = _range(load_ratio, None)
+    if n_envs:
+        hyper["n_envs"] = n_envs
+    return hyper, env_kwargs
+
+
+def load_run(out: Path, algo: str | None) -> dict:
+    """The run record of the run to continue in ``out``; ``ValueError`` if there is none or if
+    ``algo`` is given and is not the run's."""
+    try:
+        previous = json.loads((out / "run.json").read_text())
+    except (OSError, ValueError) as e:
+        raise ValueError(f"--resume {out}: no run record to continue (run.json: {type(e).__name__})") from None
+    if algo is not None and algo != previous.get("algo"):
+        raise ValueError(f"--algo {algo}: the run in {out} was trained with {previous.get('algo')!r}; a resumed run "
+                         "keeps its algorithm (drop --algo, or train a new run)")
+    return previous
+
+
+def resumed_model(out: Path, previous: dict, venv, overrides: dict):
+    """The model and its VecNormalize of the run in ``out``, read without running code, over ``venv``."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    if (out / NORMALIZATION_FILE).exists():
+        state = NormalizationState.load(out / NORMALIZATION_FILE)
+        venv = VecNormalize(venv, norm_obs=state.norm_obs, norm_reward=state.norm_reward, gamma=state.gamma)
+        state.apply(venv)
+    elif (out / "vecnormalize.pkl").exists():
+        raise ValueError(f"--resume {out}: it has vecnormalize.pkl but no {NORMALIZATION_FILE}; a pickle runs code "
+                         "when read, so it is not read (a folder this package wrote has both)")
+    return read_model(out / "model.zip", sb3_class(previous["algo"]), venv.observation_space, venv.action_space,
+                      previous.get("hyperparameters"), env=venv, tensorboard_log=str(out / "tb"),
+                      **{key: v for key, v in overrides.items() if key != "n_envs"})
+
+
+def train(algo: str | None = None, steps: int | None = None, seed: int = 0, out: str | Path = "runs/ppo",
           n_envs: int | None = None, k=None, cargo_mass=None, load_ratio=None, config: str | Path | None = None,
           resume: str | Path | None = None, eval_freq: int = 20_000, checkpoint_freq: int = 100_000,
           warm_start: str | None = None, progress_bar: bool = True, verbose: int = 0, force: bool = False,
           torch_threads: int = 1, critic_warmup: int = 0, hyperparams: dict[str, Any] | None = None) -> dict[str, Any]:
     """Train (or resume) a policy; returns the run record also written to ``run.json``.
 
-    ``critic_warmup`` steps (rounded as ``steps`` are) come first and train only the critic, the
-    actor frozen (``frozen_actor``): a distilled or adapted policy has no trained value function,
-    and PPO's first updates would otherwise follow a random critic's advantages. ``hyperparams``
-    replace the config's (or, resuming, the run's) SB3 hyperparameters, as the RL Zoo's ``-params``.
+    ``steps`` is the run's total of environment steps (default: the config's ``n_timesteps``);
+    ``resume`` continues the run in that folder to its total, or to ``steps`` if given (a new total,
+    said in one line). ``critic_warmup`` steps (rounded as ``steps`` are) come first and train only
+    the critic, the actor frozen (``frozen_actor``): a distilled or adapted policy has no trained
+    value function, and PPO's first updates would otherwise follow a random critic's advantages.
+    ``hyperparams`` replace the config's (or, resuming, the run's) SB3 hyperparameters, as the RL
+    Zoo's ``-params``.
 
-    Refuses to train into a folder that holds a run unless ``resume`` names it or ``force`` is set.
-    Ctrl-C or SIGTERM saves the model, its normalisation and run.json (``"interrupted": true``).
+    Refuses to train into a folder that holds a run unless ``resume`` names it or ``force`` is set,
+    and a folder another command is writing (``RunLock``). Ctrl-C or SIGTERM saves the model, its
+    normalisation and run.json (``"interrupted": true``).
     """
-    import inspect
+    check_counts(steps=(steps, 1), n_envs=(n_envs, 1), torch_threads=(torch_threads, 1),
+                 critic_warmup=(critic_warmup, 0))
+    out = Path(resume or out)
+    if not resume and not force and ((out / "run.json").exists() or (out / "model.zip").exists()):
+        raise ValueError(f"{out} already holds a run: continue it with --resume {out}, or overwrite it with --force")
+    previous = load_run(out, algo) if resume else None
+    if previous:
+        algo, seed = previous["algo"], previous["seed"]
+        hyper, env_kwargs = dict(previous["hyperparameters"]), run_env_kwargs(out, previous)
+    else:
+        algo = algo or "ppo"
+        hyper, env_kwargs = new_run_settings(algo, config, k, cargo_mass, load_ratio, n_envs)
+    overrides = dict(hyperparams or {})
+    check_hyperparameters(algo, overrides, "--hyperparams")
+    if resume and "policy_kwargs" in overrides:
+        raise ValueError("--hyperparams: policy_kwargs cannot change when resuming (the network is the run's)")
+    hyper.update(overrides)
+    check_hyperparameters(algo, {key: v for key, v in hyper.items() if key != "policy_kwargs"},
+                          f"hyperparameters of {'the run' if resume else algo}")
+    if previous is None:
+        hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
+        if hyper["warm_start"] not in ("none", "trapezoid"):
+            raise ValueError(f"warm_start={hyper['warm_start']!r} is not one of ['none', 'trapezoid']")
+        if hyper["warm_start"] == "trapezoid" and env_kwargs.get("action_codebook") is not None:
+            raise ValueError("warm_start='trapezoid' sets a Box action; with action_codebook (Discrete actions) use "
+                             "warm_start: none")
+    with RunLock(out):  # after every check: a refused run leaves no folder
+        return _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_freq, checkpoint_freq,
+                      progress_bar, verbose, torch_threads, critic_warmup)
+
+
+def _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_freq, checkpoint_freq,
+           progress_bar, verbose, torch_threads, critic_warmup) -> dict[str, Any]:
     import signal
 
     import torch
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
     from stable_baselines3.common.vec_env import VecNormalize
 
-    for name, value in (("steps", steps), ("n_envs", n_envs), ("torch_threads", torch_threads)):
-        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
-            raise ValueError(f"{name}={value!r} is outside the allowed range [1, inf)")
-    if isinstance(critic_warmup, bool) or not isinstance(critic_warmup, (int, np.integer)) or critic_warmup < 0:
-        raise ValueError(f"critic_warmup={critic_warmup!r} is outside the allowed range [0, inf)")
-    out = Path(resume or out)
-    run_file = out / "run.json"
-    if not resume and not force and ((out / "run.json").exists() or (out / "model.zip").exists()):
-        raise ValueError(f"{out} already holds a run: continue it with --resume {out}, or overwrite it with --force")
-    previous = json.loads(run_file.read_text()) if resume else None
-    if resume:
-        algo, seed = previous["algo"], previous["seed"]
-        hyper, env_kwargs = previous["hyperparameters"], run_env_kwargs(out, previous)
-    else:
-        sb3_class(algo)  # an unknown algo: ValueError
-        hyper, env_kwargs = load_config(algo, config)
-        env_kwargs["k"] = _range(k, env_kwargs.get("k", 0.2))
-        if cargo_mass is not None:  # an explicit cargo mass replaces the config's load ratio
-            env_kwargs.pop("load_ratio", None)
-            env_kwargs["cargo_mass"] = _range(cargo_mass, None)
-        if load_ratio is not None:
-            env_kwargs["load_ratio"] = _range(load_ratio, None)
-        if n_envs:
-            hyper["n_envs"] = n_envs
-    hyper = dict(hyper)
-    overrides = dict(hyperparams or {})
-    set_here = {"self", "policy", "env", "_init_setup_model", "device", "seed", "tensorboard_log", "verbose"}
-    known = sorted(set(inspect.signature(sb3_class(algo).__init__).parameters) - set_here | {"n_envs"})
-    for key in overrides:
-        if key not in known:
-            raise ValueError(f"hyperparams: {key!r} is not a {algo.upper()} hyperparameter this option sets (seed, "
-                             f"device and logging have their own); one of {known}")
-    if resume and "policy_kwargs" in overrides:
-        raise ValueError("hyperparams: policy_kwargs cannot change when resuming (the network is the run's)")
-    hyper.update(overrides)
     n = int(hyper.pop("n_envs", 8))
-    total = int(steps if steps is not None else hyper.pop("n_timesteps", 1e6))
-    hyper.pop("n_timesteps", None)
+    config_total = hyper.pop("n_timesteps", 1e6)
     hyper.pop("policy", None)
     normalize = hyper.pop("normalize", True)
     threads = int(torch_threads)
     torch.set_num_threads(threads)
-    for option, asked in (("--steps", total), ("--critic-warmup", int(critic_warmup))):
-        actual = rounded_steps(algo, asked, n, hyper)
-        if asked and actual != asked:
-            rollout = int(hyper.get("n_steps", 2048))
-            print(f"train: PPO collects whole rollouts of n_steps x n_envs = {rollout} x {n} = {rollout * n} steps: "
-                  f"{option} {asked} runs {actual} steps", file=sys.stderr)
-    if not resume:
-        hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
     warm = hyper.get("warm_start", "none")
-    if warm not in ("none", "trapezoid"):
-        raise ValueError(f"warm_start={warm!r} is not one of ['none', 'trapezoid']")
-    if warm == "trapezoid" and env_kwargs.get("action_codebook") is not None:
-        raise ValueError("warm_start='trapezoid' sets a Box action; with action_codebook (Discrete actions) use "
-                         "warm_start: none")
-    out.mkdir(parents=True, exist_ok=True)  # after every check: a refused run leaves no empty folder
-    venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if resume else seed, env_kwargs)
+    out.mkdir(parents=True, exist_ok=True)
+    remove_temporary(out)  # files a killed save left behind
+    venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if previous else seed, env_kwargs)
     eval_env = make_eval_env(env_kwargs)
-    if resume:
-        venv = VecNormalize.load(str(out / "vecnormalize.pkl"), venv)
-        if {"distilled_from", "adapted_from"} & set(previous):
+    if previous:
+        model = resumed_model(out, previous, venv, overrides)
+        if set(PROVENANCE_KEYS) & set(previous) and isinstance(model.get_env(), VecNormalize):
             # A distilled (or adapted) network was fitted on these observation statistics: updated by
-            # the PPO rollouts, they shift its inputs (measured: 200k steps then left the shipped
-            # policy below the trapezoid at 293 of 1,024 points, docs/ablations.md). Frozen, with the
-            # reward statistics.
-            venv.training = False
-        model = sb3_class(algo).load(out / "model.zip", env=venv, device="cpu", tensorboard_log=str(out / "tb"),
-                                 **{key: v for key, v in overrides.items() if key != "n_envs"})
+            # the PPO rollouts, they shift its inputs (docs/ablations.md). Frozen, with the rewards'.
+            model.get_env().training = False
     else:
         if normalize:
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=hyper.get("gamma", 0.99))
         model = sb3_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", tensorboard_log=str(out / "tb"),
-                            verbose=verbose, **{key: v for key, v in hyper.items() if key not in NOT_SB3_KEYS})
+                                verbose=verbose, **{key: v for key, v in hyper.items() if key not in NOT_SB3_KEYS})
         if warm == "trapezoid":
             warm_start_at(model, trapezoid_action())
-    if normalize or resume:
+    start_steps = model.num_timesteps
+    total = target_total(algo, steps, previous, config_total, start_steps, n, hyper, critic_warmup)
+    if isinstance(model.get_env(), VecNormalize):
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     callbacks = [
         CheckpointCallback(max(checkpoint_freq // n, 1), str(out / "checkpoints"), name_prefix=algo,
                            save_vecnormalize=True),
         EvalCallback(eval_env, n_eval_episodes=len(HELD_OUT_POINTS), eval_freq=max(eval_freq // n, 1),
                      best_model_save_path=str(out / "best"), log_path=str(out), deterministic=True,
-                     callback_on_new_best=_save_normalisation_callback(out / "best" / "vecnormalize.pkl")),
+                     callback_on_new_best=_save_normalisation_callback(out / "best")),
     ]
-    start_steps = model.num_timesteps
     main_start = None if critic_warmup else start_steps  # the step the actor starts learning at
     t0 = time.perf_counter()
 
@@ -297,25 +320,67 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
     try:
         if critic_warmup:
             with frozen_actor(model):
-                model.learn(int(critic_warmup), progress_bar=progress_bar, reset_num_timesteps=not resume,
+                model.learn(int(critic_warmup), progress_bar=progress_bar, reset_num_timesteps=previous is None,
                             tb_log_name=f"{algo}_critic_warmup")
             main_start = model.num_timesteps
-        model.learn(total, callback=callbacks, progress_bar=progress_bar,
-                    reset_num_timesteps=not (resume or critic_warmup), tb_log_name=algo)
+        remaining = total - model.num_timesteps
+        if remaining > 0:
+            model.learn(remaining, callback=callbacks, progress_bar=progress_bar,
+                        reset_num_timesteps=not (previous or critic_warmup), tb_log_name=algo)
     except (KeyboardInterrupt, _Interrupted):
         interrupted = True
         print(f"train: interrupted at step {model.num_timesteps}; saved, continue with --resume {out}", file=sys.stderr)
     finally:
         signal.signal(signal.SIGTERM, old_handler)
-    wall = time.perf_counter() - t0
-    model.save(out / "model.zip")
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the saves below finish whatever arrives now
+    try:
+        return save_run(out, model, previous, algo, seed, env_kwargs, hyper, n, normalize, threads, total, start_steps,
+                        main_start, time.perf_counter() - t0, interrupted)
+    finally:
+        signal.signal(signal.SIGTERM, old_handler)
+
+
+def target_total(algo, steps, previous, config_total, start_steps, n, hyper, critic_warmup) -> int:
+    """The run's total of environment steps: ``steps``, else a resumed run's own total, else the
+    config's; a new total of a resumed run and a rounding to PPO's whole rollouts are said in one line."""
+    if previous is None:
+        total = int(steps if steps is not None else config_total)
+    else:
+        total = int(steps) if steps is not None else int(previous.get("target_timesteps", 0))
+        if steps is None and not total:
+            raise ValueError("--resume: this run records no total of steps (a distilled or adapted policy): give "
+                             "--steps, the total to train it to")
+        if total <= start_steps:
+            raise ValueError(f"--resume: the run has {start_steps} steps, its total is {total}: give --steps with a "
+                             "larger total to train it further")
+        if steps is not None and steps != previous.get("target_timesteps"):
+            print(f"train: --steps {steps} sets the run's total (it has {start_steps} steps): "
+                  f"{steps - start_steps} more", file=sys.stderr)
+    for option, asked in (("--steps", total - start_steps), ("--critic-warmup", int(critic_warmup))):
+        actual = rounded_steps(algo, asked, n, hyper)
+        if asked > 0 and actual != asked:
+            rollout = int(hyper.get("n_steps", 2048))
+            print(f"train: PPO collects whole rollouts of n_steps x n_envs = {rollout} x {n} = {rollout * n} steps: "
+                  f"{option} runs {actual} steps, not {asked}", file=sys.stderr)
+    return start_steps + rounded_steps(algo, total - start_steps, n, hyper)
+
+
+def save_run(out, model, previous, algo, seed, env_kwargs, hyper, n, normalize, threads, total, start_steps,
+             main_start, wall, interrupted) -> dict[str, Any]:
+    """Write the model, its normalisation and run.json (last: it marks the set complete), each
+    atomically; returns the run record."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    with atomic_path(out / "model.zip") as tmp:
+        model.save(tmp)
     if isinstance(model.get_env(), VecNormalize):
-        model.get_env().save(str(out / "vecnormalize.pkl"))
+        save_normalization(model.get_env(), out)
     record = {
         "algo": algo, "seed": seed, "env_id": previous.get("env_id", ENV_ID) if previous else ENV_ID,
         "env_kwargs": previous["env_kwargs"] if previous else env_kwargs,  # a codebook file stays relative
         "hyperparameters": {**hyper, "n_envs": n, "normalize": normalize},
-        "command": " ".join(sys.argv), "versions": versions(), "torch_threads": threads,
+        "command": command_line(), "versions": versions(), "torch_threads": threads,
+        "target_timesteps": int(total),
         "total_timesteps": int(model.num_timesteps), "steps_this_run": int(model.num_timesteps - start_steps),
         "critic_warmup_steps_this_run": int((model.num_timesteps if main_start is None else main_start) - start_steps),
         "wall_time_s": round(wall + (previous["wall_time_s"] if previous else 0.0), 3),
@@ -324,5 +389,9 @@ def train(algo: str = "ppo", steps: int | None = None, seed: int = 0, out: str |
         "held_out_points": HELD_OUT_POINTS,
         "interrupted": interrupted,
     }
-    run_file.write_text(json.dumps(record, indent=2))
+    if previous:  # where the policy came from, and how it was continued
+        record.update({key: previous[key] for key in PROVENANCE_KEYS if key in previous})
+        record["continued_from"] = [*previous.get("continued_from", []), {
+            "command": previous.get("command"), "total_timesteps": previous.get("total_timesteps")}]
+    write_text(out / "run.json", json.dumps(record, indent=2))
     return record

@@ -50,7 +50,7 @@ from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
 
 from ..policy import CODEBOOK_FILE, Policy, load_policy, package_path
 from ..protocol import steady_velocity_of
-from ..run_record import command_line, versions
+from ..run_record import RunLock, command_line, versions
 from ..student.estimator import (FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy,
                                  teacher_layout)
 from ..student.network import Student, save_student
@@ -301,6 +301,11 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
     out = Path(out)
     if out.exists() and any(out.iterdir()) and not force:
         raise ValueError(f"{out} is not empty: overwrite with --force")
+    with RunLock(out):
+        return _run(config_path, out, seed, validation_seed, config, progress)
+
+
+def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig, progress: bool) -> dict:
     command = command_line()
     t0 = time.perf_counter()
     validate = None if validation_seed is None else Validation(load_policy(config.teacher), config, validation_seed)

@@ -18,6 +18,18 @@ import numpy as np
 from . import materials
 
 _INF = math.inf
+#: Physically meaningful bounds of the model's quantities (SI units): a value outside them is a
+#: mistake (a unit off by 10^3, a typo), not a drive, and its arithmetic would overflow.
+BOUNDS = {
+    "youngs_modulus": (1e3, 1e13),       # Pa: from soft gels to diamond
+    "reference_depth": (1e-9, 1e3),      # m
+    "indenter_radius": (1e-7, 10.0),     # m
+    "friction_coefficient": (0.0, 10.0),  # -
+    "slider_mass": (1e-6, _INF),         # kg: a huge mass is the immovable (fixed half-space) limit
+    "cargo_mass": (0.0, 1e4),            # kg
+    "gravity": (0.0, 1e3),               # m/s^2
+    "load_force": (0.0, 1e6),            # N
+}
 
 
 def check_range(
@@ -27,7 +39,7 @@ def check_range(
 
     Any real number passes the type check, NumPy scalars (``np.float32(0.2)``) included; bools do not.
     """
-    interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+    interval = f"{'(' if low_open or low == -_INF else '['}{low:g}, {high:g}{')' if high_open or high == _INF else ']'}"
     ok = is_real_number(value) and math.isfinite(value)
     if ok:
         ok = (value > low if low_open else value >= low) and (value < high if high_open else value <= high)
@@ -60,10 +72,10 @@ class Material:
     """A power-law graded elastic body, ``E(z) = E0 (z/c0)^k``.
 
     Attributes:
-        youngs_modulus: E0 (Pa). ``math.inf`` makes the body rigid.
+        youngs_modulus: E0 (Pa), in [1e3, 1e13]; ``math.inf`` makes the body rigid.
         poisson_ratio: nu (-), constant through the depth, in (-1, 0.5].
         grading_exponent: k (-), in [0, 1); k = 0 is a homogeneous body.
-        reference_depth: c0 (m), the depth at which E = E0.
+        reference_depth: c0 (m), the depth at which E = E0, in [1e-9, 1e3].
         h_normal_override: replaces the closed-form ``h_N(k, nu)`` (-) if given.
         h_tangential_override: replaces the closed-form ``h_T(k, nu)`` (-) if given.
     """
@@ -79,10 +91,10 @@ class Material:
         store_floats(self, "youngs_modulus", "poisson_ratio", "grading_exponent", "reference_depth",
                      "h_normal_override", "h_tangential_override")
         if self.youngs_modulus != _INF:
-            check_range("Material.youngs_modulus", self.youngs_modulus, 0.0, low_open=True)
+            check_range("Material.youngs_modulus", self.youngs_modulus, *BOUNDS["youngs_modulus"])
         check_range("Material.poisson_ratio", self.poisson_ratio, -1.0, 0.5, low_open=True)
         check_range("Material.grading_exponent", self.grading_exponent, 0.0, 1.0, high_open=True)
-        check_range("Material.reference_depth", self.reference_depth, 0.0, low_open=True)
+        check_range("Material.reference_depth", self.reference_depth, *BOUNDS["reference_depth"])
         for name in ("h_normal_override", "h_tangential_override"):
             value = getattr(self, name)
             if value is not None:
@@ -125,9 +137,9 @@ class Contact:
     """Indenter geometry and friction.
 
     Attributes:
-        indenter_radius: R (m), radius of the paraboloid ``f(r) = r^2 / (2R)``.
-        friction_coefficient: mu (-), indenter-slider Coulomb friction.
-        base_friction_coefficient: mu1 (-), slider-base friction, ``F_base = sgn(V) mu1 F_z``.
+        indenter_radius: R (m), radius of the paraboloid ``f(r) = r^2 / (2R)``, in [1e-7, 10].
+        friction_coefficient: mu (-), indenter-slider Coulomb friction, in (0, 10].
+        base_friction_coefficient: mu1 (-), slider-base friction, ``F_base = sgn(V) mu1 F_z``, in [0, 10].
     """
 
     indenter_radius: float = 2.5e-3
@@ -136,9 +148,10 @@ class Contact:
 
     def __post_init__(self) -> None:
         store_floats(self, "indenter_radius", "friction_coefficient", "base_friction_coefficient")
-        check_range("Contact.indenter_radius", self.indenter_radius, 0.0, low_open=True)
-        check_range("Contact.friction_coefficient", self.friction_coefficient, 0.0, low_open=True)
-        check_range("Contact.base_friction_coefficient", self.base_friction_coefficient, 0.0)
+        check_range("Contact.indenter_radius", self.indenter_radius, *BOUNDS["indenter_radius"])
+        check_range("Contact.friction_coefficient", self.friction_coefficient, *BOUNDS["friction_coefficient"],
+                    low_open=True)
+        check_range("Contact.base_friction_coefficient", self.base_friction_coefficient, *BOUNDS["friction_coefficient"])
 
 
 @dataclass(frozen=True)
@@ -146,10 +159,10 @@ class Drive:
     """The slider and its cargo.
 
     Attributes:
-        slider_mass: M (kg).
-        cargo_mass: m (kg); it sets the load ``F_m = m g`` against the motion.
-        gravity: g (m/s^2).
-        load_force: F_m (N), >= 0, if given, replacing ``m g``.
+        slider_mass: M (kg), finite and >= 1e-6; a huge mass (1e30) holds the slider still.
+        cargo_mass: m (kg), in [0, 1e4]; it sets the load ``F_m = m g`` against the motion.
+        gravity: g (m/s^2), in [0, 1e3].
+        load_force: F_m (N), in [0, 1e6], if given, replacing ``m g``.
         cargo_inertia: if True the cargo also accelerates with the slider (moving mass M + m);
             the paper's choice is False (moving mass M).
     """
@@ -162,11 +175,11 @@ class Drive:
 
     def __post_init__(self) -> None:
         store_floats(self, "slider_mass", "cargo_mass", "gravity", "load_force")
-        check_range("Drive.slider_mass", self.slider_mass, 0.0, low_open=True)
-        check_range("Drive.cargo_mass", self.cargo_mass, 0.0)
-        check_range("Drive.gravity", self.gravity, 0.0)
+        check_range("Drive.slider_mass", self.slider_mass, *BOUNDS["slider_mass"])
+        check_range("Drive.cargo_mass", self.cargo_mass, *BOUNDS["cargo_mass"])
+        check_range("Drive.gravity", self.gravity, *BOUNDS["gravity"])
         if self.load_force is not None:
-            check_range("Drive.load_force", self.load_force, 0.0)
+            check_range("Drive.load_force", self.load_force, *BOUNDS["load_force"])
         if isinstance(self.cargo_inertia, np.bool_):
             object.__setattr__(self, "cargo_inertia", bool(self.cargo_inertia))
         if not isinstance(self.cargo_inertia, bool):

@@ -12,7 +12,7 @@ from gymnasium import spaces
 
 from ..core import Contact, Drive, DriveParams, DriveSimulator, Material, numerics_preset
 from ..core.materials import normal_force_analytic
-from ..core.params import VARIANTS
+from ..core.params import VARIANTS, is_real_number
 from ..core.waveform import PAPER_X, PAPER_Z, Waveform
 from .sensor import SensorHistory
 from .spaces import (ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, codebook_rows, load_action_codebook,
@@ -148,7 +148,7 @@ class MDRDriveEnv(gym.Env):
     ``load_step_period``), for evaluation, and ``env.unwrapped.privileged_observation()`` returns
     the full observation of the current state (with the load of the coming period, the new one when
     a load step falls on it): what a privileged teacher is told while a sensor policy learns
-    (``agents/adapt.py``, docs/adaptation.md).
+    (docs/adaptation.md).
 
     **Privileged observation** (``observation="privileged"``): the full observation and then the
     episode's friction coefficients, entry 14 mu and entry 15 mu1 (-), bounds [0, 2]
@@ -315,6 +315,7 @@ class MDRDriveEnv(gym.Env):
         self.sim: DriveSimulator | None = None
         self.last_trace: np.ndarray | None = None
         self._renderer = None
+        self.params_for(self.k_range[1], self.cargo_mass_range[1])  # the heaviest model: bad values fail here, not at reset
 
     # --- helpers ---
     def params_for(self, k: float, cargo_mass: float, contact: Contact | None = None) -> DriveParams:
@@ -334,6 +335,9 @@ class MDRDriveEnv(gym.Env):
                              "'load_ratio', 'friction_coefficient', 'base_friction_coefficient', 'load_step')")
         if options.get("cargo_mass") is not None and options.get("load_ratio") is not None:
             raise ValueError("reset options 'cargo_mass' and 'load_ratio' both set the load: give one of them")
+        for name in ("k", "cargo_mass", "friction_coefficient", "base_friction_coefficient"):
+            if options.get(name) is not None and not is_real_number(options[name]):
+                raise ValueError(f"reset option {name}={options[name]!r} must be a number (one episode, one value)")
         k = options.get("k", None)
         m = options.get("cargo_mass", None)
         k = float(rng.uniform(*self.k_range)) if k is None else float(k)
@@ -373,8 +377,15 @@ class MDRDriveEnv(gym.Env):
     def box_action(self, action) -> np.ndarray:
         """The Box action (5,) float64 that ``action`` plays: itself, or with ``action_codebook`` the
         table's row it indexes, in float32 as a Box action (``ValueError`` for an index outside it)."""
+        if isinstance(action, (dict, str, bytes)) or np.asarray(action).dtype.kind not in "biuf":
+            raise ValueError(f"action {action!r} is not {'an index' if self.action_codebook is not None else 'an array'}"
+                             f" of real numbers (the action space is {self.action_space})")
         if self.action_codebook is not None:
+            if np.size(action) != 1:
+                raise ValueError(f"action {action!r} is not one index of the action space {self.action_space}")
             action = codebook_rows(self.action_codebook, np.asarray(action).reshape(()))
+        if np.size(action) != ActionMap.SIZE:
+            raise ValueError(f"action of shape {np.shape(action)} is not one of the action space {self.action_space}")
         return np.asarray(action, dtype=np.float64).reshape(ActionMap.SIZE)
 
     def action_to_waveform(self, action: np.ndarray) -> Waveform:
@@ -395,8 +406,12 @@ class MDRDriveEnv(gym.Env):
         self._last_result = None
         self.load_step = None  # (period index, new cargo mass in kg) of this episode's load step
         if (options or {}).get("load_step") is not None:  # given for this episode: (period, cargo mass in kg)
-            period, mass = options["load_step"]
-            if not (isinstance(period, (int, np.integer)) and 1 <= period <= self.max_periods - 1):
+            step = options["load_step"]
+            if not (isinstance(step, (tuple, list)) and len(step) == 2 and is_real_number(step[1])):
+                raise ValueError(f"reset option load_step={step!r} must be (period, cargo mass in kg)")
+            period, mass = step
+            if isinstance(period, (bool, np.bool_)) or not (isinstance(period, (int, np.integer))
+                                                             and 1 <= period <= self.max_periods - 1):
                 raise ValueError(f"reset option load_step period={period!r} is outside the allowed range "
                                  f"[1, {self.max_periods - 1}]")
             self.load_step = (int(period), float(self.params.with_cargo_mass(float(mass)).drive.cargo_mass))
@@ -411,6 +426,9 @@ class MDRDriveEnv(gym.Env):
     def step(self, action):
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
+        if self.period_index >= self.max_periods:
+            raise RuntimeError(f"the episode ended (truncated after its {self.max_periods} periods): call reset() "
+                               "before step()")
         action = self.box_action(action)
         wp = self.action_map.to_params(action)
         if self.load_step is not None and self.period_index == self.load_step[0]:  # the cargo changes now

@@ -39,7 +39,8 @@ def test_shipped_folder_holds_only_the_policy_its_card_and_its_teacher(folder):
     assert files == sorted(["MODEL_CARD.md", *policy_files(folder), *extra])
     assert {"model.zip", "run.json", "vecnormalize.pkl"} <= set(files)
     if (folder / "teacher").exists():  # a policy's pinned teacher, which its training config reads
-        assert sorted(p.name for p in (folder / "teacher").iterdir()) == ["model.zip", "run.json", "vecnormalize.pkl"]
+        assert sorted(p.name for p in (folder / "teacher").iterdir()) == ["model.zip", "run.json", "vecnormalize.npz",
+                                                                          "vecnormalize.pkl"]
 
 
 def test_load_policy_plays_exactly_what_evaluate_reports(capsys):

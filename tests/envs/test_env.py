@@ -421,14 +421,14 @@ def test_a_codebook_action_plays_its_row_and_the_envs_stay_checker_clean(tmp_pat
     a, b = picks.reset(seed=1)[0], boxes.reset(seed=1)[0]
     for i in (2, 5, 5, 0):
         a, ra, *_ = picks.step(np.int64(i))
-        b, rb, *_ = boxes.step(table[i])
-        assert np.array_equal(a, b) and ra == rb  # the observation holds the row played: unchanged
+        b, rb, *_ = boxes.step(table[i].astype(np.float32))
+        assert np.array_equal(a, b) and ra == rb  # a row is played as the float32 action it stands for
     vec = gym.make_vec("MDRDrive-v0", num_envs=2, vectorization_mode="vector_entry_point", k=0.3, cargo_mass=0.05,
                        action_codebook=table)
     vec.reset(seed=1)
     obs, rewards, *_ = vec.step(np.array([2, 5]))
     boxes.reset(seed=1)
-    assert rewards[0] == boxes.step(table[2])[1]
+    assert rewards[0] == boxes.step(table[2].astype(np.float32))[1]
     assert np.array_equal(obs[1, 5:10], table[5].astype(np.float32))
     picks = pickle.loads(pickle.dumps(picks))
     for bad in (6, -1, 1.5):
@@ -440,3 +440,63 @@ def test_a_codebook_action_plays_its_row_and_the_envs_stay_checker_clean(tmp_pat
                                (str(tmp_path / "missing.npy"), "missing.npy")):
         with pytest.raises(ValueError, match=f"action_codebook.*{message}"):
             gym.make("MDRDrive-v0", action_codebook=bad_table)
+
+
+@pytest.mark.parametrize("options, needle", [
+    ({"load_step": 5}, "load_step=5 must be (period, cargo mass in kg)"),
+    ({"load_step": (2.5, 0.1)}, "load_step period=2.5"),
+    ({"k": [0.1, 0.2]}, "reset option k=[0.1, 0.2] must be a number"),
+    ({"k": "0.2"}, "reset option k='0.2' must be a number"),
+    ({"cargo_mass": 1e308}, "Drive.cargo_mass=1e+308 is outside the allowed range [0, 10000]"),
+])
+def test_bad_reset_options_are_value_errors_naming_them(options, needle):
+    env = gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1)
+    with pytest.raises(ValueError) as e:
+        env.reset(seed=0, options=options)
+    assert needle in str(e.value)
+
+
+@pytest.mark.parametrize("action, needle", [({"x": 1}, "is not an array of real numbers"),
+                                            (np.full(5, 0.3 + 0.1j), "is not an array of real numbers"),
+                                            ("trapezoid", "is not an array"), (np.zeros(4), "shape (4,)")])
+def test_bad_actions_are_value_errors_not_truncated_or_cast(action, needle):
+    env = gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1)
+    env.reset(seed=0)
+    with pytest.raises(ValueError) as e:
+        env.step(action)
+    assert needle in str(e.value)
+
+
+@pytest.mark.parametrize("kwargs, needle", [
+    ({"indenter_radius": 1e-300}, "Contact.indenter_radius=1e-300 is outside the allowed range [1e-07, 10]"),
+    ({"indenter_radius": 1e300}, "Contact.indenter_radius=1e+300"),
+    ({"cargo_mass": 1e308}, "Drive.cargo_mass=1e+308 is outside the allowed range [0, 10000]"),
+    ({"cargo_mass": float("inf")}, "cargo_mass=inf is outside the allowed range"),
+    ({"gravity": 1e308}, "Drive.gravity=1e+308"), ({"youngs_modulus": 1e300}, "Material.youngs_modulus=1e+300"),
+])
+def test_physically_meaningless_values_are_refused_with_their_range_when_the_env_is_made(kwargs, needle):
+    with pytest.raises(ValueError) as e:
+        gym.make("MDRDrive-v0", **{"k": 0.2, "cargo_mass": 0.1, **kwargs})
+    assert needle in str(e.value)
+
+
+def test_a_finished_episode_is_not_stepped_until_reset():
+    env = gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1, max_periods=2)
+    env.reset(seed=0)
+    a = env.unwrapped.trapezoid_action()
+    env.step(a)
+    assert env.step(a)[3]  # truncated
+    with pytest.raises(RuntimeError, match="the episode ended"):
+        env.unwrapped.step(a)
+    env.reset(seed=0)
+    env.step(a)
+
+
+def test_the_environment_docs_vector_env_lines_run():
+    import re
+
+    text = (ROOT / "docs" / "environment.md").read_text()
+    block = next(b for b in re.findall(r"```python\n(.*?)```", text, flags=re.S) if "BatchedVecEnv" in b)
+    scope = {}
+    exec(block, scope)
+    assert scope["obs"].shape == (64, 14)

@@ -137,7 +137,7 @@ def test_ctrl_c_keeps_the_finished_searches_and_resume_runs_only_the_rest(tmp_pa
     monkeypatch.setattr(blind, "best_drive", interrupted)
     with pytest.raises(KeyboardInterrupt):
         blind.run([], 4, seed=2, out=tmp_path / "a", quick=True, workers=1)
-    assert len(list((tmp_path / "a" / ".tasks" / "best_drive").glob("*.pkl"))) == 2
+    assert len(list((tmp_path / "a" / ".tasks" / "best_drive").glob("*.json"))) == 2
     calls.clear()
     monkeypatch.setattr(blind, "best_drive", lambda args: calls.append(args) or real(args))
     resumed = blind.run([], 4, seed=2, out=tmp_path / "a", quick=True, workers=1, resume=True)

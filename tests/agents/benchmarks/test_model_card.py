@@ -59,9 +59,9 @@ def test_the_model_card_snippet_builds_the_env_the_policy_acts_in():
     from mdr_drive_agents.benchmarks.model_card import snippet
 
     plain = {"env_id": "MDRDrive-v0", "env_kwargs": {"k": [0.0, 0.6]}}
-    assert 'gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1)' in snippet(Path("p"), plain)
+    assert 'gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1, max_periods=30)' in snippet(Path("p"), plain)
     fine = snippet(Path("p"), {**plain, "env_kwargs": {"time_quantum": 5e-6, "z_phase_origin": 0.5}})
-    assert 'gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1, z_phase_origin=0.5, time_quantum=5e-06)' in fine
+    assert 'gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1, max_periods=30, z_phase_origin=0.5, time_quantum=5e-06)' in fine
     assert "in 5 us steps" in fine and "phase 0 at action 0" in fine
 
 

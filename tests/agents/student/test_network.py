@@ -94,7 +94,8 @@ def test_a_fit_runs_its_first_steps_in_bfloat16_and_the_rest_in_float32():
         dtypes.append(out.dtype)
         return torch.mean((out.float() - y[idx]) ** 2)
 
-    first = float(torch.mean((net(x) - y) ** 2))
+    with torch.no_grad():
+        first = float(torch.mean((net(x) - y) ** 2))
     last = adam_fit(net.parameters(), lambda: (len(x), loss_of), 40, 64, 1e-2, 0, "test", progress=False,
                     bf16_share=0.75, fused=True)
     assert dtypes == [torch.bfloat16] * 30 + [torch.float32] * 10
