@@ -1,12 +1,20 @@
 # Every target creates .venv when it is missing and installs the package with all extras.
-# torch is pinned to the CPU build through constraints.txt.
+# torch is pinned to the CPU build through constraints.txt. `make help` lists the targets.
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
+MDR    := $(VENV)/bin/mdr-drive
 STAMP  := $(VENV)/.installed-stamp
 PYTEST_ARGS ?=
+#: The shipped policy's record: blind benchmarks on these seeds (none was used to build or select it).
+RECORD_SEEDS := 20261255 20261256 20261257 20261258 20261259 20261260 20261273 20261274 20261275 20261276 20261277 20261278
 
-.PHONY: install test demo reproduce convergence bench train train-sensor benchmark blind adaptation claims clean
+.PHONY: help install test demo reproduce claims convergence bench scaling train train-sensor benchmark record dense \
+        adaptation cards clean
+
+## make help: this list
+help:
+	@grep -h '^## make' $(MAKEFILE_LIST) | sed 's/^## //'
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -15,50 +23,69 @@ $(STAMP): pyproject.toml constraints.txt
 
 install: $(STAMP)
 
-## make test: the whole test suite (a few minutes on 2 cores)
+## make test: the whole test suite (about 2 minutes on 2 cores once installed)
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2 --dist loadgroup $(PYTEST_ARGS)
 
-## make demo: the main job: the paper's drive, then the shipped policy against the trapezoid
+## make demo: the main job: the paper's drive, the shipped policy against the trapezoid, the sensor policy (results/demo)
 demo: $(STAMP)
-	$(VENV)/bin/mdr-drive demo --out results/demo
+	$(MDR) demo --out results/demo
 
-## make reproduce: the paper's Figs. 3-5 under results/paper (paper numerics: long)
+## make reproduce: the paper's Figs. 3-5 for both model variants (results/paper, results/paper_as_published; paper numerics: long)
 reproduce: $(STAMP)
-	$(VENV)/bin/mdr-drive reproduce --out results/paper
+	$(MDR) reproduce --out results/paper
+	$(MDR) reproduce --variant as-published --out results/paper_as_published
 
-## make convergence: the dt/dx convergence table under results/convergence
+## make claims: each claim of the paper's text against the model variants (results/paper_claims*; the paper-numerics run is long)
+claims: $(STAMP)
+	$(PY) scripts/paper_claims.py --out results/paper_claims
+	$(PY) scripts/paper_claims.py --models as-specified --h-normal-scales 1.3 1.35 1.4 1.6 1.8 2.2 2.3 2.5 3 4 \
+	    --out results/paper_claims_h_normal_scan
+	$(PY) scripts/paper_claims.py --numerics paper --models as-specified as-published --out results/paper_claims_paper_numerics
+
+## make convergence: the dt/dx convergence table of the grid solver (results/convergence)
 convergence: $(STAMP)
 	$(PY) scripts/convergence.py --out results/convergence
 
 ## make bench: speed and accuracy of the solvers (results/bench)
 bench: $(STAMP)
-	$(VENV)/bin/mdr-drive bench --out results/bench
+	$(MDR) bench --out results/bench
 
-## make train: the shipped policy's recipe: the drive-field teacher, then the DAgger-distilled PPO student (runs/recipe; 14-22 minutes alone on 2 cores by the host's speed, docs/results.md; continue an interrupted one with python -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --resume)
+## make scaling: the sweeps' speed-up from 1 to N workers and its projection (results/scaling)
+scaling: $(STAMP)
+	$(PY) scripts/scaling.py --out results/scaling
+
+## make train: the shipped policy's recipe, teacher then student (runs/recipe; 14-22 minutes alone on 2 cores, docs/results.md)
 train: $(STAMP)
-	$(PY) -m mdr_drive_agents.recipe agents/configs/recipe.yaml --out runs/recipe --force
+	$(MDR) recipe agents/configs/recipe.yaml --out runs/recipe --force
 
-## make train-sensor: the sensor policy (MDRDriveSensor-v0: k, load, friction hidden) from its full-observation teacher, agents/pretrained/ppo_sensor/teacher (runs/sensor)
+## make train-sensor: the sensor policy from its full-observation teacher, agents/pretrained/ppo_sensor/teacher (runs/sensor)
 train-sensor: $(STAMP)
-	$(PY) -m mdr_drive_agents.adapt agents/configs/sensor.yaml --out runs/sensor --force
+	$(MDR) train-sensor agents/configs/sensor.yaml --out runs/sensor --force
 
-## make adaptation: the shipped sensor policy on blind hidden-parameter draws and load steps (results/adaptation/seed20261125)
-adaptation: $(STAMP)
-	$(PY) -m mdr_drive_agents.adaptation --seed 20261125 --out results/adaptation/seed20261125
-
-## make benchmark: the shipped policy against the trapezoid and CMA-ES on the fixed grid (results/benchmark_shipped)
+## make benchmark: the shipped policy against the trapezoid and CMA-ES on the fixed grid (results/benchmark)
 benchmark: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark_shipped
+	$(MDR) benchmark --policies agents/pretrained/ppo_generalist --out results/benchmark
 
-## make blind: the shipped policy on 120 random points of the first report seed its model card quotes, the scan's k drawn with the seed (its record: results/blind/seed20261255_drawn_scan, 683 s alone on 2 cores)
-blind: $(STAMP)
-	$(VENV)/bin/mdr-drive benchmark --blind 120 --seed 20261255 --scan-draw --policies agents/pretrained/ppo_generalist \
-	    --out results/blind/seed20261255_shipped
+## make record: the shipped policy's blind record, one blind benchmark per seed of RECORD_SEEDS (results/record; about 6-11 minutes a seed)
+record: $(STAMP)
+	for seed in $(RECORD_SEEDS); do \
+	    $(MDR) benchmark --blind 120 --seed $$seed --scan-draw --policies agents/pretrained/ppo_generalist \
+	        --out results/record/seed$$seed || exit $$?; done
 
-## make claims: each claim of the paper's text against the model variants (results/paper_claims)
-claims: $(STAMP)
-	$(PY) scripts/paper_claims.py --out results/paper_claims
+## make dense: where the shipped policy is below the trapezoid on a dense grid of its domain (results/dense)
+dense: $(STAMP)
+	$(MDR) dense --policy agents/pretrained/ppo_generalist --ks 173 --loads 277 --out results/dense --force
+
+## make adaptation: the shipped sensor policy on blind hidden-parameter draws and load steps (results/adaptation)
+adaptation: $(STAMP)
+	$(MDR) adaptation --seed 20261125 --out results/adaptation
+
+## make cards: both shipped policies' model cards, from their files, the record and the adaptation report
+cards: $(STAMP)
+	$(MDR) model-card agents/pretrained/ppo_generalist agents/pretrained/ppo_generalist \
+	    $(foreach seed,$(RECORD_SEEDS),results/record/seed$(seed)/blind.json) > /dev/null
+	$(MDR) model-card agents/pretrained/ppo_sensor agents/pretrained/ppo_sensor results/adaptation/adaptation.json > /dev/null
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info

@@ -177,9 +177,10 @@ def _cell(text: str) -> float:
     return float(text) if text else float("nan")
 
 
-def _plot_states(ax, xs, vs, states, color, label, bottom):
+def _plot_states(ax, strip, xs, vs, states, color, label, row):
     """One curve of Fig. 5: a line through the points with a velocity, filled markers where settled,
-    hollow where still settling, and x at ``bottom`` (a row per curve) where the load runs away."""
+    hollow where still settling; where the load runs away there is no velocity, so those points are
+    an x in row ``row`` of the ``strip`` axes under the plot (None: no strip), not on the velocity axis."""
     xs, vs, states = np.asarray(xs), np.asarray(vs) * 1e3, np.asarray(states)
     ax.plot(xs, vs, "-", color=color, lw=1, label=label)
     for state, style in (("settled", dict(marker="o", ls="none", ms=3, color=color)),
@@ -187,8 +188,21 @@ def _plot_states(ax, xs, vs, states, color, label, bottom):
         sel = states == state
         ax.plot(xs[sel], vs[sel], **style)
     run = states == "runaway"
-    if run.any():
-        ax.plot(xs[run], np.full(run.sum(), bottom), "x", color=color, ms=5)
+    if strip is None:
+        return
+    strip.plot(xs[run], np.full(run.sum(), row), "x", color=color, ms=4)
+
+
+def _runaway_strip(ax, rows: int):
+    """An axes under ``ax`` (sharing its x) for the points where the load runs away, a row per curve."""
+    from mpl_toolkits.axes_grid1 import make_axes_locatable
+
+    strip = make_axes_locatable(ax).append_axes("bottom", size="24%", pad=0.08, sharex=ax)
+    strip.set(ylim=(-0.8, rows - 0.2), yticks=[])
+    strip.set_ylabel("runaway", fontsize=7, rotation=0, ha="right", va="center")
+    strip.grid(alpha=0.3, axis="x")
+    ax.tick_params(labelbottom=False)
+    return strip
 
 
 def plot_figures(out: str | Path, numerics: str = "paper", variant: str = "as-specified") -> None:
@@ -235,25 +249,24 @@ def plot_figures(out: str | Path, numerics: str = "paper", variant: str = "as-sp
              ("settled", f"settled <V> ({SETTLED_NUMERICS} numerics, up to 100 periods)"))
     for row, (rule, rule_title) in enumerate(rules):
         v_col, s_col = col[f"{rule}_velocity_m_s"], col[f"{rule}_state"]
-        finite = [_cell(r[v_col]) * 1e3 for r in rows if r[v_col]]
-        span = max(finite) - min(finite) if finite else 1.0
-        bottom, step = (min(finite) if finite else -1.0) - 0.05 * span, 0.025 * span
         for c, (panel, key, other, xlabel, fmt) in enumerate((
                 ("left", 2, 1, "cargo mass m (kg)", "k = {:g}"), ("right", 1, 2, "k", "m = {:g} kg"))):
             ax = axes[row, c]
             sel = [r for r in rows if r[0] == panel]
-            for n, curve in enumerate(sorted({float(r[other]) for r in sel})):
+            curves = sorted({float(r[other]) for r in sel})
+            strip = _runaway_strip(ax, len(curves))
+            for n, curve in enumerate(curves):
                 pts = sorted((float(r[key]), _cell(r[v_col]), r[s_col]) for r in sel if float(r[other]) == curve)
                 xs, vs, states = zip(*pts)
-                _plot_states(ax, xs, vs, states, f"C{n % 10}", fmt.format(curve), bottom - n * step)
-            ax.set(xlabel=xlabel, ylabel="<V> (mm/s)",
-                   title=f"Fig. 5 {panel}: {rule_title}" if c == 0 else f"Fig. 5 {panel}")
+                _plot_states(ax, strip, xs, vs, states, f"C{n % 10}", fmt.format(curve), n)
+            strip.set_xlabel(xlabel)
+            ax.set(ylabel="<V> (mm/s)", title=f"Fig. 5 {panel}: {rule_title}" if c == 0 else f"Fig. 5 {panel}")
             ax.axhline(0, color="k", lw=0.6)
             ax.grid(alpha=0.3)
             ax.legend(fontsize=6, ncol=2)
             ax.title.set_fontsize(9)
-    fig.suptitle(f"{tag}. Filled: settled; hollow: still settling; x at the bottom: the load runs away "
-                 "(no velocity)", fontsize=9)
+    fig.suptitle(f"{tag}. Filled: settled; hollow: still settling; x in the strip under a panel: the load runs "
+                 "away (no velocity)", fontsize=9)
     fig.tight_layout()
     save_figure(fig, out / "fig5.png")
     plt.close(fig)
@@ -262,18 +275,18 @@ def plot_figures(out: str | Path, numerics: str = "paper", variant: str = "as-sp
     col = {name: i for i, name in enumerate(head)}
     r = [(float(x[0]), float(x[1]), _cell(x[col["paper_rule_velocity_m_s"]]), x[col["paper_rule_state"]])
          for x in rows]
-    finite = [v * 1e3 for *_, v, _ in r if np.isfinite(v)]
-    bottom = min(finite) - 5 if finite else -1.0
-    fig, ax = plt.subplots(figsize=(6, 4.2))
+    fig, ax = plt.subplots(figsize=(6, 4.6))
+    strip = _runaway_strip(ax, 3) if any(state == "runaway" for *_, state in r) else None
     for n, (label, mask, x_of) in enumerate((
             ("h_N and h_T scaled", lambda sn, st: sn == st, lambda sn, st: sn),
             ("h_N scaled", lambda sn, st: st == 1.0, lambda sn, st: sn),
             ("h_T scaled", lambda sn, st: sn == 1.0, lambda sn, st: st))):
         pts = sorted((x_of(sn, st), v, state) for sn, st, v, state in r if mask(sn, st))
         xs, vs, states = zip(*pts)
-        _plot_states(ax, xs, vs, states, f"C{n}", label, bottom)
+        _plot_states(ax, strip, xs, vs, states, f"C{n}", label, n)
     ax.axhline(0, color="k", lw=0.6)
-    ax.set(xscale="log", xlabel="scale factor on h", ylabel="<V> (mm/s), 6th period",
+    (strip or ax).set(xscale="log", xlabel="scale factor on h")
+    ax.set(xscale="log", ylabel="<V> (mm/s), 6th period",
            title=f"Sensitivity of <V> to h_N, h_T (k = 0.3, m = 0.1 kg)\n({tag})")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)

@@ -49,10 +49,25 @@ keeps every load below the trapezoid's stall (at a ratio of about 0.1 to 0.3), s
 something to improve on; with heavier loads most episodes are a slider dragged back, and the
 returns are dominated by how fast it goes backwards (see `reward_floor` below).
 
+The RL Zoo trains on the same config: its `MDRDrive-v0` block holds the hyperparameters and the
+training domain (`env_kwargs`), which the Zoo passes to the env (`make test` runs it for 300 steps):
+
+```bash
+python -m rl_zoo3.train --algo ppo --env MDRDrive-v0 --gym-packages mdr_drive_env -conf agents/configs/ppo.yaml
+```
+
 One step costs one simulated drive period with the fast solver (the `fast` numerics preset; speed
 and accuracy against the paper's numerics in [performance.md](performance.md)). For many envs in
 one process, `gym.make_vec("MDRDrive-v0", num_envs=64, vectorization_mode="vector_entry_point")`
-steps all of them in one compiled call; `agents.vec_env.BatchedVecEnv` adapts it to SB3.
+steps all of them in one compiled call. For Stable-Baselines3 the agents package builds the same
+batched env as an SB3 `VecEnv` (`make test` runs these lines):
+
+```python
+from mdr_drive_agents.vec_env import BatchedVecEnv
+
+venv = BatchedVecEnv(64, seed=0, k=(0.0, 0.5), load_ratio=(0.0, 0.2))   # MDRDrive-v0's keywords
+obs = venv.reset()                                                        # (64, 14)
+```
 """
 
 

@@ -32,7 +32,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--load-steps", type=positive_int, default=24, metavar="M", help="load-step episodes (-)")
     p.add_argument("--seed", type=int, required=True,
                    help="seed of the draws (-): keep one for your own choices, report on another")
-    p.add_argument("--out", default=None, type=output_dir, help="output folder (default: results/adaptation/seed<S>)")
+    p.add_argument("--out", default=None, type=output_dir, help="output folder (default: runs/adaptation/seed<S>)")
     p.add_argument("--quick", action="store_true", help="tiny per-point searches (CI)")
     p.add_argument("--replot", action="store_true",
                    help="only redraw the plots and adaptation.md from OUT/adaptation.json (nothing recomputed)")
@@ -50,7 +50,7 @@ def main(args: argparse.Namespace) -> int:
     from ..benchmarks.adaptation import markdown, plot, run
     from ..blas import pin_command
 
-    out = Path(args.out or f"results/adaptation/seed{args.seed}")
+    out = Path(args.out or f"runs/adaptation/seed{args.seed}")
     if args.replot:
         path = out / "adaptation.json"
         if not path.is_file():

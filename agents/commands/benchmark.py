@@ -29,7 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--policies", nargs="*", default=[], type=policy_path,
                    help="policy folders (model.zip, vecnormalize.pkl, run.json), e.g. one per training seed")
     p.add_argument("--out", default=None, type=output_dir,
-                   help="output folder (default: results/benchmark, or results/blind/seed<S> with --blind)")
+                   help="output folder (default: results/benchmark, or runs/blind/seed<S> with --blind)")
     p.add_argument("--quick", action="store_true", help="a CI-sized grid and CMA-ES budget")
     add_executor_arguments(p)  # the CMA-ES searches, of the grid and of --blind
     b = p.add_argument_group("blind benchmark: random points of the training domain")
@@ -61,7 +61,7 @@ def main(args: argparse.Namespace) -> int:
         if args.seed is None:
             raise ValueError("--blind needs --seed: the seed that draws the points (keep one for your own "
                              "choices, report on another)")
-        out = args.out or f"results/blind/seed{args.seed}"
+        out = args.out or f"runs/blind/seed{args.seed}"
         budget = {"fixed_budget": args.cma_budget} if args.cma_budget else {}
         blind.run(args.policies, args.blind, args.seed, out, quick=args.quick, scan_ks=args.scan_ks,
                   scan_draw=args.scan_draw, reuse=args.reuse_search, executor=executor_from(args), resume=args.resume,

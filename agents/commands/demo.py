@@ -56,11 +56,10 @@ def main(args: argparse.Namespace) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    from mdr_drive_env.plotting import plot_run
     from mdr_drive_env.core import steady_velocity
-    from mdr_drive_env.files import save_figure, write_csv
+    from mdr_drive_env.files import write_csv
+    from mdr_drive_env.plotting import plot_run
 
     out = Path(args.out)
     t0 = time.perf_counter()
@@ -95,33 +94,46 @@ def main(args: argparse.Namespace) -> int:
                                      for j in range(n)))
 
     lp, tp = learned[n_table:].reshape(len(DEMO_KS), -1) * 1e3, trap[n_table:].reshape(len(DEMO_KS), -1) * 1e3
-    masses = np.array(PLOT_MASSES)
-    fig, ax = plt.subplots(figsize=(8, 4.8))
-    for i, k in enumerate(DEMO_KS):
-        ax.plot(masses, tp[i], "-", color=f"C{i}", lw=1.5, label=f"trapezoid, k = {k:g}")
-        ax.plot(masses, lp[i], ":", color=f"C{i}", lw=2, label=f"{name}, k = {k:g}")
-        for curve, marker in ((tp[i], "x"), (lp[i], "+")):
-            gone = np.isnan(curve)
-            if gone.any():
-                ax.plot(masses[gone], np.full(gone.sum(), -19.0 + 0.8 * i), marker, color=f"C{i}", ms=6)
-    finite = np.concatenate([lp[np.isfinite(lp)], tp[np.isfinite(tp)]])
-    ax.axhline(0, color="k", lw=0.6)
-    ax.set(xlabel="cargo mass m (kg)", ylabel="steady velocity (mm/s)", ylim=(-20, 1.08 * finite.max()),
-           title=f"{name} vs the paper's trapezoid (mean of periods 21-30)\n"
-                 "below -20 mm/s: dragged back; x (trapezoid), + (policy) at the bottom: the load runs away",
-           )
-    ax.title.set_fontsize(9)
-    ax.legend(fontsize=7, ncol=2)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    save_figure(fig, out / "policy_vs_trapezoid.png")
-    plt.close(fig)
+    plot_policy_vs_trapezoid(np.array(PLOT_MASSES), lp, tp, name, out / "policy_vs_trapezoid.png")
     write_csv(out / "policy_vs_trapezoid.csv", ["k", "cargo_mass_kg", "learned_m_s", "trapezoid_m_s"],
               [(k, m, csv_velocity(float(v)), csv_velocity(float(t)))
                for (k, m), v, t in zip(plot_points, learned[n_table:], trap[n_table:])])
     load_steps(load_policy(args.sensor_policy), policy, out)
     print(f"\nplots and CSV in {out}/ ; done in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+def plot_policy_vs_trapezoid(masses: np.ndarray, lp: np.ndarray, tp: np.ndarray, name: str, path: Path) -> None:
+    """Steady velocity (mm/s) over the load of the policy (``lp``) and the trapezoid (``tp``), one row
+    per k of ``DEMO_KS``; where the load runs away with the slider (NaN) there is no velocity, so
+    those loads are marked in a strip of their own under the plot, not on the velocity axis."""
+    import matplotlib.pyplot as plt
+
+    from mdr_drive_env.files import save_figure
+
+    fig, (ax, strip) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, gridspec_kw={"height_ratios": [5, 1]})
+    labels = []
+    for i, k in enumerate(DEMO_KS):
+        ax.plot(masses, tp[i], "-", color=f"C{i}", lw=1.5, label=f"trapezoid, k = {k:g}")
+        ax.plot(masses, lp[i], ":", color=f"C{i}", lw=2, label=f"{name}, k = {k:g}")
+        for row, (curve, marker) in enumerate(((tp[i], "x"), (lp[i], "+"))):
+            gone = np.isnan(curve)
+            y = 2 * i + row
+            strip.plot(masses[gone], np.full(gone.sum(), y), marker, color=f"C{i}", ms=5)
+            labels.append(f"{'trapezoid' if row == 0 else 'policy'}, k = {k:g}")
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set(ylabel="steady velocity (mm/s)",
+           title=f"{name} vs the paper's trapezoid (mean of periods 21-30); below 0: the load drags the slider back")
+    ax.title.set_fontsize(9)
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(alpha=0.3)
+    strip.set(yticks=range(len(labels)), xlabel="cargo mass m (kg)", ylim=(-0.7, len(labels) - 0.3))
+    strip.set_yticklabels(labels, fontsize=5)
+    strip.set_title("loads where the load runs away with the slider (no steady velocity)", fontsize=8)
+    strip.grid(alpha=0.3, axis="x")
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
 
 
 def load_steps(sensor, full, out: Path) -> None:
@@ -132,8 +144,8 @@ def load_steps(sensor, full, out: Path) -> None:
     from mdr_drive_env.files import save_figure
 
     drives = (("sensor policy", sensor), ("full-observation policy", full), ("trapezoid", None))
-    print(f"\n3. a drive that does not know its load: k = {STEP_K:g}, the cargo changes before period "
-          f"{LOAD_STEPS[0][1]} (counted from 0); mean velocity (mm/s) of periods 1-{LOAD_STEPS[0][1]} -> "
+    print(f"\n3. a drive that does not know its load: k = {STEP_K:g}, the cargo changes after period "
+          f"{LOAD_STEPS[0][1]}; mean velocity (mm/s) of periods 1-{LOAD_STEPS[0][1]} -> "
           f"{LOAD_STEPS[0][1] + 6}-{STEP_PERIODS}")
     fig, axes = plt.subplots(1, len(LOAD_STEPS), figsize=(11, 3.8), sharey=True)
     for ax, (before, period, after) in zip(axes, LOAD_STEPS):
@@ -144,7 +156,7 @@ def load_steps(sensor, full, out: Path) -> None:
             ax.plot(np.arange(1, STEP_PERIODS + 1), v * 1e3, lw=1.8 if policy is sensor else 1.0, label=name)
         print(f"   {before * 1e3:.0f} g -> {after * 1e3:.0f} g: " + ", ".join(line))
         ax.axvline(period + 0.5, color="k", ls=":", lw=0.8)
-        ax.set(title=f"k = {STEP_K:g}: cargo {before * 1e3:.0f} g -> {after * 1e3:.0f} g before period {period + 1}",
+        ax.set(title=f"k = {STEP_K:g}: cargo {before * 1e3:.0f} g -> {after * 1e3:.0f} g after period {period}",
                xlabel="period")
         ax.title.set_fontsize(9)
         ax.grid(alpha=0.3)
