@@ -55,6 +55,11 @@ def test_a_planted_policy_folder_loads_and_evaluates_without_running_its_payload
     assert main(["evaluate", "--policy", str(folder), "--k", "0.2", "--cargo-mass", "0.1", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["learned_mean_velocity"] > 0
     assert not marker.exists()
+    # fine-tuning a planted copy reads the same files as data: one PPO rollout, and no payload ran
+    (tmp_path / "tune").mkdir()
+    tune, tune_marker = planted_policy(tmp_path / "tune")
+    assert main(["train", "--resume", str(tune), "--steps", "64", "--eval-freq", "100000", "--no-progress"]) == 0
+    assert not tune_marker.exists() and json.loads((tune / "run.json").read_text())["total_timesteps"] >= 64
     # SB3's own loader would have run them: the payloads are real
     from stable_baselines3 import PPO
 

@@ -40,6 +40,8 @@ def test_paired_values_print_a_list_in_order(capsys):
     heavy = records[1]  # 0.4 kg at k = 0.3: the load runs away with the slider, no velocity to report
     assert heavy["trapezoid_runaway"] and heavy["trapezoid_mean_velocity"] is None
     assert records[0]["trapezoid_mean_velocity"] == pytest.approx(15.49e-3, rel=2e-3)
+    code, out, _ = _run(["--k", "0.3", "--cargo-mass", "0.4"], capsys)  # the text says runaway, without a unit
+    assert code == 0 and "runaway" in out and "runaway mm/s" not in out
 
 
 @pytest.mark.parametrize("argv,needle", [
