@@ -78,9 +78,18 @@ class Waveform:
             )
 
     @classmethod
-    def paper(cls) -> "Waveform":
-        """The paper's waveform (Fig. 2)."""
-        return cls()
+    def paper(cls, period: float | None = None, x_amplitude: float | None = None,
+              z_amplitude: float | None = None) -> "Waveform":
+        """The paper's waveform (Fig. 2); with arguments, its shape (the rise and fall as the same
+        fractions of the period, both axes starting together) at another ``period`` (s) and strokes
+        ``x_amplitude``, ``z_amplitude`` (m): the trapezoid baseline of any drive. Without
+        arguments it is ``PAPER_X`` and ``PAPER_Z`` exactly."""
+        scale = 1.0 if period is None else float(period) / PAPER_X.period
+        x = AxisWaveform(PAPER_X.amplitude if x_amplitude is None else x_amplitude,
+                         PAPER_X.rise_time * scale, PAPER_X.fall_time * scale)
+        z = AxisWaveform(PAPER_Z.amplitude if z_amplitude is None else z_amplitude,
+                         PAPER_Z.rise_time * scale, PAPER_Z.fall_time * scale)
+        return cls(x=x, z=z)
 
     @property
     def period(self) -> float:

@@ -13,7 +13,7 @@ from gymnasium import spaces
 from ..core import Contact, Drive, DriveParams, DriveSimulator, Material, numerics_preset
 from ..core.materials import normal_force_analytic
 from ..core.params import VARIANTS, is_real_number
-from ..core.waveform import PAPER_X, PAPER_Z, Waveform
+from ..core.waveform import Waveform
 from .sensor import SensorHistory
 from .spaces import (ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, codebook_rows, load_action_codebook,
                      sample_range)
@@ -97,7 +97,9 @@ class MDRDriveEnv(gym.Env):
     imitates moves. ``time_quantum=5e-6`` halves the steps (any multiple of the numerics time step
     that divides the period is allowed; a policy's ``run.json`` keeps it, and ``mdr-drive evaluate``
     plays it in such an env). Actions outside the box are clipped; a non-finite action raises
-    ``ValueError``. ``env.unwrapped.trapezoid_action()`` is the paper's waveform (Fig. 2) exactly.
+    ``ValueError``. ``env.unwrapped.trapezoid_action()`` is the baseline: the paper's waveform
+    (Fig. 2) exactly, or for another ``period`` or strokes its shape at that period and the full
+    strokes ``x_amplitude_max``, ``z_amplitude_max``.
 
     **Codebook actions** (``action_codebook=``, an (N, 5) table of Box actions or the path of a
     ``.npy`` file holding one): ``Discrete(N)`` instead, action i plays the table's row i. The
@@ -371,8 +373,11 @@ class MDRDriveEnv(gym.Env):
                                      params.normal_stiffness_prefactor, params.c0)
 
     def trapezoid_action(self) -> np.ndarray:
-        """The action whose waveform is the paper's (Fig. 2) exactly, as float32 in the box."""
-        return self.action_map.to_action(Waveform(x=PAPER_X, z=PAPER_Z, z_phase=0.0))
+        """The trapezoid baseline as float32 in the box: the paper's waveform shape (Fig. 2) at this
+        env's period and full strokes (``x_amplitude_max``, ``z_amplitude_max``); with the defaults,
+        the paper's waveform exactly."""
+        amap = self.action_map
+        return amap.to_action(Waveform.paper(amap.period, amap.x_amplitude_max, amap.z_amplitude_max))
 
     def box_action(self, action) -> np.ndarray:
         """The Box action (5,) float64 that ``action`` plays: itself, or with ``action_codebook`` the

@@ -127,6 +127,27 @@ def test_trapezoid_action_reproduces_the_simulator_bit_for_bit():
         assert reward == expected.displacement / 30e-6
 
 
+@pytest.mark.parametrize("kwargs", [dict(period=1e-3, x_amplitude_max=20e-6, z_amplitude_max=4e-6),
+                                    dict(period=5e-3, x_amplitude_max=50e-6), dict(z_amplitude_max=3e-6)])
+def test_the_trapezoid_of_another_drive_is_the_papers_shape_at_its_period_and_full_strokes(kwargs):
+    env = gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.01, **kwargs).unwrapped
+    a = env.trapezoid_action()
+    period, x_max, z_max = (kwargs.get(key, default) for key, default in
+                            (("period", 2e-3), ("x_amplitude_max", 30e-6), ("z_amplitude_max", 6e-6)))
+    w, paper = env.action_to_waveform(a), Waveform.paper(period, x_max, z_max)
+    assert env.action_space.contains(a) and (w.x.amplitude, w.z.amplitude) == (x_max, z_max)
+    np.testing.assert_allclose([w.x.rise_time, w.x.fall_time, w.z.rise_time, w.z.fall_time, w.z_phase],
+                               [paper.x.rise_time, paper.x.fall_time, paper.z.rise_time, paper.z.fall_time, 0.0],
+                               rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose([w.x.rise_time / period, w.z.rise_time / period], [0.95, 0.85])
+    env.reset(seed=0)
+    assert env.step(a)[4]["mean_velocity"] > 0.0
+
+
+def test_the_papers_waveform_at_its_own_period_and_strokes_is_the_paper_exactly():
+    assert Waveform.paper(2e-3, 30e-6, 6e-6) == Waveform.paper() == Waveform()
+
+
 def test_the_z_phase_origin_moves_the_seam_of_the_phase_not_the_waveforms():
     from mdr_drive_env.gym_envs.spaces import ActionMap, shift_phase_origin
 
