@@ -60,6 +60,7 @@ from ..protocol import (
 )
 from ..search import CMA_BUDGET, CRITICAL_BISECTIONS, CYCLE_SEARCH, cycle_critical_load, search_point
 from .plots import plot_blind
+from .score import format_aggregate
 from .targets import (BELOW_TOLERANCE, CRITICAL_LOAD_TARGET, FRACTION_TARGET, MOVING_THRESHOLD, missed_targets,
                       statistics)
 
@@ -255,7 +256,8 @@ def markdown(res: dict) -> str:
                      f"{_f(s['worst_difference_to_trapezoid_mm_s'])} mm/s); fraction of the best drive where it moves >= {MOVING_THRESHOLD * 1e3:g} mm/s "
                      f"({s['points_scored']} points): mean {_f(s['fraction_of_best_mean'])}, min "
                      f"{_f(s['fraction_of_best_min'])}, {s['points_under_fraction_target']} under "
-                     f"{FRACTION_TARGET:g}; critical load / best cycle's: min "
+                     f"{FRACTION_TARGET:g}; normalised score (0 the trapezoid, 1 the best drive; 95 % bootstrap "
+                     f"intervals): {format_aggregate(s.get('normalized_score'))}; critical load / best cycle's: min "
                      f"{_f(s['critical_load_over_best_cycle_min'])}, >= {CRITICAL_LOAD_TARGET:g} at "
                      f"{s['k_values_at_critical_load_target']} of {len(s['critical_load_over_best_cycle'])} k; "
                      f"/ trapezoid's: "

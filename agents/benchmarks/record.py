@@ -9,7 +9,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from mdr_drive_env.files import nan_array
+
 from .blind import DRAWN_SCAN, scan_of
+from .score import SCORE_MIN_GAP, aggregate, format_aggregate, normalized_scores
 from .targets import (BELOW_TOLERANCE, CRITICAL_LOAD_TARGET, FRACTION_TARGET, MEAN_FRACTION_TARGET, MOVING_THRESHOLD,
                       missed_targets)
 
@@ -24,10 +27,13 @@ def blind_record(blind_jsons, policy_key: str) -> str:
     """The policy's blind record: one table row per blind benchmark's ``blind.json`` (one per report
     seed, ``mdr-drive benchmark --blind``), the commands that wrote them and on how many seeds the
     policy met every target (``targets.missed_targets``)."""
-    rows, commands, clean = [], {}, 0
+    rows, commands, clean, scores = [], {}, 0, []
     for path in blind_jsons:
         res = json.loads(Path(path).read_text())
         s = res["statistics"][policy_key]
+        if "trapezoid" in res:  # the per-point velocities (a blind.json holds them)
+            scores.append(normalized_scores(nan_array(res["trapezoid"]), nan_array([b["velocity"] for b in res["best"]]),
+                                            nan_array(res["learned"][policy_key])))
         over_trap = [r for r in s["critical_load_over_trapezoid"] if r is not None]
         scanned = sum(r is not None for r in s["critical_load_over_best_cycle"])
         missed = missed_targets(s)
@@ -45,8 +51,8 @@ def blind_record(blind_jsons, policy_key: str) -> str:
     return f"""## Blind results
 
 Random (k, load) points of the training domain, drawn with seeds that were not used to build or
-select the policy; the best drive at a point is a CMA-ES search's, or a compared policy's where it is
-faster. The targets: no point below the trapezoid by more than {BELOW_TOLERANCE * 1e3:g} mm/s; the fraction
+select the policy; the best drive at a point is the best a stated CMA-ES search finds (a closed-loop
+policy can beat it: fractions above 1). The targets: no point below the trapezoid by more than {BELOW_TOLERANCE * 1e3:g} mm/s; the fraction
 of the best drive (where it moves >= {MOVING_THRESHOLD * 1e3:g} mm/s) at least {MEAN_FRACTION_TARGET:g} on average and
 {FRACTION_TARGET:g} at every point; the critical load at least {CRITICAL_LOAD_TARGET:g} of the best two-action
 cycle's at every scanned k.
@@ -59,6 +65,16 @@ cycle's at every scanned k.
 
 All four targets met on {clean} of {len(rows)} report seeds: a fresh seed passes with probability about
 {clean / len(rows):.2f} (95 % Wilson interval {low:.2f}-{high:.2f}).
+{score_note(scores) if len(scores) == len(rows) else ""}"""
+
+
+def score_note(scores) -> str:
+    """The record's normalised score (``score``), each report seed's points a stratum."""
+    return f"""
+Normalised score over the report seeds' points, `(V - V_trapezoid) / (V_best - V_trapezoid)` where
+the best drive beats the trapezoid by at least {SCORE_MIN_GAP * 1e3:g} mm/s (0 the trapezoid, 1 the best
+drive found), with 95 % stratified-bootstrap intervals (each seed's points a stratum; rliable's
+IQM): {format_aggregate(aggregate(scores))}.
 """
 
 

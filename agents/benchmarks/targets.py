@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .score import aggregate, normalized_scores
+
 #: A drive is "below the trapezoid" when slower by more than this (m/s) where either moves.
 BELOW_TOLERANCE = 0.05e-3
 #: The fraction of the best drive counts only where the best drive moves at least this fast (m/s).
@@ -30,8 +32,9 @@ def below_trapezoid(trap: np.ndarray, learned: np.ndarray) -> tuple[np.ndarray, 
 
 
 def velocity_statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray) -> dict:
-    """Points below the trapezoid (where either moves, ``below_trapezoid``) and the fraction of the
-    best drive (where it moves at least ``MOVING_THRESHOLD``) of one drive's steady velocities (m/s;
+    """Points below the trapezoid (where either moves, ``below_trapezoid``), the fraction of the
+    best drive (where it moves at least ``MOVING_THRESHOLD``) and the normalised score (``score``:
+    IQM and mean with bootstrap intervals over the points) of one drive's steady velocities (m/s;
     NaN is a runaway)."""
     below, gap, moving = below_trapezoid(trap, learned)
     comparable = moving & np.isfinite(gap)
@@ -45,6 +48,7 @@ def velocity_statistics(trap: np.ndarray, best: np.ndarray, learned: np.ndarray)
         "fraction_of_best_mean": float(fraction.mean()) if fraction.size else None,
         "fraction_of_best_min": float(fraction.min()) if fraction.size else None,
         "points_under_fraction_target": int((fraction < FRACTION_TARGET).sum()),
+        "normalized_score": aggregate([normalized_scores(trap, best, learned)]),
     }
 
 

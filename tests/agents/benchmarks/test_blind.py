@@ -96,6 +96,9 @@ def test_statistics_on_known_numbers():
     assert s["critical_load_over_best_cycle_min"] == pytest.approx(0.95)
     assert s["k_values_at_critical_load_target"] == 1  # 1.0 reaches 0.97, 0.95 does not
     assert s["critical_load_over_trapezoid"] == pytest.approx([1.5, 1.14])
+    # normalised score where the best beats the trapezoid by >= 2 mm/s: (18-10)/10, (4.9-5)/5, (2+1)/5
+    scores = [0.8, -0.02, 0.6]
+    assert s["normalized_score"]["scores"] == 3 and s["normalized_score"]["mean"][0] == pytest.approx(np.mean(scores))
 
 
 def test_quick_blind_benchmark_writes_its_report(tmp_path, capsys):
@@ -115,6 +118,7 @@ def test_quick_blind_benchmark_writes_its_report(tmp_path, capsys):
     assert "Blind benchmark, seed 11" in capsys.readouterr().out
     missed = blind.missed_targets(stats)  # the report names the targets this policy missed (on 3 points)
     assert f"targets missed: {', '.join(missed) or 'none'}" in (out / "blind.md").read_text()
+    assert "normalised score (0 the trapezoid, 1 the best drive" in (out / "blind.md").read_text()
 
 
 def test_blind_needs_a_seed_and_a_seed_needs_blind(capsys):
