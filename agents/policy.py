@@ -38,7 +38,8 @@ FILES = ("model.zip", NORMALIZATION_FILE, "vecnormalize.pkl", "run.json")
 CODEBOOK_FILE = "action_codebook.npy"
 #: Keys of a policy's env keywords (run.json) that shape its observation, and that set what its
 #: Box actions mean: the closed-loop protocol builds its envs with them.
-OBSERVATION_KEYS = ("observation", "history", "sensor_forces")
+OBSERVATION_KEYS = ("observation", "history", "sensor_forces", "sensor_tier", "trace_samples", "encoder_noise",
+                    "force_noise")
 ACTION_KEYS = ("z_phase_origin", "time_quantum")
 PLAY_KEYS = OBSERVATION_KEYS + ACTION_KEYS
 ALGORITHMS = ("ppo", "sac")

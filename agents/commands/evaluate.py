@@ -180,7 +180,8 @@ def main(args: argparse.Namespace) -> int:
         if single_env:  # one single env per run: sensor policies, other frictions, load steps
             kw = {**env_kwargs, **friction, "variant": args.variant}
             runs = [(env_rollout(policy, k, m, args.periods, args.load_step, **kw),
-                     env_rollout(None, k, m, args.periods, args.load_step, **{**kw, "observation": "full"}))
+                     env_rollout(None, k, m, args.periods, args.load_step, **{
+                         **{key: v for key, v in kw.items() if key not in OBSERVATION_KEYS}, "observation": "full"}))
                     for k, m in points]
             v_learned = np.array([r[0][0] for r in runs]).T  # (periods, n) m/s
             v_trap = np.array([r[1][0] for r in runs]).T

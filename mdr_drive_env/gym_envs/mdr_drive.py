@@ -14,7 +14,8 @@ from ..core import Contact, Drive, DriveParams, DriveSimulator, Material, numeri
 from ..core.materials import normal_force_analytic
 from ..core.params import VARIANTS, is_real_number
 from ..core.waveform import Waveform
-from .sensor import SensorHistory
+from .sensor import (DEFAULT_ENCODER_NOISE, DEFAULT_FORCE_NOISE, DEFAULT_TRACE_SAMPLES, SensorHistory, SensorTier,
+                     sample_positions)
 from .spaces import (ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, codebook_rows, load_action_codebook,
                      sample_range)
 
@@ -145,7 +146,18 @@ class MDRDriveEnv(gym.Env):
     forces would need a force sensor in the contact, and any scale taken from the contact model
     would give k away). ``sensor_forces=True`` adds the peak F_x / 10 N and peak F_z / 100 N of each
     period, bounds [0, 100], for a drive with a force sensor. ``observation_structure`` has
-    ``"measured"``, ``"actions"``, ``"episode_fraction"``. ``info`` still reports the hidden values
+    ``"measured"``, ``"actions"``, ``"episode_fraction"``.
+
+    **Sensor tiers** (``sensor_tier``, with the sensor observation): ``"encoder"`` (the default) is
+    the above, noise-free. ``"trace"`` adds per period the slider's position at ``trace_samples``
+    (default 40) evenly spaced times, the last at the period's end, relative to its position at the
+    period's start (/ ``reward_scale``, bounds [-100, 100]), each sample with Gaussian noise of
+    ``encoder_noise`` (default 2e-9 m): a laboratory interferometer or capacitive sensor at about
+    20 kHz (an integrated optical encoder at about 1 kHz would give ``trace_samples=2``).
+    ``"self-sensing"`` also adds the peak F_x and F_z as ``sensor_forces`` does, sensed by the piezo
+    from its own charge, each with Gaussian noise of ``force_noise`` (default 0.02) times the force.
+    The noise is drawn from a stream seeded by the episode's: ``reset(seed=...)`` reproduces it, and
+    the episode's draws are those of the other tiers. ``info`` still reports the hidden values
     (``k``, ``cargo_mass``, ``load_force``, ``friction_coefficient``, ``base_friction_coefficient``,
     ``load_step_period``), for evaluation, and ``env.unwrapped.privileged_observation()`` returns
     the full observation of the current state (with the load of the coming period, the new one when
@@ -215,7 +227,8 @@ class MDRDriveEnv(gym.Env):
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
     ``max_rise_fraction``, ``z_phase_origin`` (fraction of T, in [0, 1)), ``time_quantum`` (s), ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
     (``"full"``, the default, ``"sensor"`` or ``"privileged"``), ``history`` (periods in the sensor observation),
-    ``sensor_forces`` (bool), ``load_step_period`` (int or (low, high), or None), ``action_codebook``
+    ``sensor_forces`` (bool), ``sensor_tier`` (``"encoder"``, ``"trace"`` or ``"self-sensing"``),
+    ``trace_samples``, ``encoder_noise`` (m), ``force_noise``, ``load_step_period`` (int or (low, high), or None), ``action_codebook``
     ((N, 5) array or ``.npy`` path, or None), ``render_mode``
     (``"rgb_array"`` or ``"human"``). ``friction_coefficient`` and ``base_friction_coefficient`` take
     a float or a (low, high) range. Bad values raise ``ValueError`` naming the argument.
@@ -223,8 +236,9 @@ class MDRDriveEnv(gym.Env):
     ## Version History
 
     * v0: initial version; later within v0: the sensor observation, friction ranges, load steps,
-      ``MDRDriveSensor-v0``, the privileged observation, ``z_phase_origin``, ``time_quantum`` and
-      ``action_codebook`` (the full observation, the action map and the defaults are unchanged).
+      ``MDRDriveSensor-v0``, the privileged observation, ``z_phase_origin``, ``time_quantum``,
+      ``action_codebook`` and the sensor tiers (the full observation, the action map and the
+      defaults are unchanged).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -260,6 +274,10 @@ class MDRDriveEnv(gym.Env):
         observation: str = "full",
         history: int = 4,
         sensor_forces: bool = False,
+        sensor_tier: str = "encoder",
+        trace_samples: int = DEFAULT_TRACE_SAMPLES,
+        encoder_noise: float = DEFAULT_ENCODER_NOISE,
+        force_noise: float = DEFAULT_FORCE_NOISE,
         load_step_period: int | tuple[int, int] | None = None,
         action_codebook=None,
         render_mode: str | None = None,
@@ -306,7 +324,18 @@ class MDRDriveEnv(gym.Env):
         if observation not in OBSERVATIONS:
             raise ValueError(f"observation={observation!r} is not one of {list(OBSERVATIONS)}")
         self.observation = observation
-        self.sensor = SensorHistory(SensorLayout(history, sensor_forces)) if observation == "sensor" else None
+        tier = SensorTier(sensor_tier, trace_samples, encoder_noise, force_noise)
+        if tier.traced and trace_samples > self.action_map.steps_per_period:
+            raise ValueError(f"trace_samples={trace_samples!r} is outside the allowed range [1, "
+                             f"{self.action_map.steps_per_period}] (the period's time steps)")
+        if tier.name != "encoder" and observation != "sensor":
+            raise ValueError(f"sensor_tier={sensor_tier!r} needs observation='sensor' (MDRDriveSensor-v0)")
+        self.sensor = None
+        if observation == "sensor":
+            layout = SensorLayout(history, sensor_forces or tier.name == "self-sensing",
+                                  trace_samples if tier.traced else 0)
+            self.sensor = SensorHistory(layout, tier)
+        self._noise_rng: np.random.Generator | None = None
         layout = self.sensor.layout if self.sensor else OBSERVATIONS[observation]
         self.observation_space = spaces.Box(layout.low, layout.high, dtype=np.float32)
         self.observation_structure: dict[str, slice] = dict(layout.structure)
@@ -425,6 +454,8 @@ class MDRDriveEnv(gym.Env):
             self.load_step = (period, self.draw_load(self.np_random, self.k, self.params.contact))
         if self.sensor is not None:
             self.sensor.reset()
+            if self.sensor.tier.noisy:  # its own stream, seeded from the episode's: noise leaves the draws alone
+                self._noise_rng = np.random.default_rng(int(self.np_random.integers(2**63)))
         obs = self._observation(None)
         return obs, self._info(None, None)
 
@@ -439,7 +470,8 @@ class MDRDriveEnv(gym.Env):
         if self.load_step is not None and self.period_index == self.load_step[0]:  # the cargo changes now
             self.cargo_mass = self.load_step[1]
             self.params = self.sim.params = self.params.with_cargo_mass(self.cargo_mass)
-        record = self.action_map.steps_per_period // 200 if self.render_mode is not None else 0
+        traced = self.sensor is not None and self.sensor.tier.traced
+        record = 1 if traced else self.action_map.steps_per_period // 200 if self.render_mode is not None else 0
         result = self.sim.step_params(wp.x_amplitude, wp.x_rise_time, wp.z_amplitude, wp.z_rise_time, wp.z_phase,
                                       wp.period, record_every=record)
         self.last_trace = result.trace
@@ -447,9 +479,11 @@ class MDRDriveEnv(gym.Env):
         self.period_index += 1
         self._prev_action = np.minimum(np.maximum(action, -1.0), 1.0).astype(np.float32)  # clip, cheaper
         if self.sensor is not None:
+            positions = (sample_positions(result.trace, result.displacement, wp.period, self.sensor.tier.trace_samples)
+                         if traced else None)
             self.sensor.push(result.displacement, result.mean_velocity, result.end_velocity,
                              result.peak_tangential_force, result.peak_normal_force, self._prev_action,
-                             self.reward_scale, self.action_map.period)
+                             self.reward_scale, self.action_map.period, positions, self._noise_rng)
         effort = self.action_map.effort(wp.x_amplitude, wp.z_amplitude)
         reward = self.reward_of(result.displacement, effort)
         obs = self._observation(result)

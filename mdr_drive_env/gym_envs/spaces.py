@@ -302,29 +302,34 @@ class PrivilegedLayout(ObservationLayout):
 
 
 class SensorLayout:
-    """The sensor observation: only what a position encoder on the slider measures, ``history``
-    periods deep (newest first), the actions that produced it, and the elapsed episode fraction.
+    """The sensor observation: only what sensors on the drive measure, ``history`` periods deep
+    (newest first), the actions that produced it, and the elapsed episode fraction.
 
     Per period: displacement / reward_scale, mean velocity and end velocity / (reward_scale / T),
     bounds [-100, 100]; with ``forces`` also the peak F_x / 10 N and peak F_z / 100 N (fixed scales:
-    a scale from the contact would reveal k), bounds [0, 100]. Then the 5 action entries of each of
-    the ``history`` periods, [-1, 1]; last the fraction of the episode elapsed, [0, 1].
+    a scale from the contact would reveal k), bounds [0, 100]; with ``trace_samples`` N > 0 also the
+    slider's position at N evenly spaced times of the period (the last at its end), relative to its
+    position at the period's start, / reward_scale, bounds [-100, 100]. Then the 5 action entries of
+    each of the ``history`` periods, [-1, 1]; last the fraction of the episode elapsed, [0, 1].
     """
 
     MEASURED = ("displacement", "mean_velocity", "end_velocity")
     FORCES = ("peak_tangential_force", "peak_normal_force")
     FORCE_SCALES = (10.0, 100.0)  # N
 
-    def __init__(self, history: int, forces: bool = False):
+    def __init__(self, history: int, forces: bool = False, trace_samples: int = 0):
         if isinstance(history, bool) or not isinstance(history, (int, np.integer)) or not 1 <= history <= 64:
             raise ValueError(f"history={history!r} is outside the allowed range [1, 64]")
-        self.history, self.forces = int(history), bool(forces)
-        self.per_period = self.MEASURED + (self.FORCES if self.forces else ())
+        if isinstance(trace_samples, bool) or not isinstance(trace_samples, (int, np.integer)) or trace_samples < 0:
+            raise ValueError(f"trace_samples={trace_samples!r} is outside the allowed range [0, inf)")
+        self.history, self.forces, self.trace_samples = int(history), bool(forces), int(trace_samples)
+        positions = tuple(f"position_{i}/{self.trace_samples}" for i in range(1, self.trace_samples + 1))
+        self.per_period = self.MEASURED + (self.FORCES if self.forces else ()) + positions
         names, low, high = [], [], []
         for lag in range(self.history):
             for name in self.per_period:
                 names.append(f"{name}[t-{lag}]")
-                low.append(-100.0 if name in self.MEASURED else 0.0)
+                low.append(0.0 if name in self.FORCES else -100.0)
                 high.append(100.0)
         for lag in range(self.history):
             names += [f"{name}[t-{lag}]" for name in ActionMap.NAMES]
@@ -340,7 +345,7 @@ class SensorLayout:
     @property
     def structure(self) -> dict[str, slice]:
         """Where each group of entries sits: ``measured`` (history x per-period entries, newest
-        first), ``actions`` (history x 5), ``episode_fraction``."""
+        first; ``per_period`` names them), ``actions`` (history x 5), ``episode_fraction``."""
         m = self.history * len(self.per_period)
         a = self.history * ActionMap.SIZE
         return {"measured": slice(0, m), "actions": slice(m, m + a), "episode_fraction": slice(m + a, m + a + 1)}

@@ -136,3 +136,81 @@ def test_the_privileged_observation_is_the_full_observation_with_the_coming_load
     env.step(env.action_space.sample())
     env.step(env.action_space.sample())  # the next period is the step's: the teacher is told the new load
     assert env.unwrapped.privileged_observation()[12] == pytest.approx(0.2 * 9.81 / 10.0, rel=1e-6)
+
+
+def _tier_env(tier, **kw):
+    return gym.make("MDRDriveSensor-v0", sensor_tier=tier, history=2, k=0.2, cargo_mass=0.05,
+                    friction_coefficient=0.3, base_friction_coefficient=0.1, **kw)
+
+
+@pytest.mark.parametrize("tier, extra", [("encoder", 0), ("trace", 40), ("self-sensing", 42)])
+def test_each_sensor_tier_passes_both_checkers_and_adds_its_entries(tier, extra):
+    env = _tier_env(tier)
+    check_env(env.unwrapped, skip_render_check=True)
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3.common.env_checker import check_env as sb3_check
+
+    sb3_check(_tier_env(tier), warn=True)
+    layout = env.unwrapped.sensor.layout
+    assert len(layout.per_period) == 3 + extra and env.observation_space.shape == ((3 + extra + 5) * 2 + 1,)
+    assert env.observation_space.dtype == np.float32
+
+
+def test_the_trace_samples_the_position_through_the_period_and_ends_at_its_displacement():
+    env = _tier_env("trace", trace_samples=8, encoder_noise=0.0)
+    env.reset(seed=0)
+    obs, _, _, _, info = env.step(env.unwrapped.trapezoid_action())
+    layout, s = env.unwrapped.sensor.layout, env.unwrapped.observation_structure
+    newest = obs[s["measured"]].reshape(2, -1)[0]
+    positions = newest[[layout.per_period.index(f"position_{i}/8") for i in range(1, 9)]] * env.unwrapped.reward_scale
+    assert positions[-1] == pytest.approx(info["displacement"], rel=1e-6)  # the last sample is the period's end
+    # the samples are the simulator's trace at T/8, 2T/8, ...: replayed with a trace
+    from mdr_drive_env.core import DriveParams, DriveSimulator
+    from mdr_drive_env.gym_envs.sensor import sample_positions
+
+    sim = DriveSimulator(DriveParams.paper(k=0.2, cargo_mass=0.05), "fast", max_depth=6e-6)
+    wp = env.unwrapped.action_map.to_params(env.unwrapped.trapezoid_action())
+    r = sim.step_params(wp.x_amplitude, wp.x_rise_time, wp.z_amplitude, wp.z_rise_time, wp.z_phase, wp.period, 1)
+    np.testing.assert_allclose(positions, sample_positions(r.trace, r.displacement, 2e-3, 8), rtol=1e-6, atol=1e-12)
+    t = r.trace[:, 0] - r.trace[0, 0] + (r.trace[1, 0] - r.trace[0, 0])
+    at = np.searchsorted(t, 2e-3 / 8 * 4 - 1e-12)
+    assert positions[3] == pytest.approx(r.trace[at, 3] - r.trace[-1, 3] + r.displacement, abs=1e-10)
+
+
+def test_tier_noise_is_seeded_with_the_env_and_leaves_the_episode_draws_alone():
+    def run(seed, **kw):
+        env = gym.make("MDRDriveSensor-v0", sensor_tier="self-sensing", history=1, **kw)
+        obs, info = env.reset(seed=seed)
+        for _ in range(3):
+            obs, *_, info = env.step(env.unwrapped.trapezoid_action())
+        return obs, info
+
+    a, info_a = run(3)
+    b, _ = run(3)
+    c, _ = run(4)
+    np.testing.assert_array_equal(a, b)  # reset(seed=...) reproduces the noise
+    assert not np.array_equal(a, c)
+    quiet, info_q = run(3, encoder_noise=0.0, force_noise=0.0)
+    assert info_q["k"] == info_a["k"] and info_q["cargo_mass"] == info_a["cargo_mass"]  # the same drive drawn
+    diff = np.abs(a - quiet)
+    assert np.all(diff[:3] == 0)  # the encoder's summaries carry no noise
+    assert 0 < np.max(diff[3:5] / quiet[3:5]) < 0.1  # the forces: 2 % of each force
+    assert 0 < diff[5:45].max() < 1e-3  # the positions: 2 nm of a 30 um reward scale
+    plain, info_p = gym.make("MDRDriveSensor-v0", history=1).reset(seed=3)
+    assert info_p["k"] == info_a["k"]  # the encoder tier draws the same episode
+    assert pickle.loads(pickle.dumps(_tier_env("trace"))).unwrapped.sensor.tier.name == "trace"
+
+
+@pytest.mark.parametrize("kwargs, needle", [
+    ({"sensor_tier": "camera"}, "sensor_tier='camera' is not one of"),
+    ({"sensor_tier": "trace", "trace_samples": 0}, "trace_samples=0 is outside the allowed range [1, 1000]"),
+    ({"sensor_tier": "trace", "trace_samples": 401}, "trace_samples=401 is outside the allowed range [1, 400]"),
+    ({"sensor_tier": "trace", "encoder_noise": -1e-9}, "encoder_noise=-1e-09 is outside the allowed range"),
+    ({"sensor_tier": "self-sensing", "force_noise": 2.0}, "force_noise=2.0 is outside the allowed range"),
+])
+def test_bad_tier_values_are_one_line_errors(kwargs, needle):
+    with pytest.raises(ValueError) as e:
+        gym.make("MDRDriveSensor-v0", **kwargs)
+    assert needle in str(e.value)
+    with pytest.raises(ValueError, match="needs observation='sensor'"):
+        gym.make("MDRDrive-v0", sensor_tier="trace")
