@@ -238,8 +238,11 @@ def train(algo: str | None = None, steps: int | None = None, seed: int = 0, out:
     check_counts(steps=(steps, 1), n_envs=(n_envs, 1), torch_threads=(torch_threads, 1),
                  critic_warmup=(critic_warmup, 0))
     out = Path(resume or out)
-    if not resume and not force and ((out / "run.json").exists() or (out / "model.zip").exists()):
+    if not resume and not force and (out / "run.json").exists():
         raise ValueError(f"{out} already holds a run: continue it with --resume {out}, or overwrite it with --force")
+    if not resume and not force and (out / "model.zip").exists():  # run.json, written last, marks a whole set
+        raise ValueError(f"{out} holds a model.zip without run.json (a save that did not finish): start the run "
+                         "again with --force")
     previous = load_run(out, algo) if resume else None
     if previous:
         algo, seed = previous["algo"], previous["seed"]

@@ -82,6 +82,9 @@ def test_an_existing_run_is_not_overwritten_without_force(tmp_path, capsys):
     assert main(["train", "--steps", "64", "--n-envs", "4", "--no-progress", "--out", str(out)]) == 2
     assert "already holds a run" in capsys.readouterr().err
     assert train("ppo", steps=64, seed=1, out=out, force=True, **KW)["seed"] == 1
+    (out / "run.json").unlink()  # what a kill between the model's save and run.json's leaves
+    with pytest.raises(ValueError, match="model.zip without run.json .* again with --force"):
+        train("ppo", steps=64, seed=1, out=out, **KW)
 
 
 def test_steps_rounding_is_said_and_bad_counts_are_errors(tmp_path, capsys):
