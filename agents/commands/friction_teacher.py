@@ -15,17 +15,13 @@ DESCRIPTION = ("Search drive fields at several ratios mu1 / mu (OUT/fields/rho*.
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from mdr_drive_env.cli_args import input_file, output_dir
     from mdr_drive_env.sweep import add_executor_arguments
 
     from ..train.friction_teacher import DEFAULT_CONFIG
+    from . import add_recipe_arguments
 
-    p.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
-                   help="YAML with seed, friction, teacher, distill, ppo and env_kwargs "
-                        "(default: agents/configs/friction_teacher.yaml)")
-    p.add_argument("--out", default="runs/friction_teacher", type=output_dir, help="output folder")
-    p.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    add_recipe_arguments(p, DEFAULT_CONFIG, "YAML with seed, friction, teacher, distill, ppo and env_kwargs "
+                         "(default: agents/configs/friction_teacher.yaml)", "runs/friction_teacher")
     add_executor_arguments(p)
 
 

@@ -17,16 +17,13 @@ DESCRIPTION = ("Build a policy as the shipped one was built (agents/configs/reci
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from mdr_drive_env.cli_args import input_file, output_dir
+    from mdr_drive_env.cli_args import input_file
     from mdr_drive_env.sweep import add_executor_arguments
 
     from ..train.recipe import DEFAULT_CONFIG
+    from . import add_recipe_arguments
 
-    p.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
-                   help="recipe YAML (default: agents/configs/recipe.yaml)")
-    p.add_argument("--out", default="runs/recipe", type=output_dir, help="output folder")
-    p.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    add_recipe_arguments(p, DEFAULT_CONFIG, "recipe YAML (default: agents/configs/recipe.yaml)", "runs/recipe")
     p.add_argument("--teacher", type=input_file, default=None,
                    help="a saved teacher field (.npz, a recipe's teacher_field.npz): skip the teacher search")
     p.add_argument("--snapshots", action="store_true",

@@ -15,15 +15,11 @@ DESCRIPTION = ("Build a policy that drives MDRDriveSensor-v0 without being told 
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from mdr_drive_env.cli_args import input_file, output_dir
-
     from ..train.sensor import DEFAULT_CONFIG
+    from . import add_recipe_arguments
 
-    p.add_argument("config", nargs="?", default=str(DEFAULT_CONFIG), type=input_file,
-                   help="YAML with seed, validation_seed and the AdaptConfig fields (default: agents/configs/sensor.yaml)")
-    p.add_argument("--out", default="runs/sensor", type=output_dir, help="output folder")
-    p.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    add_recipe_arguments(p, DEFAULT_CONFIG, "YAML with seed, validation_seed and the AdaptConfig fields (default: "
+                         "agents/configs/sensor.yaml)", "runs/sensor")
 
 
 def main(args: argparse.Namespace) -> int:
