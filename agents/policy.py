@@ -265,19 +265,29 @@ def policy_files(folder: str | Path) -> tuple[str, ...]:
     return FILES + ((CODEBOOK_FILE,) if read_run(folder).get("env_kwargs", {}).get("action_codebook") else ())
 
 
+def save_normalization(venv, folder: str | Path) -> None:
+    """A VecNormalize's statistics into ``folder``, atomically: ``vecnormalize.npz`` (numbers, what
+    this package reads) and ``vecnormalize.pkl`` (what plain SB3 reads)."""
+    from mdr_drive_env.files import atomic_path
+
+    NormalizationState.of(venv).save(Path(folder) / NORMALIZATION_FILE)
+    with atomic_path(Path(folder) / "vecnormalize.pkl") as tmp:
+        venv.save(str(tmp))
+
+
 def save_policy(out: str | Path, model, venv, record: dict, codebook: np.ndarray | None = None) -> None:
-    """``model.zip``, ``vecnormalize.npz`` and ``vecnormalize.pkl`` (``venv``'s statistics) and
-    ``run.json`` (``record``, last: it marks the set complete) into ``out``, each written atomically; a codebook policy's table too, as ``CODEBOOK_FILE``, which
-    run.json's ``env_kwargs`` then name (``action_codebook``, relative to ``out``)."""
+    """``model.zip``, ``vecnormalize.npz`` and ``vecnormalize.pkl`` (``venv``'s statistics; none when
+    ``venv`` is None, a policy trained without normalisation) and ``run.json`` (``record``, last: it
+    marks the set complete) into ``out``, each written atomically; a codebook policy's table too, as
+    ``CODEBOOK_FILE``, which run.json's ``env_kwargs`` then name (``action_codebook``, relative to ``out``)."""
     from mdr_drive_env.files import atomic_path, write_text
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "model.zip") as tmp:
         model.save(tmp)
-    NormalizationState.of(venv).save(out / NORMALIZATION_FILE)
-    with atomic_path(out / "vecnormalize.pkl") as tmp:
-        venv.save(str(tmp))
+    if venv is not None:
+        save_normalization(venv, out)
     if codebook is not None:
         with atomic_path(out / CODEBOOK_FILE) as tmp:
             with open(tmp, "wb") as f:
@@ -313,4 +323,4 @@ def same_weights(a: str | Path, b: str | Path) -> bool:
 
 __all__ = ["ACTION_KEYS", "CODEBOOK_FILE", "FILES", "OBSERVATION_KEYS", "ObsNormalization", "PLAY_KEYS", "PRETRAINED", "Policy", "package_path",
            "SENSOR_PRETRAINED", "load_policy", "policy_files", "policy_label", "read_run", "run_env_kwargs",
-           "same_weights", "save_policy", "sb3_class"]
+           "same_weights", "save_normalization", "save_policy", "sb3_class"]

@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 
 from mdr_drive_env import ENV_ID
-from mdr_drive_env.files import atomic_path, remove_temporary, write_text
+from mdr_drive_env.files import remove_temporary
 
-from ..policy import run_env_kwargs, sb3_class
+from ..policy import run_env_kwargs, save_normalization, save_policy, sb3_class
 from ..protocol import trapezoid_action
 from ..run_record import RunLock, command_line, versions
 from ..sb3_files import NORMALIZATION_FILE, NormalizationState, read_model
@@ -94,14 +94,6 @@ def warm_start_at(model, action: np.ndarray) -> None:
     with torch.no_grad():
         net.weight.mul_(0.01)
         net.bias.copy_(torch.as_tensor(a))
-
-
-def save_normalization(venv, folder: Path) -> None:
-    """A VecNormalize's statistics into ``folder``, atomically: ``vecnormalize.npz`` (numbers, what
-    this package reads) and ``vecnormalize.pkl`` (what plain SB3 reads)."""
-    NormalizationState.of(venv).save(folder / NORMALIZATION_FILE)
-    with atomic_path(folder / "vecnormalize.pkl") as tmp:
-        venv.save(str(tmp))
 
 
 def _save_normalisation_callback(folder: Path):
@@ -374,10 +366,6 @@ def save_run(out, model, previous, algo, seed, env_kwargs, hyper, n, normalize, 
     atomically; returns the run record."""
     from stable_baselines3.common.vec_env import VecNormalize
 
-    with atomic_path(out / "model.zip") as tmp:
-        model.save(tmp)
-    if isinstance(model.get_env(), VecNormalize):
-        save_normalization(model.get_env(), out)
     record = {
         "algo": algo, "seed": seed, "env_id": previous.get("env_id", ENV_ID) if previous else ENV_ID,
         "env_kwargs": previous["env_kwargs"] if previous else env_kwargs,  # a codebook file stays relative
@@ -396,5 +384,6 @@ def save_run(out, model, previous, algo, seed, env_kwargs, hyper, n, normalize, 
         record.update({key: previous[key] for key in PROVENANCE_KEYS if key in previous})
         record["continued_from"] = [*previous.get("continued_from", []), {
             "command": previous.get("command"), "total_timesteps": previous.get("total_timesteps")}]
-    write_text(out / "run.json", json.dumps(record, indent=2))
+    venv = model.get_env()
+    save_policy(out, model, venv if isinstance(venv, VecNormalize) else None, record)
     return record
