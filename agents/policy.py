@@ -42,7 +42,9 @@ OBSERVATION_KEYS = ("observation", "history", "sensor_forces", "sensor_tier", "t
                     "force_noise")
 ACTION_KEYS = ("z_phase_origin", "time_quantum")
 PLAY_KEYS = OBSERVATION_KEYS + ACTION_KEYS
-ALGORITHMS = ("ppo", "sac")
+#: The algorithms a policy folder's run.json may name (``algo``): Stable-Baselines3's PPO, SAC and TD3,
+#: and sb3-contrib's RecurrentPPO (an LSTM policy).
+ALGORITHMS = ("ppo", "sac", "td3", "recurrent_ppo")
 
 
 def package_path(path: str | Path) -> Path:
@@ -66,13 +68,23 @@ def run_env_kwargs(folder: str | Path, run: dict) -> dict:
 
 
 def sb3_class(algo: str):
-    """The Stable-Baselines3 class of ``algo`` ("ppo" or "sac"); ``ValueError`` for another."""
-    from stable_baselines3 import PPO, SAC
+    """The Stable-Baselines3 (or sb3-contrib) class of ``algo``, one of ``ALGORITHMS``; ``ValueError``
+    for another."""
+    if algo not in ALGORITHMS:
+        raise ValueError(f"algo={algo!r} is not one of {sorted(ALGORITHMS)}")
+    if algo == "recurrent_ppo":
+        from sb3_contrib import RecurrentPPO
 
-    classes = {"ppo": PPO, "sac": SAC}
-    if algo not in classes:
-        raise ValueError(f"algo={algo!r} is not one of {sorted(classes)}")
-    return classes[algo]
+        return RecurrentPPO
+    import stable_baselines3
+
+    return getattr(stable_baselines3, algo.upper())
+
+
+def policy_name(algo: str) -> str:
+    """The SB3 policy name a policy of ``algo`` is built with: ``MlpLstmPolicy`` for RecurrentPPO,
+    else ``MlpPolicy``."""
+    return "MlpLstmPolicy" if algo == "recurrent_ppo" else "MlpPolicy"
 
 
 @dataclass
@@ -80,8 +92,12 @@ class Policy:
     """A trained network as a drive: ``act`` (a batch of observations -> Box actions) for the
     evaluation protocol, ``predict`` (one observation -> one action of its env) for a user's loop.
 
+    A recurrent policy (RecurrentPPO) carries its LSTM state from one ``act`` or ``predict`` to the
+    next; ``reset`` forgets it (every episode starts with ``reset``; ``play`` and the evaluation
+    protocol call it).
+
     Attributes:
-        model: the SB3 model (``PPO`` or ``SAC``).
+        model: the SB3 model (one of ``ALGORITHMS``).
         normalize: its observation normalisation, ``obs -> normalised obs`` (an ``ObsNormalization``,
             or a training VecNormalize's ``normalize_obs``), or None (raw observations).
         codebook: the (N, 5) Box actions a ``Discrete(N)`` policy picks among, or None.
@@ -94,6 +110,26 @@ class Policy:
     codebook: np.ndarray | None = None
     run: dict = field(default_factory=dict)
     folder: Path | None = None
+    _memory: object = field(default=None, init=False, repr=False, compare=False)
+
+    @property
+    def recurrent(self) -> bool:
+        """Whether it remembers past observations (an LSTM policy)."""
+        return self.run.get("algo") == "recurrent_ppo"
+
+    def reset(self) -> None:
+        """Forget what a recurrent policy remembers: the next observation starts an episode."""
+        self._memory = None
+
+    def _predict(self, obs: np.ndarray):
+        if not self.recurrent:
+            return self.model.predict(obs, deterministic=True)[0]
+        memory = self._memory
+        if memory is not None and memory[0].shape[1] != len(obs):  # another batch: another episode
+            memory = None
+        starts = np.full(len(obs), memory is None)
+        action, self._memory = self.model.predict(obs, state=memory, episode_start=starts, deterministic=True)
+        return action
 
     @property
     def env_id(self) -> str:
@@ -116,7 +152,7 @@ class Policy:
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Box actions (n, 5) at observations ``obs`` (n, d), deterministic: the mean action, or the
         codebook row of the most likely index (so it plays in an env without the codebook alike)."""
-        action, _ = self.model.predict(self.normalized(obs), deterministic=True)
+        action = self._predict(self.normalized(obs))
         return action if self.codebook is None else self.codebook[action]
 
     def normalized(self, obs: np.ndarray) -> np.ndarray:
@@ -126,8 +162,7 @@ class Policy:
     def predict(self, obs: np.ndarray):
         """The action of its own env (``make_env``) at one observation ``obs`` (d,), deterministic and
         normalised with its statistics: a Box action (5,), or a codebook index."""
-        action, _ = self.model.predict(self.normalized(np.asarray(obs)[None]), deterministic=True)
-        return action[0]
+        return self._predict(self.normalized(np.asarray(obs)[None]))[0]
 
     def make_env(self, **overrides):
         """The gymnasium env it was trained for, built from its run.json (observation layout, time
@@ -156,6 +191,7 @@ class Policy:
         the mean velocity of each period (periods,) (m/s)."""
         env = self.make_env(**{"max_periods": periods, **overrides}) if env is None else env
         self.check_env(env)
+        self.reset()
         obs, _ = env.reset(seed=seed)
         velocities = []
         for _ in range(periods):
@@ -242,8 +278,9 @@ def load_policy(folder: str | Path, trust_pickle: bool = False) -> Policy:
     run = read_run(folder)
     normalize = ObsNormalization.of_folder(folder, trust_pickle)  # refused before anything else is read
     env = make_env_of(folder, run)
-    model = read_model(folder / "model.zip", sb3_class(run.get("algo", "ppo")), env.observation_space,
-                       env.action_space, run.get("hyperparameters"))
+    algo = run.get("algo", "ppo")
+    model = read_model(folder / "model.zip", sb3_class(algo), env.observation_space, env.action_space,
+                       run.get("hyperparameters"), policy=policy_name(algo))
     return Policy(model, normalize, load_action_codebook(run_env_kwargs(folder, run).get("action_codebook")), run,
                   folder)
 
@@ -323,4 +360,4 @@ def same_weights(a: str | Path, b: str | Path) -> bool:
 
 __all__ = ["ACTION_KEYS", "CODEBOOK_FILE", "FILES", "OBSERVATION_KEYS", "ObsNormalization", "PLAY_KEYS", "PRETRAINED", "Policy", "package_path",
            "SENSOR_PRETRAINED", "load_policy", "policy_files", "policy_label", "read_run", "run_env_kwargs",
-           "same_weights", "save_normalization", "save_policy", "sb3_class"]
+           "policy_name", "same_weights", "save_normalization", "save_policy", "sb3_class"]

@@ -159,7 +159,10 @@ def play_kwargs_of(policy) -> dict:
 
 
 def actions_of(policy):
-    """A closed-loop drive as ``obs (n, d) -> Box actions``: its ``act`` method, or the drive itself."""
+    """A closed-loop drive as ``obs (n, d) -> Box actions``: its ``act`` method, or the drive itself;
+    a drive with a ``reset`` method (a recurrent policy's memory) is reset first: a new episode."""
+    if hasattr(policy, "reset"):
+        policy.reset()
     return policy.act if hasattr(policy, "act") else policy
 
 

@@ -32,7 +32,8 @@ NORMALIZATION_FILE = "vecnormalize.npz"
 ACTIVATIONS = ("ReLU", "Tanh", "ELU", "LeakyReLU", "GELU", "SiLU", "Sigmoid")
 #: Serialised entries of a saved model that are rebuilt as None (SB3 recreates them when it
 #: trains: the last observation, episode buffers, the replay or rollout buffer class).
-REBUILT_AS_NONE = ("_last_obs", "_last_episode_starts", "_last_original_obs", "ep_info_buffer", "ep_success_buffer",
+REBUILT_AS_NONE = ("_last_obs", "_last_lstm_states", "_last_episode_starts", "_last_original_obs", "ep_info_buffer",
+                   "ep_success_buffer",
                    "rollout_buffer_class", "replay_buffer_class", "action_noise")
 
 
@@ -141,12 +142,12 @@ def _schedule_value(entry, fallback):
 
 
 def read_model(path: str | Path, algo_class, observation_space, action_space, hyperparameters: dict | None = None,
-               env=None, device: str = "cpu", **kwargs):
+               env=None, device: str = "cpu", policy: str = "MlpPolicy", **kwargs):
     """``algo_class.load(path)`` with every serialised entry of the zip rebuilt, none deserialised:
     the spaces are the ones given (those of the env the policy acts in; refused if the saved
     description disagrees), the clip range a constant read from the description or
     ``hyperparameters`` (the learning rate's schedule SB3 rebuilds from its plain value), the policy
-    class the algorithm's ``MlpPolicy``. ``env`` and ``kwargs`` as
+    class the algorithm's ``policy`` (an alias: ``MlpPolicy``, RecurrentPPO's ``MlpLstmPolicy``). ``env`` and ``kwargs`` as
     SB3's ``load`` takes them. ``ValueError`` for a file that is not a model or holds an entry that
     cannot be rebuilt."""
     hyper = dict(hyperparameters or {})
@@ -160,7 +161,7 @@ def read_model(path: str | Path, algo_class, observation_space, action_space, hy
         if not (isinstance(entry, dict) and ":serialized:" in entry):
             continue
         if key == "policy_class":
-            custom[key] = algo_class.policy_aliases["MlpPolicy"]
+            custom[key] = algo_class.policy_aliases[policy]
         elif key == "policy_kwargs":
             custom[key] = _policy_kwargs(entry)
         elif key in ("observation_space", "action_space"):

@@ -116,7 +116,7 @@ print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
 SNIPPET = """```python
 import gymnasium as gym
 import numpy as np
-from stable_baselines3 import PPO
+from {module} import {cls}
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 import mdr_drive_env  # registers {env_id}
@@ -124,10 +124,10 @@ import mdr_drive_env  # registers {env_id}
 {comment}make = lambda: gym.make({make_args})
 venv = VecNormalize.load("{dir}/vecnormalize.pkl", DummyVecEnv([make]))
 venv.training, venv.norm_reward = False, False      # play: statistics frozen, raw rewards
-model = PPO.load("{dir}/model.zip", device="cpu")
+model = {cls}.load("{dir}/model.zip", device="cpu")
 obs, velocities = venv.reset(), []
-for period in range(30):
-    action, _ = model.predict(obs, deterministic=True)
+{memory}for period in range(30):
+    {predict}
     obs, reward, done, info = venv.step(action)
     velocities.append(info[0]["mean_velocity"])
 print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
@@ -142,10 +142,26 @@ def load_snippet(dst: Path, run: dict) -> str:
     return LOAD_POLICY.format(dir=dst.as_posix(), overrides=overrides)
 
 
+#: The plain-SB3 snippet's class, and how it predicts, by algorithm: (module, class, memory set-up,
+#: prediction); a recurrent policy carries its LSTM state from one period to the next.
+PREDICT = "action, _ = model.predict(obs, deterministic=True)"
+PLAY_BY_ALGO = {
+    "ppo": ("stable_baselines3", "PPO", "", PREDICT),
+    "sac": ("stable_baselines3", "SAC", "", PREDICT),
+    "td3": ("stable_baselines3", "TD3", "", PREDICT),
+    "recurrent_ppo": ("sb3_contrib", "RecurrentPPO", "state, start = None, np.ones(1, dtype=bool)     # the LSTM's "
+                      "memory, empty at the start\n",
+                      "action, state = model.predict(obs, state=state, episode_start=start, deterministic=True)\n"
+                      "    start = np.zeros(1, dtype=bool)"),
+}
+
+
 def snippet(dst: Path, run: dict) -> str:
     """The card's tested plain-SB3 loading snippet for the policy in ``dst`` (full or sensor observation)."""
+    module, cls, memory, predict = PLAY_BY_ALGO[run.get("algo", "ppo")]
+    play = dict(module=module, cls=cls, memory=memory, predict=predict)
     if run["env_id"] == "MDRDriveSensor-v0":
-        return SNIPPET.format(env_id="MDRDriveSensor-v0", dir=dst.as_posix(),
+        return SNIPPET.format(**play, env_id="MDRDriveSensor-v0", dir=dst.as_posix(),
                               comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
                                       "here to try one drive\n",
                               make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, '
@@ -166,7 +182,7 @@ def snippet(dst: Path, run: dict) -> str:
         args.append(f'action_codebook="{dst.as_posix()}/{run["env_kwargs"]["action_codebook"]}"')
         notes.append("its table of actions (Discrete: action i plays row i)")
     comment = f"# {' and '.join(notes)}: the env it was trained in, as in its run.json\n" if notes else ""
-    return SNIPPET.format(env_id="MDRDrive-v0", dir=dst.as_posix(), comment=comment,
+    return SNIPPET.format(**play, env_id="MDRDrive-v0", dir=dst.as_posix(), comment=comment,
                           make_args=", ".join(['"MDRDrive-v0", k=0.2, cargo_mass=0.1, max_periods=30', *args]))
 
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 import argparse
 import json
 
-HELP = "train PPO or SAC from scratch on MDRDrive-v0 (Stable-Baselines3)"
-DESCRIPTION = ("Train a waveform policy with Stable-Baselines3 PPO or SAC on MDRDrive-v0, hyperparameters from an "
-               "RL-Zoo-style YAML (agents/configs/<algo>.yaml); TensorBoard logs in OUT/tb. The shipped policy is "
+HELP = "train PPO, SAC, TD3 or RecurrentPPO from scratch on MDRDrive-v0 (Stable-Baselines3, sb3-contrib)"
+DESCRIPTION = ("Train a waveform policy on MDRDrive-v0 with Stable-Baselines3 PPO, SAC or TD3 or sb3-contrib's "
+               "RecurrentPPO, hyperparameters from an RL-Zoo-style YAML (agents/configs/<algo>.yaml); TensorBoard logs in OUT/tb. The shipped policy is "
                "made by `mdr-drive recipe` instead (a teacher distilled into the network).")
 
 
@@ -20,7 +20,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import folder_with, input_file, int_range, output_dir, positive_int
     from mdr_drive_env.sweep import add_executor_arguments
 
-    p.add_argument("--algo", choices=["ppo", "sac"], default=None,
+    from ..policy import ALGORITHMS
+
+    p.add_argument("--algo", choices=ALGORITHMS, default=None,
                    help="SB3 algorithm (default: ppo; a resumed run keeps its own, and another is an error)")
     p.add_argument("--k", type=float, nargs="+", default=None,
                    help="grading exponent k, one value or a low high range sampled per episode (-)")

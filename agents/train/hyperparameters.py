@@ -20,12 +20,14 @@ from ..yaml_config import read_yaml
 
 CONFIG_DIR = Path(__file__).parents[1] / "configs"
 #: Config keys of ``mdr-drive train`` itself: recorded in run.json, not passed to SB3.
-NOT_SB3_KEYS = ("warm_start",)
+NOT_SB3_KEYS = ("warm_start", "action_noise_std")
 #: Keys every algorithm takes besides its constructor's (the number of envs, normalisation, the
-#: RL Zoo's step budget and policy name).
-EXTRA_KEYS = ("n_envs", "normalize", "n_timesteps", "policy", "warm_start")
+#: RL Zoo's step budget and policy name, the warm start, the exploration noise of an off-policy
+#: algorithm: Gaussian, its standard deviation in the action box's units).
+EXTRA_KEYS = ("n_envs", "normalize", "n_timesteps", "policy", "warm_start", "action_noise_std")
 #: Set by ``mdr-drive train`` itself, never by a config or --hyperparams.
-SET_HERE = ("self", "policy", "env", "_init_setup_model", "device", "seed", "tensorboard_log", "verbose")
+SET_HERE = ("self", "policy", "env", "_init_setup_model", "device", "seed", "tensorboard_log", "verbose",
+            "action_noise")
 #: Numeric hyperparameters and their allowed ranges: (low, high, integer, low open).
 NUMERIC = {
     "n_envs": (1, 4096, True, False), "n_steps": (2, math.inf, True, False), "batch_size": (2, math.inf, True, False),
@@ -35,7 +37,7 @@ NUMERIC = {
     "max_grad_norm": (0.0, math.inf, False, True), "buffer_size": (1, math.inf, True, False),
     "learning_starts": (0, math.inf, True, False), "tau": (0.0, 1.0, False, True),
     "train_freq": (1, math.inf, True, False), "gradient_steps": (1, math.inf, True, False),
-    "n_timesteps": (1, math.inf, False, False),
+    "n_timesteps": (1, math.inf, False, False), "action_noise_std": (0.0, 2.0, False, False),
 }
 
 
@@ -60,7 +62,9 @@ def load_config(algo: str, path: str | Path | None = None) -> tuple[dict[str, An
 
 def known_keys(algo: str) -> list[str]:
     """The hyperparameters of ``algo`` a config or ``--hyperparams`` may set."""
-    return sorted(set(inspect.signature(sb3_class(algo).__init__).parameters) - set(SET_HERE) | set(EXTRA_KEYS))
+    params = set(inspect.signature(sb3_class(algo).__init__).parameters)
+    extra = set(EXTRA_KEYS) - (set() if "action_noise" in params else {"action_noise_std"})  # off-policy only
+    return sorted(params - set(SET_HERE) | extra)
 
 
 def check_hyperparameters(algo: str, hyper: dict[str, Any], source: str) -> None:

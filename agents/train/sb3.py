@@ -30,7 +30,7 @@ import numpy as np
 from mdr_drive_env import ENV_ID
 from mdr_drive_env.files import remove_temporary
 
-from ..policy import run_env_kwargs, save_normalization, save_policy, sb3_class
+from ..policy import policy_name, run_env_kwargs, save_normalization, save_policy, sb3_class
 from ..protocol import trapezoid_action
 from ..run_record import RunLock, command_line, versions
 from ..sb3_files import NORMALIZATION_FILE, NormalizationState, read_model
@@ -82,14 +82,17 @@ def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS):
 def warm_start_at(model, action: np.ndarray) -> None:
     """Initialise the policy's mean action at ``action`` (the last layer's weights scaled down).
 
-    PPO: the Gaussian mean is the action (clipped to the box by SB3). SAC: the mean is squashed by
-    tanh, so the bias is ``atanh`` of the action kept inside (-0.95, 0.95).
+    PPO (and RecurrentPPO): the Gaussian mean is the action (clipped to the box by SB3). SAC and TD3:
+    the mean is squashed by tanh, so the bias is ``atanh`` of the action kept inside (-0.95, 0.95).
     """
     import torch
 
-    net = model.policy.action_net if hasattr(model.policy, "action_net") else model.policy.actor.mu
+    squashed = not hasattr(model.policy, "action_net")
+    net = model.policy.action_net if not squashed else model.policy.actor.mu
+    if isinstance(net, torch.nn.Sequential):  # TD3: the actor's last linear layer, then tanh
+        net = [layer for layer in net if isinstance(layer, torch.nn.Linear)][-1]
     a = np.asarray(action, dtype=np.float32)
-    if not hasattr(model.policy, "action_net"):
+    if squashed:
         a = np.arctanh(np.clip(a, -0.95, 0.95))
     with torch.no_grad():
         net.weight.mul_(0.01)
@@ -150,8 +153,9 @@ class _Interrupted(Exception):
 
 
 def rounded_steps(algo: str, steps: int, n_envs: int, hyper: dict[str, Any]) -> int:
-    """The steps SB3 will actually run: PPO collects whole rollouts of ``n_steps * n_envs``."""
-    if algo == "ppo":
+    """The steps SB3 will actually run: PPO (and RecurrentPPO) collects whole rollouts of
+    ``n_steps * n_envs``."""
+    if algo in ("ppo", "recurrent_ppo"):
         rollout = int(hyper.get("n_steps", 2048)) * n_envs
         return -(-steps // rollout) * rollout
     return steps
@@ -164,10 +168,12 @@ def check_counts(**counts) -> None:
             raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, inf)")
 
 
-def new_run_settings(algo, config, k, cargo_mass, load_ratio, n_envs) -> tuple[dict, dict]:
-    """(hyperparameters, env_kwargs) of a new run: the config's, with the command line's domain."""
+def new_run_settings(algo, config, k, cargo_mass, load_ratio, n_envs, env_overrides=None) -> tuple[dict, dict]:
+    """(hyperparameters, env_kwargs) of a new run: the config's, with ``env_overrides`` and the
+    command line's domain."""
     sb3_class(algo)  # an unknown algo: ValueError
     hyper, env_kwargs = load_config(algo, config)
+    env_kwargs.update(env_overrides or {})
     env_kwargs["k"] = _range(k, env_kwargs.get("k", 0.2))
     if cargo_mass is not None:  # an explicit cargo mass replaces the config's load ratio
         env_kwargs.pop("load_ratio", None)
@@ -203,16 +209,31 @@ def resumed_model(out: Path, previous: dict, venv, overrides: dict):
     elif (out / "vecnormalize.pkl").exists():
         raise ValueError(f"--resume {out}: it has vecnormalize.pkl but no {NORMALIZATION_FILE}; a pickle runs code "
                          "when read, so it is not read (a folder this package wrote has both)")
-    return read_model(out / "model.zip", sb3_class(previous["algo"]), venv.observation_space, venv.action_space,
-                      previous.get("hyperparameters"), env=venv, tensorboard_log=str(out / "tb"),
-                      **{key: v for key, v in overrides.items() if key != "n_envs"})
+    algo = previous["algo"]
+    model = read_model(out / "model.zip", sb3_class(algo), venv.observation_space, venv.action_space,
+                       previous.get("hyperparameters"), env=venv, tensorboard_log=str(out / "tb"),
+                       policy=policy_name(algo), **{key: v for key, v in overrides.items() if key not in NOT_SB3_KEYS
+                                                    and key != "n_envs"})
+    if previous.get("hyperparameters", {}).get("action_noise_std"):
+        model.action_noise = action_noise(previous["hyperparameters"]["action_noise_std"], venv.action_space)
+    return model
+
+
+def action_noise(std: float, action_space):
+    """TD3's (or SAC's) exploration noise: Gaussian, ``std`` in the action box's units (its half-width
+    is 1)."""
+    from stable_baselines3.common.noise import NormalActionNoise
+
+    size = action_space.shape[0]
+    return NormalActionNoise(np.zeros(size), np.full(size, float(std)))
 
 
 def train(algo: str | None = None, steps: int | None = None, seed: int = 0, out: str | Path = "runs/ppo",
           n_envs: int | None = None, k=None, cargo_mass=None, load_ratio=None, config: str | Path | None = None,
           resume: str | Path | None = None, eval_freq: int = 20_000, checkpoint_freq: int = 100_000,
           warm_start: str | None = None, progress_bar: bool = True, verbose: int = 0, force: bool = False,
-          torch_threads: int = 1, critic_warmup: int = 0, hyperparams: dict[str, Any] | None = None) -> dict[str, Any]:
+          torch_threads: int = 1, critic_warmup: int = 0, hyperparams: dict[str, Any] | None = None,
+          callbacks: list | None = None, env_overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """Train (or resume) a policy; returns the run record also written to ``run.json``.
 
     ``steps`` is the run's total of environment steps (default: the config's ``n_timesteps``);
@@ -221,7 +242,9 @@ def train(algo: str | None = None, steps: int | None = None, seed: int = 0, out:
     the critic, the actor frozen (``frozen_actor``): a distilled or adapted policy has no trained
     value function, and PPO's first updates would otherwise follow a random critic's advantages.
     ``hyperparams`` replace the config's (or, resuming, the run's) SB3 hyperparameters, as the RL
-    Zoo's ``-params``.
+    Zoo's ``-params``. ``callbacks``: further SB3 callbacks of the main training (after any critic
+    warm-up), e.g. a learning curve's. ``env_overrides``: env keywords of a new run that replace the
+    config's (``{"time_quantum": 5e-6}``).
 
     Refuses to train into a folder that holds a run unless ``resume`` names it or ``force`` is set,
     and a folder another command is writing (``RunLock``). Ctrl-C or SIGTERM saves the model, its
@@ -241,7 +264,7 @@ def train(algo: str | None = None, steps: int | None = None, seed: int = 0, out:
         hyper, env_kwargs = dict(previous["hyperparameters"]), run_env_kwargs(out, previous)
     else:
         algo = algo or "ppo"
-        hyper, env_kwargs = new_run_settings(algo, config, k, cargo_mass, load_ratio, n_envs)
+        hyper, env_kwargs = new_run_settings(algo, config, k, cargo_mass, load_ratio, n_envs, env_overrides)
     overrides = dict(hyperparams or {})
     check_hyperparameters(algo, overrides, "--hyperparams")
     if resume and "policy_kwargs" in overrides:
@@ -258,11 +281,11 @@ def train(algo: str | None = None, steps: int | None = None, seed: int = 0, out:
                              "warm_start: none")
     with RunLock(out):  # after every check: a refused run leaves no folder
         return _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_freq, checkpoint_freq,
-                      progress_bar, verbose, torch_threads, critic_warmup)
+                      progress_bar, verbose, torch_threads, critic_warmup, list(callbacks or ()))
 
 
 def _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_freq, checkpoint_freq,
-           progress_bar, verbose, torch_threads, critic_warmup) -> dict[str, Any]:
+           progress_bar, verbose, torch_threads, critic_warmup, extra_callbacks) -> dict[str, Any]:
     import signal
 
     import torch
@@ -289,8 +312,10 @@ def _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_
     else:
         if normalize:
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=hyper.get("gamma", 0.99))
-        model = sb3_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", tensorboard_log=str(out / "tb"),
-                                verbose=verbose, **{key: v for key, v in hyper.items() if key not in NOT_SB3_KEYS})
+        noise = hyper.get("action_noise_std")
+        model = sb3_class(algo)(policy_name(algo), venv, seed=seed, device="cpu", tensorboard_log=str(out / "tb"),
+                                verbose=verbose, **{key: v for key, v in hyper.items() if key not in NOT_SB3_KEYS},
+                                **({"action_noise": action_noise(noise, venv.action_space)} if noise else {}))
         if warm == "trapezoid":
             warm_start_at(model, trapezoid_action())
     start_steps = model.num_timesteps
@@ -302,7 +327,8 @@ def _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_
                            save_vecnormalize=True),
         EvalCallback(eval_env, n_eval_episodes=len(HELD_OUT_POINTS), eval_freq=max(eval_freq // n, 1),
                      best_model_save_path=str(out / "best"), log_path=str(out), deterministic=True,
-                     callback_on_new_best=_save_normalisation_callback(out / "best")),
+                     callback_on_new_best=_save_normalisation_callback(out / "best"), verbose=verbose),
+        *extra_callbacks,
     ]
     main_start = None if critic_warmup else start_steps  # the step the actor starts learning at
     t0 = time.perf_counter()

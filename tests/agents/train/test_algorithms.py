@@ -1,0 +1,69 @@
+"""TD3 and RecurrentPPO train, resume and load like PPO and SAC: safely (nothing unpickled), and a
+recurrent policy's memory starts afresh with every episode."""
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("sb3_contrib")
+
+from mdr_drive_agents.policy import ALGORITHMS, load_policy, policy_name, sb3_class  # noqa: E402
+from mdr_drive_agents.protocol import policy_velocity  # noqa: E402
+from mdr_drive_agents.train.hyperparameters import check_hyperparameters, known_keys  # noqa: E402
+from mdr_drive_agents.train.sb3 import train  # noqa: E402
+
+KW = dict(n_envs=4, eval_freq=10_000, checkpoint_freq=10_000, progress_bar=False)
+
+
+def test_every_algorithm_has_a_class_and_a_policy_and_others_are_refused():
+    for algo in ALGORITHMS:
+        assert policy_name(algo) in sb3_class(algo).policy_aliases
+    with pytest.raises(ValueError, match="algo='a2c' is not one of"):
+        sb3_class("a2c")
+
+
+def test_action_noise_is_an_off_policy_hyperparameter_with_a_range():
+    assert "action_noise_std" in known_keys("td3") and "action_noise_std" not in known_keys("ppo")
+    with pytest.raises(ValueError, match=r"action_noise_std=3.0 must be a number in the allowed range \[0.0, 2.0\]"):
+        check_hyperparameters("td3", {"action_noise_std": 3.0}, "--hyperparams")
+    with pytest.raises(ValueError, match="'action_noise_std' is not a PPO hyperparameter"):
+        check_hyperparameters("ppo", {"action_noise_std": 0.1}, "--hyperparams")
+
+
+@pytest.mark.parametrize("algo", ["td3", "recurrent_ppo"])
+def test_a_run_trains_resumes_and_loads_without_unpickling(algo, tmp_path, monkeypatch):
+    out = tmp_path / algo
+    first = train(algo, steps=128, seed=0, out=out, warm_start="none", **KW)
+    resumed = train(resume=out, steps=first["total_timesteps"] + 64, **KW)
+    assert resumed["total_timesteps"] >= first["total_timesteps"] + 64 and resumed["algo"] == algo
+    if algo == "td3":
+        assert json.loads((out / "run.json").read_text())["hyperparameters"]["action_noise_std"] == 0.1
+
+    import pickle
+
+    load_policy(out)  # the simulator's compiled kernels load first (numba's cache index is a pickle)
+
+    def refuse(*a, **k):
+        raise AssertionError("unpickled")
+
+    with monkeypatch.context() as m:
+        m.setattr(pickle, "loads", refuse)
+        m.setattr(pickle, "load", refuse)
+        policy = load_policy(out)
+    points = [(0.2, 0.05), (0.4, 0.0)]
+    first_play, again = policy_velocity(policy, points), policy_velocity(policy, points)
+    np.testing.assert_array_equal(first_play, again)  # a new episode forgets the last one
+    np.testing.assert_array_equal(policy.play(k=0.2, cargo_mass=0.05, periods=4),
+                                  policy.play(k=0.2, cargo_mass=0.05, periods=4))
+
+
+def test_a_recurrent_policy_remembers_within_an_episode_and_forgets_on_reset(tmp_path):
+    train("recurrent_ppo", steps=64, seed=0, out=tmp_path / "r", warm_start="none", **KW)
+    policy = load_policy(tmp_path / "r")
+    obs = np.zeros((1, 14), dtype=np.float32)
+    policy.reset()
+    a0 = policy.act(obs)
+    assert policy._memory is not None
+    policy.reset()
+    np.testing.assert_array_equal(policy.act(obs), a0)  # the same first step after reset
