@@ -16,6 +16,7 @@ AGENT_LAYERS = (
     {"teacher"},
     {"student"},
     {"train", "benchmarks"},
+    {"rl_baselines"},
     {"commands"},
 )
 

@@ -1,0 +1,100 @@
+"""Ship the best plain-RL run (``mdr-drive rl-baselines --ship DIR``): its policy files and a model
+card with its scores from the run's ``results.json``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from mdr_drive_env.files import write_text
+
+from ..benchmarks.model_card import copy_policy, evaluation_table, load_snippet, snippet
+from ..benchmarks.score import aggregate, format_aggregate
+from ..protocol import AVERAGE_PERIODS, EVAL_PERIODS
+from .config import ALGORITHM_NAMES
+from .report import run_scores
+from .runner import Plan
+
+
+def shipped_folder(root: str | Path, algo: str) -> Path:
+    """Where ``--ship ROOT`` puts a plain ``algo`` policy: ``ROOT/<algo>_plain``."""
+    return Path(root) / f"{algo}_plain"
+
+
+def ship_plain(best: dict, found: dict, summaries: dict, results_dir: str | Path, root: str | Path) -> Path:
+    """Copy the run ``best`` (``pipeline.best_run``) to ``shipped_folder(root, algo)`` and write its card;
+    returns the card's path."""
+    plan: Plan = found["plan"]
+    run = next(r for r in found["runs"][best["agent"]] if r["seed"] == best["seed"])
+    scores, fractions, _ = run_scores(plan, run)
+    dst, record = copy_policy(best["folder"], shipped_folder(root, best["algo"]))
+    name = ALGORITHM_NAMES[best["algo"]]
+    own = format_aggregate(aggregate(scores))
+    agent = summaries[best["agent"]]
+    hyper = {k: v for k, v in record["hyperparameters"].items() if k != "policy_kwargs"}
+    results = Path(results_dir).as_posix()
+    warm = record["hyperparameters"].get("warm_start", "none")
+    start = "no warm start" if warm == "none" else "its mean action started at the paper's trapezoid"
+    card = f"""# {dst.name}: plain {name} on MDRDrive-v0
+
+A Stable-Baselines3 {name} policy trained on `MDRDrive-v0` by reinforcement learning alone: no
+teacher, no table of drives, {start}. It observes the env's 14 observations (k and the load among
+them) and sets each period's waveform within the paper's actuator limits, its rises and z phase in
+{record['env_kwargs'].get('time_quantum', 1e-5) * 1e6:g} us steps. It is the best of the runs of
+`mdr-drive rl-baselines` on the points of its validation blind record ({plan.validation.name}): agent
+"{best['agent']}", training seed {best['seed']}. It is the reference for what plain RL reaches here
+(`{results}/benchmark.md`, docs/rl_baselines.md), not a drive to use: the shipped
+`ppo_generalist` is far better.
+
+## Load it
+
+{load_snippet(dst, record)}
+
+With Stable-Baselines3 alone (paths from the repository's root):
+
+{snippet(dst, record)}
+
+Or: `mdr-drive evaluate --policy {dst.as_posix()} --k 0.2 --cargo-mass 0.1 --json`.
+
+## How it was made
+
+* Command: `{record['command']}`, as one run of `mdr-drive rl-baselines` (its hyperparameters:
+  `{results}/hyperparameters/`)
+* Training: {name}, {record['total_timesteps']:,} environment steps (drive periods), {record['wall_time_s']:.0f} s
+  on one core
+* Training range (env kwargs): `{json.dumps(record['env_kwargs'])}`
+* Settings: `{json.dumps(hyper)}`, policy `{json.dumps(record['hyperparameters'].get('policy_kwargs', {}))}`
+* Versions: `{json.dumps(record['versions'])}`
+
+## Its scores
+
+Normalised score (0 the trapezoid, 1 the best drive the blind benchmark's search found; IQM and mean
+with 95 % bootstrap intervals over the points) on the report records {', '.join(r.name for r in plan.reports)},
+from `{results}/results.json`:
+
+* this policy: {own}
+* its agent's {len(agent['steps'])} training seeds: {format_aggregate(agent['score'])}; fraction of the best
+  drive, mean {agent['fraction_of_best']['mean'][0]:.3f} [{agent['fraction_of_best']['mean'][1]:.3f},
+  {agent['fraction_of_best']['mean'][2]:.3f}]
+* this policy's fraction of the best drive, mean over the points where it moves at least 2 mm/s:
+  {sum(float(f.sum()) for f in fractions) / max(1, sum(f.size for f in fractions)):.3f}
+
+## Limits
+
+* Plain RL finds neither the push/clamp cycles that carry heavy loads nor the gliding drives of light
+  loads (docs/rl_baselines.md): it is below the trapezoid at many points.
+* Trained for the ranges above with the paper's friction (mu = 0.3, mu1 = 0.1) and material.
+
+## Evaluation
+
+Steady slider velocity in mm/s, policy (trapezoid), mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}
+of a fresh drive, computed from the shipped files. "runaway": the load accelerates the slider backwards
+without bound.
+
+{evaluation_table(dst)}
+"""
+    write_text(dst / "MODEL_CARD.md", card)
+    return dst / "MODEL_CARD.md"
+
+
+__all__ = ["ship_plain", "shipped_folder"]

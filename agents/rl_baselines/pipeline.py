@@ -1,0 +1,70 @@
+"""``mdr-drive rl-baselines`` from its config to its outputs (``run``)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mdr_drive_env.files import write_text
+from mdr_drive_env.sweep import Executor, task_folder
+
+from ..run_record import RunLock, command_line, start_run, versions
+from ..yaml_config import from_yaml
+from .config import BaselinesConfig
+from .report import write_report
+from .runner import run_baselines
+
+DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "rl_baselines.yaml"
+
+
+def best_run(summaries: dict, found: dict) -> dict:
+    """The run with the highest mean score on the validation record's points (the run to ship): its
+    agent, algorithm, seed, folder and that score."""
+    candidates = [(score, name, run) for name, runs in found["runs"].items()
+                  for score, run in zip(summaries[name]["validation_mean_score"], runs) if np.isfinite(score)]
+    if not candidates:
+        raise ValueError("no run scored on the validation points")
+    score, name, run = max(candidates, key=lambda c: c[0])
+    return {"agent": name, "algo": run["algo"], "seed": run["seed"], "folder": run["folder"],
+            "validation_mean_score": score}
+
+
+def run(config_path: str | Path, out: str | Path, runs: str | Path, executor: Executor | None = None,
+        resume: bool = False, force: bool = False, progress: bool = True, ship: str | Path | None = None) -> dict:
+    """Search, train and report (``runner``, ``report``): the outputs go to ``out``, the trained runs
+    to ``runs/<agent>/s<seed>``; with ``ship``, the best run on the validation points goes to
+    ``ship/<algo>_plain`` with its model card (``card``), replacing every plain policy ``ship`` held
+    (``ship/*_plain``: refused without ``force``, before any work). Returns the run record also written to
+    ``out/run.json``."""
+    config = from_yaml(BaselinesConfig, config_path)
+    shipped = sorted(Path(ship).glob("*_plain")) if ship is not None else []
+    if shipped and not force:
+        raise ValueError(f"--ship {ship}: {shipped[0]} holds a plain policy, which the new one replaces: add --force")
+    out, executor = start_run(out, resume, force, executor, progress)
+    out.mkdir(parents=True, exist_ok=True)
+    with RunLock(out):
+        t0 = time.perf_counter()
+        tasks = task_folder(out, resume)
+        found = run_baselines(config, runs, executor, tasks)
+        summaries = write_report(out, config, found)
+        best = best_run(summaries, found)
+        if ship is not None:
+            from .card import ship_plain
+
+            for folder in shipped:
+                shutil.rmtree(folder)
+            best["shipped_to"] = str(ship_plain(best, found, summaries, out, ship).parent)
+        record = {"command": command_line(), "versions": versions(), "config": str(config_path),
+                  "runs": str(runs), "best_run": best, "wall_time_s": round(time.perf_counter() - t0, 1)}
+        write_text(out / "run.json", json.dumps(record, indent=2))
+        shutil.rmtree(tasks, ignore_errors=True)
+    print(f"rl-baselines: {out}/benchmark.md; best run on the validation points: {best['agent']} seed "
+          f"{best['seed']} ({best['folder']}, mean score {best['validation_mean_score']:.3f})")
+    return record
+
+
+__all__ = ["DEFAULT_CONFIG", "best_run", "run"]
