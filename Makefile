@@ -10,7 +10,7 @@ PYTEST_ARGS ?=
 RECORD_SEEDS := 20261255 20261256 20261257 20261258 20261259 20261260 20261273 20261274 20261275 20261276 20261277 20261278
 
 .PHONY: help install test demo reproduce claims convergence bench scaling train train-sensor benchmark record dense \
-        adaptation cards clean
+        adaptation rl-baselines cards clean
 
 ## make help: this list
 help:
@@ -80,6 +80,13 @@ dense: $(STAMP)
 ## make adaptation: the shipped sensor policy on blind hidden-parameter draws and load steps (results/adaptation)
 adaptation: $(STAMP)
 	$(MDR) adaptation --seed 20261125 --out results/adaptation
+
+## make rl-baselines: plain PPO, SAC, TD3 and RecurrentPPO searched, 5 seeds each, then PPO's ablations; ships the best (results/rl_baselines; about 1.5 hours on 2 cores)
+rl-baselines: $(STAMP)
+	$(MDR) rl-baselines agents/configs/rl_baselines.yaml --out results/rl_baselines --runs runs/rl_baselines \
+	    --ship agents/pretrained --force
+	$(MDR) rl-baselines agents/configs/rl_ablations.yaml --out results/rl_baselines/ablations \
+	    --runs runs/rl_ablations --force
 
 ## make cards: both shipped policies' model cards, from their files, the record and the adaptation report
 cards: $(STAMP)

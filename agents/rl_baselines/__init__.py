@@ -10,9 +10,12 @@ and points). Writes the RL Zoo's kind of ``benchmark.md``, the learning curves a
 hyperparameters as RL-Zoo YAML files.
 
     config.py     the run's settings (``BaselinesConfig``, from agents/configs/rl_baselines.yaml)
-    reference.py  a blind benchmark's points with the trapezoid's and the best drive's velocities
     curve.py      the learning-curve callback and the score of a live model
     tuning.py     the hyperparameter search spaces and the Optuna study (ask and tell)
     runner.py     the tasks (one training run each) on the sweep executor, with resume
     report.py     benchmark.md, results.json and curves.png
+    card.py       the shipped plain policy's model card
+    pipeline.py   the command's run, config to outputs
+
+The references are blind benchmarks' points (``benchmarks.reference``).
 """

@@ -16,7 +16,6 @@ from mdr_drive_env import ENV_ID
 from mdr_drive_env.files import json_safe, write_text
 
 from ..benchmarks.score import aggregate
-from ..benchmarks.targets import MOVING_THRESHOLD
 from ..train.hyperparameters import load_config
 from .config import BaselinesConfig
 from .runner import Plan, slug
@@ -25,18 +24,11 @@ from .runner import Plan, slug
 CURVE_REPS = 2000
 
 
-def fractions_of_best(ref, velocity) -> np.ndarray:
-    """The fraction of the best drive at each point where it moves at least ``MOVING_THRESHOLD``
-    (a runaway counts as 0)."""
-    moving = ref.best >= MOVING_THRESHOLD
-    return np.nan_to_num(np.asarray(velocity, dtype=float), nan=0.0)[moving] / ref.best[moving]
-
-
 def run_scores(plan: Plan, run: dict, index: int = -1) -> tuple[list, list, list]:
     """(scores, fractions of the best, velocities) of one run's evaluation ``index``, per report record."""
     _, parts = plan.split(run["velocities"][index])
     return ([ref.scores(v) for ref, v in zip(plan.reports, parts)],
-            [fractions_of_best(ref, v) for ref, v in zip(plan.reports, parts)], parts)
+            [ref.fractions_of_best(v) for ref, v in zip(plan.reports, parts)], parts)
 
 
 def agent_summary(plan: Plan, runs: list[dict]) -> dict:
@@ -57,7 +49,7 @@ def agent_summary(plan: Plan, runs: list[dict]) -> dict:
 def reference_rows(plan: Plan) -> dict:
     """The fraction of the best drive of the trapezoid (its score is 0 by definition) and of the
     records' own policies (``learned`` of each ``blind.json``: the distilled policy, not plain RL)."""
-    return {"trapezoid": aggregate([fractions_of_best(ref, ref.trapezoid) for ref in plan.reports])}
+    return {"trapezoid": aggregate([ref.fractions_of_best(ref.trapezoid) for ref in plan.reports])}
 
 
 def curve_aggregates(plan: Plan, runs: list[dict]) -> list[dict]:

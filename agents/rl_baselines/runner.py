@@ -16,7 +16,7 @@ from mdr_drive_env.sweep import Executor, TaskStore
 from ..train.hyperparameters import load_config
 from .config import Agent, BaselinesConfig
 from .curve import curve_steps
-from .reference import Reference, common_time_quantum
+from ..benchmarks.reference import Reference, common_time_quantum
 from .tuning import fixed_hyperparameters, make_study, sample_hyperparameters
 
 

@@ -11,10 +11,9 @@ import yaml
 pytest.importorskip("optuna")
 pytest.importorskip("sb3_contrib")
 
-from mdr_drive_agents.benchmarks.score import normalized_scores  # noqa: E402
 from mdr_drive_agents.rl_baselines.config import Agent, BaselinesConfig  # noqa: E402
 from mdr_drive_agents.rl_baselines.curve import curve_steps  # noqa: E402
-from mdr_drive_agents.rl_baselines.reference import Reference  # noqa: E402
+from mdr_drive_agents.benchmarks.reference import Reference  # noqa: E402
 from mdr_drive_agents.yaml_config import from_yaml  # noqa: E402
 from mdr_drive_env.cli import main  # noqa: E402
 from tests import ROOT  # noqa: E402
@@ -43,16 +42,6 @@ def test_the_config_refuses_bad_values_naming_them():
         Agent("ppo", 10, warm_start="teacher")
     shipped = from_yaml(BaselinesConfig, ROOT / "agents" / "configs" / "rl_baselines.yaml")
     assert len(shipped.seeds) >= 5 and {a.algo for a in shipped.agents} == {"ppo", "sac", "td3", "recurrent_ppo"}
-
-
-def test_a_reference_scores_as_the_standard_score(tmp_path):
-    ref = Reference.load(DATA / "blind_tiny_b.json")
-    v = ref.best * 0.5 + ref.trapezoid * 0.5
-    np.testing.assert_allclose(ref.scores(v), normalized_scores(ref.trapezoid, ref.best, v))
-    assert ref.name == "seed 20261256" and ref.time_quantum == 5e-6
-    (tmp_path / "bad.json").write_text("{}")
-    with pytest.raises(ValueError, match="bad.json is not a blind benchmark's blind.json"):
-        Reference.load(tmp_path / "bad.json")
 
 
 def test_curve_steps_are_evenly_spaced_and_end_at_the_total():

@@ -1,6 +1,14 @@
-"""A blind benchmark's points as a reference to score drives against: each point's (k, cargo mass),
-and the steady velocities of the trapezoid and of the best drive the benchmark's search found there
-(``mdr-drive benchmark --blind``'s ``blind.json``)."""
+"""A blind benchmark's points as a reference to score any drive against: each point's (k, cargo
+mass), and the steady velocities of the trapezoid and of the best drive the benchmark's search found
+there (``mdr-drive benchmark --blind``'s ``blind.json``).
+
+    from mdr_drive_agents import load_policy
+    from mdr_drive_agents.benchmarks.reference import Reference
+
+    reference = Reference.load("results/record/seed20261256/blind.json")
+    found = reference.score_policy(load_policy("agents/pretrained/ppo_plain"))
+    found["score"]            # IQM and mean normalised score with 95 % bootstrap intervals
+"""
 
 from __future__ import annotations
 
@@ -10,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..benchmarks.score import normalized_scores
-from ..benchmarks.targets import velocity_statistics
-from ..protocol import TIME_QUANTUM
+from ..protocol import TIME_QUANTUM, policy_velocity
+from .score import aggregate, normalized_scores
+from .targets import MOVING_THRESHOLD, velocity_statistics
 
 
 @dataclass(frozen=True)
@@ -57,9 +65,30 @@ class Reference:
         unscored, ``benchmarks.score``)."""
         return normalized_scores(self.trapezoid, self.best, velocity)
 
+    def fractions_of_best(self, velocity) -> np.ndarray:
+        """The fraction of the best drive at each point where it moves at least ``MOVING_THRESHOLD``
+        (a runaway counts as 0)."""
+        moving = self.best >= MOVING_THRESHOLD
+        return np.nan_to_num(np.asarray(velocity, dtype=float), nan=0.0)[moving] / self.best[moving]
+
     def statistics(self, velocity) -> dict:
         """The blind benchmark's velocity statistics of ``velocity`` (``targets.velocity_statistics``)."""
         return velocity_statistics(self.trapezoid, self.best, np.asarray(velocity, dtype=float))
+
+    def score_policy(self, policy) -> dict:
+        """A closed-loop ``policy``'s (``load_policy``'s, or any ``act(obs) -> Box actions``) steady
+        velocity at every point (m/s; NaN a runaway), its normalised score there and the aggregates:
+        ``score`` (IQM and mean, bootstrap over the points), the fraction of the best drive and the
+        blind statistics. The policy must act at this reference's time quantum (as its search did)."""
+        quantum = float(getattr(policy, "play_kwargs", {}).get("time_quantum", TIME_QUANTUM))
+        if quantum != self.time_quantum:
+            raise ValueError(f"the policy acts at a time quantum of {quantum:g} s, this reference's search at "
+                             f"{self.time_quantum:g} s: score it against a blind benchmark run at its own")
+        velocity = policy_velocity(policy, list(self.points), mark_runaway=True)
+        scores = self.scores(velocity)
+        return {"velocity": velocity, "scores": scores, "score": aggregate([scores]),
+                "fraction_of_best": aggregate([self.fractions_of_best(velocity)]),
+                "statistics": self.statistics(velocity)}
 
 
 def common_time_quantum(references) -> float:
