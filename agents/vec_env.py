@@ -14,26 +14,62 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
+#: Reward baselines ``BatchedVecEnv`` subtracts: none, or the trapezoid's steady reward at each
+#: episode's drive.
+REWARD_BASELINES = ("none", "trapezoid")
+#: Periods the trapezoid plays for its baseline, and the last ones averaged (the evaluation protocol's).
+BASELINE_PERIODS, BASELINE_AVERAGE = 30, 10
+
 
 class BatchedVecEnv(VecEnv):
     """``MDRDrive-v0``'s batched vector env (one compiled call per period for all envs) as an SB3 VecEnv.
 
+    **Reward relative to the trapezoid** (``reward_baseline="trapezoid"``, a training aid): each
+    period's reward minus the reward per period the paper's trapezoid earns once settled on the same
+    drive (the episode's k, load and friction; the mean of periods 21-30 of the env's own
+    ``trapezoid_action``, computed in one batched call when episodes start). A constant per episode:
+    it leaves the best policy of every episode the same, and removes from the returns the part that
+    depends only on the drive, which the critic would otherwise have to learn. ``infos[i]
+    ["reward_baseline"]`` holds it; evaluation sees the env's own reward.
+
     Args:
         num_envs: number of drives.
         seed: base seed (sub-env i gets ``seed + i``).
+        reward_baseline: one of ``REWARD_BASELINES``.
         **env_kwargs: keyword arguments of ``MDRDrive-v0`` (``numerics`` must be the fast solver).
     """
 
-    def __init__(self, num_envs: int, seed: int | None = None, **env_kwargs: Any):
+    def __init__(self, num_envs: int, seed: int | None = None, reward_baseline: str = "none", **env_kwargs: Any):
+        if reward_baseline not in REWARD_BASELINES:
+            raise ValueError(f"reward_baseline={reward_baseline!r} is not one of {list(REWARD_BASELINES)}")
         self.venv = gym.make_vec("MDRDrive-v0", num_envs=num_envs, vectorization_mode="vector_entry_point",
                                  autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
         super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
         self._seed = seed
         self._actions: np.ndarray | None = None
+        self.baseline = np.zeros(num_envs)
+        self._baseline_env = None
+        if reward_baseline == "trapezoid":
+            self._baseline_env = gym.make_vec("MDRDrive-v0", num_envs=num_envs, vectorization_mode="vector_entry_point",
+                                              **{**env_kwargs, "max_periods": BASELINE_PERIODS,
+                                                 "load_step_period": None})
+
+    def _update_baseline(self, starting: np.ndarray) -> None:
+        """The trapezoid's steady reward per period on the drives of the episodes ``starting`` (mask)."""
+        if self._baseline_env is None or not starting.any():
+            return
+        v = self.venv.unwrapped
+        self._baseline_env.reset(options={"k": v.k.copy(), "cargo_mass": v.cargo_mass.copy(),
+                                          "friction_coefficient": v.friction[:, 0].copy(),
+                                          "base_friction_coefficient": v.friction[:, 1].copy()})
+        action = np.repeat(self._baseline_env.unwrapped.template.trapezoid_action()[None], self.num_envs, axis=0)
+        rewards = [self._baseline_env.step(action)[1] for _ in range(BASELINE_PERIODS)]
+        self.baseline[starting] = np.mean(rewards[-BASELINE_AVERAGE:], axis=0)[starting]
 
     def reset(self) -> np.ndarray:
         obs, _ = self.venv.reset(seed=self._seed)
         self._seed = None  # seed only the first reset, as SB3 does
+        self._update_baseline(np.ones(self.num_envs, dtype=bool))
         return obs
 
     def step_async(self, actions: np.ndarray) -> None:
@@ -51,6 +87,11 @@ class BatchedVecEnv(VecEnv):
         for i in np.flatnonzero(dones):
             infos[i]["terminal_observation"] = info["final_obs"][i]
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+        if self._baseline_env is not None:
+            rewards = rewards - self.baseline
+            for i in range(self.num_envs):
+                infos[i]["reward_baseline"] = float(self.baseline[i])
+            self._update_baseline(dones)  # the episodes that start now
         return obs, rewards.astype(np.float32), dones, infos
 
     def seed(self, seed: int | None = None):

@@ -20,11 +20,12 @@ from ..yaml_config import read_yaml
 
 CONFIG_DIR = Path(__file__).parents[1] / "configs"
 #: Config keys of ``mdr-drive train`` itself: recorded in run.json, not passed to SB3.
-NOT_SB3_KEYS = ("warm_start", "action_noise_std")
+NOT_SB3_KEYS = ("warm_start", "action_noise_std", "reward_baseline")
 #: Keys every algorithm takes besides its constructor's (the number of envs, normalisation, the
 #: RL Zoo's step budget and policy name, the warm start, the exploration noise of an off-policy
-#: algorithm: Gaussian, its standard deviation in the action box's units).
-EXTRA_KEYS = ("n_envs", "normalize", "n_timesteps", "policy", "warm_start", "action_noise_std")
+#: algorithm: Gaussian, its standard deviation in the action box's units; the training env's reward
+#: baseline, ``vec_env.REWARD_BASELINES``).
+EXTRA_KEYS = ("n_envs", "normalize", "n_timesteps", "policy", "warm_start", "action_noise_std", "reward_baseline")
 #: Set by ``mdr-drive train`` itself, never by a config or --hyperparams.
 SET_HERE = ("self", "policy", "env", "_init_setup_model", "device", "seed", "tensorboard_log", "verbose",
             "action_noise")
@@ -75,6 +76,8 @@ def check_hyperparameters(algo: str, hyper: dict[str, Any], source: str) -> None
         if key not in known:
             raise ValueError(f"{source}: {key!r} is not a {algo.upper()} hyperparameter this command sets (seed, device "
                              f"and logging have their own); one of {known}")
+        if key == "reward_baseline" and value not in ("none", "trapezoid"):
+            raise ValueError(f"{source}: reward_baseline={value!r} is not one of ['none', 'trapezoid']")
         if key not in NUMERIC or (key == "ent_coef" and is_auto_entropy(value)):
             continue
         low, high, integer, low_open = NUMERIC[key]

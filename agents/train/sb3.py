@@ -50,14 +50,18 @@ def _range(values: list[float] | None, default):
     return float(values[0]) if len(values) == 1 else (float(values[0]), float(values[1]))
 
 
-def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any]):
-    """The training env with a monitor: the batched vector env, or, for the sensor observation and
-    load steps (which it does not step), ``n_envs`` single envs in a ``DummyVecEnv``."""
+def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any], reward_baseline: str = "none"):
+    """The training env with a monitor: the batched vector env (its rewards relative to the trapezoid's
+    with ``reward_baseline="trapezoid"``), or, for the sensor observation and load steps (which it does
+    not step), ``n_envs`` single envs in a ``DummyVecEnv``."""
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
     from ..vec_env import BatchedVecEnv
 
     if env_kwargs.get("observation", "full") != "full" or env_kwargs.get("load_step_period") is not None:
+        if reward_baseline != "none":
+            raise ValueError(f"reward_baseline={reward_baseline!r} needs the batched env: the full observation "
+                             "without load steps")
         import gymnasium as gym
 
         import mdr_drive_env  # noqa: F401  registers the env
@@ -65,7 +69,7 @@ def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any]):
         venv = DummyVecEnv([lambda: gym.make(ENV_ID, **env_kwargs) for _ in range(n_envs)])
         venv.seed(seed)
         return VecMonitor(venv)
-    return VecMonitor(BatchedVecEnv(n_envs, seed=seed, **env_kwargs))
+    return VecMonitor(BatchedVecEnv(n_envs, seed=seed, reward_baseline=reward_baseline, **env_kwargs))
 
 
 def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS):
@@ -301,7 +305,8 @@ def _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_
     warm = hyper.get("warm_start", "none")
     out.mkdir(parents=True, exist_ok=True)
     remove_temporary(out)  # files a killed save left behind
-    venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if previous else seed, env_kwargs)
+    venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if previous else seed, env_kwargs,
+                          hyper.get("reward_baseline", "none"))
     eval_env = make_eval_env(env_kwargs)
     if previous:
         model = resumed_model(out, previous, venv, overrides)

@@ -67,3 +67,26 @@ def test_a_recurrent_policy_remembers_within_an_episode_and_forgets_on_reset(tmp
     assert policy._memory is not None
     policy.reset()
     np.testing.assert_array_equal(policy.act(obs), a0)  # the same first step after reset
+
+
+def test_a_reward_relative_to_the_trapezoid_is_zero_when_the_trapezoid_plays_settled():
+    from mdr_drive_agents.vec_env import BatchedVecEnv
+
+    kw = dict(k=(0.0, 0.6), load_ratio=(0.0, 0.3), max_periods=40, friction_coefficient=(0.2, 0.4))
+    plain, relative = BatchedVecEnv(6, seed=3, **kw), BatchedVecEnv(6, seed=3, reward_baseline="trapezoid", **kw)
+    plain.reset(), relative.reset()
+    action = np.repeat(plain.venv.unwrapped.template.trapezoid_action()[None], 6, axis=0)
+    settled = []
+    for period in range(40):
+        plain.step_async(action)
+        relative.step_async(action)
+        (_, r_plain, done, _), (_, r_rel, _, infos) = plain.step_wait(), relative.step_wait()
+        np.testing.assert_allclose(r_plain - r_rel, [i["reward_baseline"] for i in infos], rtol=1e-6, atol=1e-6)
+        if 20 <= period < 30:  # settled: the trapezoid earns its own baseline (the mean of periods 21-30)
+            settled.append(r_rel)
+    np.testing.assert_allclose(np.mean(settled, axis=0), 0.0, atol=1e-6)
+    assert done.all() and np.abs(relative.baseline).max() > 0.1  # new episodes, new baselines
+    with pytest.raises(ValueError, match="reward_baseline='zero' is not one of"):
+        BatchedVecEnv(2, reward_baseline="zero")
+    with pytest.raises(ValueError, match="reward_baseline='zero' is not one of"):
+        check_hyperparameters("ppo", {"reward_baseline": "zero"}, "--hyperparams")
