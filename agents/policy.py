@@ -30,6 +30,14 @@ from mdr_drive_env.gym_envs.spaces import load_action_codebook
 
 from .sb3_files import NORMALIZATION_FILE, NormalizationState, read_model
 
+
+def cycle_space(space):
+    """The action space of a two-period cycle of ``space``'s Box actions: both halves side by side
+    (``vec_env.CycleActions``)."""
+    import gymnasium as gym
+
+    return gym.spaces.Box(np.tile(space.low, 2), np.tile(space.high, 2), dtype=space.dtype)
+
 #: The shipped policies.
 PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_generalist"
 SENSOR_PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_sensor"
@@ -93,8 +101,9 @@ class Policy:
     evaluation protocol, ``predict`` (one observation -> one action of its env) for a user's loop.
 
     A recurrent policy (RecurrentPPO) carries its LSTM state from one ``act`` or ``predict`` to the
-    next; ``reset`` forgets it (every episode starts with ``reset``; ``play`` and the evaluation
-    protocol call it).
+    next, and a policy trained with two-period cycle actions (``action_cycle: 2``, ``vec_env.CycleActions``)
+    plays the second half of its last action every other period; ``reset`` forgets both (every
+    episode starts with ``reset``; ``play`` and the evaluation protocol call it).
 
     Attributes:
         model: the SB3 model (one of ``ALGORITHMS``).
@@ -111,15 +120,23 @@ class Policy:
     run: dict = field(default_factory=dict)
     folder: Path | None = None
     _memory: object = field(default=None, init=False, repr=False, compare=False)
+    _pending: object = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def recurrent(self) -> bool:
         """Whether it remembers past observations (an LSTM policy)."""
         return self.run.get("algo") == "recurrent_ppo"
 
+    @property
+    def cycle(self) -> int:
+        """Periods one action of the network sets: 1, or 2 for a two-period cycle (run.json's
+        ``hyperparameters.action_cycle``)."""
+        return int(self.run.get("hyperparameters", {}).get("action_cycle", 1))
+
     def reset(self) -> None:
-        """Forget what a recurrent policy remembers: the next observation starts an episode."""
-        self._memory = None
+        """Forget what a recurrent policy remembers and a cycle's second half: the next observation
+        starts an episode."""
+        self._memory = self._pending = None
 
     def _predict(self, obs: np.ndarray):
         if not self.recurrent:
@@ -152,7 +169,14 @@ class Policy:
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Box actions (n, 5) at observations ``obs`` (n, d), deterministic: the mean action, or the
         codebook row of the most likely index (so it plays in an env without the codebook alike)."""
+        if self.cycle == 2 and self._pending is not None and len(self._pending) == len(obs):
+            action, self._pending = self._pending, None  # the cycle's second period
+            return action
         action = self._predict(self.normalized(obs))
+        if self.cycle == 2:
+            action = np.asarray(action).reshape(len(obs), 2, -1)
+            self._pending = action[:, 1]
+            return action[:, 0]
         return action if self.codebook is None else self.codebook[action]
 
     def normalized(self, obs: np.ndarray) -> np.ndarray:
@@ -162,6 +186,8 @@ class Policy:
     def predict(self, obs: np.ndarray):
         """The action of its own env (``make_env``) at one observation ``obs`` (d,), deterministic and
         normalised with its statistics: a Box action (5,), or a codebook index."""
+        if self.cycle == 2:
+            return self.act(np.asarray(obs)[None])[0]
         return self._predict(self.normalized(np.asarray(obs)[None]))[0]
 
     def make_env(self, **overrides):
@@ -176,7 +202,7 @@ class Policy:
     def check_env(self, env) -> None:
         """``ValueError`` naming the fix unless ``env``'s action space is the one it acts in."""
         space = getattr(env, "single_action_space", env.action_space)
-        if space == self.model.action_space:
+        if space == self.model.action_space or self.cycle == 2 and cycle_space(space) == self.model.action_space:
             return
         if self.codebook is not None:
             raise ValueError(f"this policy picks one of {len(self.codebook)} drives (action space "
@@ -279,8 +305,10 @@ def load_policy(folder: str | Path, trust_pickle: bool = False) -> Policy:
     normalize = ObsNormalization.of_folder(folder, trust_pickle)  # refused before anything else is read
     env = make_env_of(folder, run)
     algo = run.get("algo", "ppo")
-    model = read_model(folder / "model.zip", sb3_class(algo), env.observation_space, env.action_space,
-                       run.get("hyperparameters"), policy=policy_name(algo))
+    cycle = run.get("hyperparameters", {}).get("action_cycle", 1) == 2
+    model = read_model(folder / "model.zip", sb3_class(algo), env.observation_space,
+                       cycle_space(env.action_space) if cycle else env.action_space, run.get("hyperparameters"),
+                       policy=policy_name(algo))
     return Policy(model, normalize, load_action_codebook(run_env_kwargs(folder, run).get("action_codebook")), run,
                   folder)
 
@@ -360,4 +388,4 @@ def same_weights(a: str | Path, b: str | Path) -> bool:
 
 __all__ = ["ACTION_KEYS", "CODEBOOK_FILE", "FILES", "OBSERVATION_KEYS", "ObsNormalization", "PLAY_KEYS", "PRETRAINED", "Policy", "package_path",
            "SENSOR_PRETRAINED", "load_policy", "policy_files", "policy_label", "read_run", "run_env_kwargs",
-           "policy_name", "same_weights", "save_normalization", "save_policy", "sb3_class"]
+           "cycle_space", "policy_name", "same_weights", "save_normalization", "save_policy", "sb3_class"]

@@ -12,7 +12,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
-from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvWrapper
+
+from .policy import cycle_space
 
 #: Reward baselines ``BatchedVecEnv`` subtracts: none, or the trapezoid's steady reward at each
 #: episode's drive.
@@ -113,3 +115,36 @@ class BatchedVecEnv(VecEnv):
 
     def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
         return [False for _ in self._get_indices(indices)]
+
+
+
+class CycleActions(VecEnvWrapper):
+    """A VecEnv whose action sets a two-period cycle: ``Box(10)``, the first 5 entries the waveform of
+    the coming period, the last 5 that of the period after; one step plays both (their rewards
+    summed, the observation after the second, the first period's infos in ``info["first_period"]``).
+    A stationary policy can then choose the push/clamp cycles that carry heavy loads as one action.
+    The wrapped env's episodes must last an even number of periods (``max_periods``)."""
+
+    def __init__(self, venv):
+        periods = venv.get_attr("max_periods")[0]
+        if periods % 2:
+            raise ValueError(f"action_cycle=2 needs episodes of an even number of periods, not max_periods={periods}")
+        super().__init__(venv, action_space=cycle_space(venv.action_space))
+
+    def reset(self):
+        return self.venv.reset()
+
+    def step_async(self, actions):
+        self._pair = np.asarray(actions).reshape(self.num_envs, 2, -1)
+
+    def step_wait(self):
+        self.venv.step_async(self._pair[:, 0])
+        _, first, done, first_infos = self.venv.step_wait()
+        if done.any():  # cannot happen with an even episode length
+            raise RuntimeError("an episode ended between the two periods of a cycle")
+        self.venv.step_async(self._pair[:, 1])
+        obs, second, done, infos = self.venv.step_wait()
+        for info, earlier in zip(infos, first_infos):
+            info["first_period"] = earlier
+        return obs, first + second, done, infos
+

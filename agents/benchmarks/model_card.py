@@ -156,9 +156,19 @@ PLAY_BY_ALGO = {
 }
 
 
+#: How a policy of two-period cycle actions (``action_cycle: 2``) plays: both halves, in turn.
+CYCLE_PREDICT = ("if period % 2 == 0:                                # one action sets two periods\n"
+                 "        pair, _ = model.predict(obs, deterministic=True)\n"
+                 "    action = pair[:, :5] if period % 2 == 0 else pair[:, 5:]")
+
+
 def snippet(dst: Path, run: dict) -> str:
     """The card's tested plain-SB3 loading snippet for the policy in ``dst`` (full or sensor observation)."""
     module, cls, memory, predict = PLAY_BY_ALGO[run.get("algo", "ppo")]
+    if run.get("hyperparameters", {}).get("action_cycle", 1) == 2:
+        if memory:
+            raise ValueError("a recurrent policy of two-period cycle actions has no plain-SB3 snippet")
+        predict = CYCLE_PREDICT
     play = dict(module=module, cls=cls, memory=memory, predict=predict)
     if run["env_id"] == "MDRDriveSensor-v0":
         return SNIPPET.format(**play, env_id="MDRDriveSensor-v0", dir=dst.as_posix(),

@@ -13,19 +13,21 @@ from ..policy import Policy
 from ..protocol import policy_velocity
 
 
-def live_policy(model, algo: str, env_kwargs: dict) -> Policy:
+def live_policy(model, algo: str, env_kwargs: dict, hyperparameters: dict | None = None) -> Policy:
     """A model being trained as a ``Policy`` of the protocol: its training env's observation
-    normalisation (the current statistics, not updated by playing) and the env keywords it acts in."""
+    normalisation (the current statistics, not updated by playing), the env keywords it acts in and
+    its hyperparameters (a two-period cycle's ``action_cycle``)."""
     from stable_baselines3.common.vec_env import VecNormalize
 
     venv = model.get_env()
     normalize = venv.normalize_obs if isinstance(venv, VecNormalize) and venv.norm_obs else None
-    return Policy(model, normalize, run={"algo": algo, "env_kwargs": dict(env_kwargs)})
+    return Policy(model, normalize, run={"algo": algo, "env_kwargs": dict(env_kwargs),
+                                         "hyperparameters": dict(hyperparameters or {})})
 
 
-def model_velocity(model, algo: str, env_kwargs: dict, points) -> np.ndarray:
+def model_velocity(model, algo: str, env_kwargs: dict, points, hyperparameters: dict | None = None) -> np.ndarray:
     """Steady velocities (m/s; NaN a runaway) of a live model at ``points`` ((k, cargo mass), ...)."""
-    return policy_velocity(live_policy(model, algo, env_kwargs), list(points), mark_runaway=True)
+    return policy_velocity(live_policy(model, algo, env_kwargs, hyperparameters), list(points), mark_runaway=True)
 
 
 def curve_steps(total: int, count: int) -> list[int]:
@@ -35,7 +37,8 @@ def curve_steps(total: int, count: int) -> list[int]:
 
 
 def learning_curve_callback(algo: str, env_kwargs: dict, points, at_steps: list[int],
-                            on_evaluation: Callable[[int, np.ndarray], bool] | None = None):
+                            on_evaluation: Callable[[int, np.ndarray], bool] | None = None,
+                            hyperparameters: dict | None = None):
     """An SB3 callback that plays the model at ``points`` when its step count first reaches each of
     ``at_steps`` (and at the end of training if it ends short of the last); ``.curve`` is then
     [(steps, seconds of training so far, evaluations excluded, velocities), ...].
@@ -56,7 +59,7 @@ def learning_curve_callback(algo: str, env_kwargs: dict, points, at_steps: list[
 
         def _evaluate(self) -> np.ndarray:
             t = time.perf_counter()
-            v = model_velocity(self.model, algo, env_kwargs, points)
+            v = model_velocity(self.model, algo, env_kwargs, points, hyperparameters)
             self.curve.append((int(self.num_timesteps), round(t - self.start - self.evaluating, 3), v))
             self.evaluating += time.perf_counter() - t
             return v

@@ -28,9 +28,10 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
     from .curve import learning_curve_callback
 
     env_overrides = {**task["env_kwargs"], "time_quantum": task["time_quantum"]}
-    _, env_kwargs = load_config(task["algo"], task["config"])
+    hyper, env_kwargs = load_config(task["algo"], task["config"])
     env_kwargs.update(env_overrides)
-    callback = learning_curve_callback(task["algo"], env_kwargs, task["points"], task["curve_at"])
+    callback = learning_curve_callback(task["algo"], env_kwargs, task["points"], task["curve_at"],
+                                       hyperparameters={**hyper, **task["hyperparameters"]})
     record = train(task["algo"], task["steps"], task["seed"], task["folder"], config=task["config"],
                    hyperparams=task["hyperparameters"], warm_start=task["warm_start"], progress_bar=False, force=True,
                    eval_freq=task["steps"], checkpoint_freq=task["steps"], torch_threads=task["torch_threads"],

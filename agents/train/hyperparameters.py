@@ -20,12 +20,13 @@ from ..yaml_config import read_yaml
 
 CONFIG_DIR = Path(__file__).parents[1] / "configs"
 #: Config keys of ``mdr-drive train`` itself: recorded in run.json, not passed to SB3.
-NOT_SB3_KEYS = ("warm_start", "action_noise_std", "reward_baseline")
+NOT_SB3_KEYS = ("warm_start", "action_noise_std", "reward_baseline", "action_cycle")
 #: Keys every algorithm takes besides its constructor's (the number of envs, normalisation, the
 #: RL Zoo's step budget and policy name, the warm start, the exploration noise of an off-policy
 #: algorithm: Gaussian, its standard deviation in the action box's units; the training env's reward
-#: baseline, ``vec_env.REWARD_BASELINES``).
-EXTRA_KEYS = ("n_envs", "normalize", "n_timesteps", "policy", "warm_start", "action_noise_std", "reward_baseline")
+#: baseline, ``vec_env.REWARD_BASELINES``; periods one action sets, 1 or 2: ``vec_env.CycleActions``).
+EXTRA_KEYS = ("n_envs", "normalize", "n_timesteps", "policy", "warm_start", "action_noise_std", "reward_baseline",
+              "action_cycle")
 #: Set by ``mdr-drive train`` itself, never by a config or --hyperparams.
 SET_HERE = ("self", "policy", "env", "_init_setup_model", "device", "seed", "tensorboard_log", "verbose",
             "action_noise")
@@ -78,6 +79,8 @@ def check_hyperparameters(algo: str, hyper: dict[str, Any], source: str) -> None
                              f"and logging have their own); one of {known}")
         if key == "reward_baseline" and value not in ("none", "trapezoid"):
             raise ValueError(f"{source}: reward_baseline={value!r} is not one of ['none', 'trapezoid']")
+        if key == "action_cycle" and value not in (1, 2):
+            raise ValueError(f"{source}: action_cycle={value!r} is not one of [1, 2]")
         if key not in NUMERIC or (key == "ent_coef" and is_auto_entropy(value)):
             continue
         low, high, integer, low_open = NUMERIC[key]

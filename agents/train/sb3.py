@@ -50,18 +50,20 @@ def _range(values: list[float] | None, default):
     return float(values[0]) if len(values) == 1 else (float(values[0]), float(values[1]))
 
 
-def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any], reward_baseline: str = "none"):
+def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any], reward_baseline: str = "none",
+                   action_cycle: int = 1):
     """The training env with a monitor: the batched vector env (its rewards relative to the trapezoid's
-    with ``reward_baseline="trapezoid"``), or, for the sensor observation and load steps (which it does
-    not step), ``n_envs`` single envs in a ``DummyVecEnv``."""
+    with ``reward_baseline="trapezoid"``, its actions two-period cycles with ``action_cycle=2``), or,
+    for the sensor observation and load steps (which it does not step), ``n_envs`` single envs in a
+    ``DummyVecEnv``."""
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
-    from ..vec_env import BatchedVecEnv
+    from ..vec_env import BatchedVecEnv, CycleActions
 
     if env_kwargs.get("observation", "full") != "full" or env_kwargs.get("load_step_period") is not None:
-        if reward_baseline != "none":
-            raise ValueError(f"reward_baseline={reward_baseline!r} needs the batched env: the full observation "
-                             "without load steps")
+        if reward_baseline != "none" or action_cycle != 1:
+            raise ValueError("reward_baseline and action_cycle need the batched env: the full observation without "
+                             "load steps")
         import gymnasium as gym
 
         import mdr_drive_env  # noqa: F401  registers the env
@@ -69,18 +71,23 @@ def make_train_env(n_envs: int, seed: int, env_kwargs: dict[str, Any], reward_ba
         venv = DummyVecEnv([lambda: gym.make(ENV_ID, **env_kwargs) for _ in range(n_envs)])
         venv.seed(seed)
         return VecMonitor(venv)
-    return VecMonitor(BatchedVecEnv(n_envs, seed=seed, reward_baseline=reward_baseline, **env_kwargs))
+    venv = BatchedVecEnv(n_envs, seed=seed, reward_baseline=reward_baseline, **env_kwargs)
+    return VecMonitor(CycleActions(venv) if action_cycle == 2 else venv)
 
 
-def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS):
-    """One single env per held-out (k, cargo mass) point (fixed per env)."""
+def make_eval_env(env_kwargs: dict[str, Any], points=HELD_OUT_POINTS, action_cycle: int = 1):
+    """One single env per held-out (k, cargo mass) point (fixed per env), with two-period cycle actions
+    if ``action_cycle`` is 2."""
     import gymnasium as gym
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
     import mdr_drive_env  # noqa: F401  registers the env
 
+    from ..vec_env import CycleActions
+
     kw = {key: v for key, v in env_kwargs.items() if key not in ("k", "cargo_mass", "load_ratio")}
-    return VecMonitor(DummyVecEnv([lambda k=k, m=m: gym.make(ENV_ID, k=k, cargo_mass=m, **kw) for k, m in points]))
+    venv = DummyVecEnv([lambda k=k, m=m: gym.make(ENV_ID, k=k, cargo_mass=m, **kw) for k, m in points])
+    return VecMonitor(CycleActions(venv) if action_cycle == 2 else venv)
 
 
 def warm_start_at(model, action: np.ndarray) -> None:
@@ -280,6 +287,8 @@ def train(algo: str | None = None, steps: int | None = None, seed: int = 0, out:
         hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
         if hyper["warm_start"] not in ("none", "trapezoid"):
             raise ValueError(f"warm_start={hyper['warm_start']!r} is not one of ['none', 'trapezoid']")
+        if hyper.get("action_cycle", 1) == 2 and env_kwargs.get("action_codebook") is not None:
+            raise ValueError("action_cycle=2 plays two Box actions a step; with action_codebook use action_cycle: 1")
         if hyper["warm_start"] == "trapezoid" and env_kwargs.get("action_codebook") is not None:
             raise ValueError("warm_start='trapezoid' sets a Box action; with action_codebook (Discrete actions) use "
                              "warm_start: none")
@@ -305,9 +314,10 @@ def _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_
     warm = hyper.get("warm_start", "none")
     out.mkdir(parents=True, exist_ok=True)
     remove_temporary(out)  # files a killed save left behind
+    cycle = int(hyper.get("action_cycle", 1))
     venv = make_train_env(n, seed + (previous["resumes"] + 1) * 1000 if previous else seed, env_kwargs,
-                          hyper.get("reward_baseline", "none"))
-    eval_env = make_eval_env(env_kwargs)
+                          hyper.get("reward_baseline", "none"), cycle)
+    eval_env = make_eval_env(env_kwargs, action_cycle=cycle)
     if previous:
         model = resumed_model(out, previous, venv, overrides)
         if set(PROVENANCE_KEYS) & set(previous) and isinstance(model.get_env(), VecNormalize):
@@ -322,7 +332,7 @@ def _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_
                                 verbose=verbose, **{key: v for key, v in hyper.items() if key not in NOT_SB3_KEYS},
                                 **({"action_noise": action_noise(noise, venv.action_space)} if noise else {}))
         if warm == "trapezoid":
-            warm_start_at(model, trapezoid_action())
+            warm_start_at(model, np.tile(trapezoid_action(), cycle))
     start_steps = model.num_timesteps
     total = target_total(algo, steps, previous, config_total, start_steps, n, hyper, critic_warmup)
     if isinstance(model.get_env(), VecNormalize):

@@ -100,6 +100,7 @@ def test_the_tiny_pipeline_resumes_after_ctrl_c_and_writes_its_outputs(tmp_path,
     assert (runs / Path(best["folder"]).parent.name / f"s{best['seed']}" / "model.zip").exists()
     warm = json.loads((runs / "td3_warm_start" / "s1" / "run.json").read_text())
     assert warm["hyperparameters"]["warm_start"] == "trapezoid" and warm["env_kwargs"]["max_periods"] == 20
+    assert warm["hyperparameters"]["action_cycle"] == 2 and warm["hyperparameters"]["reward_baseline"] == "trapezoid"
     shipped = [p.name for p in ship.iterdir()]
     assert shipped == [f"{best['algo']}_plain"]
     card = (ship / shipped[0] / "MODEL_CARD.md").read_text()

@@ -90,3 +90,40 @@ def test_a_reward_relative_to_the_trapezoid_is_zero_when_the_trapezoid_plays_set
         BatchedVecEnv(2, reward_baseline="zero")
     with pytest.raises(ValueError, match="reward_baseline='zero' is not one of"):
         check_hyperparameters("ppo", {"reward_baseline": "zero"}, "--hyperparams")
+
+
+def test_a_two_period_cycle_action_plays_its_halves_in_turn(tmp_path):
+    from mdr_drive_agents.vec_env import BatchedVecEnv, CycleActions
+
+    kw = dict(k=(0.0, 0.6), load_ratio=(0.0, 0.3), max_periods=6)
+    plain, cycled = BatchedVecEnv(3, seed=1, **kw), CycleActions(BatchedVecEnv(3, seed=1, **kw))
+    assert cycled.action_space.shape == (10,)
+    plain.reset(), cycled.reset()
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        pair = rng.uniform(-1, 1, (3, 10)).astype(np.float32)
+        total = 0.0
+        for half in (pair[:, :5], pair[:, 5:]):
+            plain.step_async(half)
+            obs, r, done, _ = plain.step_wait()
+            total = total + r
+        cycled.step_async(pair)
+        obs_c, r_c, done_c, _ = cycled.step_wait()
+        np.testing.assert_allclose(r_c, total, rtol=1e-6)
+        np.testing.assert_array_equal(obs_c, obs)
+    assert done_c.all()
+    with pytest.raises(ValueError, match="even number of periods, not max_periods=5"):
+        CycleActions(BatchedVecEnv(2, max_periods=5))
+
+    train("ppo", steps=64, seed=0, out=tmp_path / "c", warm_start="trapezoid",
+          hyperparams={"action_cycle": 2}, **KW)
+    policy = load_policy(tmp_path / "c")
+    assert policy.cycle == 2 and policy.model.action_space.shape == (10,)
+    obs = np.zeros((2, 14), dtype=np.float32)
+    policy.reset()
+    first, second, third = policy.act(obs), policy.act(obs), policy.act(obs)
+    pair = policy.model.predict(policy.normalized(obs), deterministic=True)[0]
+    np.testing.assert_array_equal(first, pair[:, :5])
+    np.testing.assert_array_equal(second, pair[:, 5:])
+    np.testing.assert_array_equal(third, first)  # a new cycle
+    assert np.isfinite(policy.play(k=0.2, cargo_mass=0.05, periods=4)).all()
