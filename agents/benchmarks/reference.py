@@ -13,7 +13,7 @@ there (``mdr-drive benchmark --blind``'s ``blind.json``).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +34,8 @@ class Reference:
         best: the best drive's steady velocity at each point (m/s).
         time_quantum: the time quantum (s) its search's drives act at: drives scored against it act
             at the same.
+        learned: the steady velocities (m/s) of the policies the benchmark judged, by the folder it
+            ran them from.
     """
 
     name: str
@@ -41,6 +43,7 @@ class Reference:
     trapezoid: np.ndarray
     best: np.ndarray
     time_quantum: float
+    learned: dict = field(default_factory=dict)
 
     @classmethod
     def load(cls, path: str | Path) -> "Reference":
@@ -52,13 +55,15 @@ class Reference:
             best = np.array([np.nan if b["velocity"] is None else b["velocity"] for b in res["best"]], dtype=float)
             quantum = float(res.get("search", {}).get("time_quantum_s", TIME_QUANTUM))
             name = f"seed {res['seed']}"
+            learned = {policy: np.array([np.nan if v is None else v for v in velocity], dtype=float)
+                       for policy, velocity in (res.get("learned") or {}).items()}
         except OSError as e:
             raise ValueError(f"{path}: cannot be read ({e.strerror or e})") from None
         except (ValueError, KeyError, TypeError) as e:
             raise ValueError(f"{path} is not a blind benchmark's blind.json ({type(e).__name__}: {e})") from None
         if not len(points) == len(trap) == len(best):
             raise ValueError(f"{path}: its points, trapezoid and best velocities differ in number")
-        return cls(name, points, trap, best, quantum)
+        return cls(name, points, trap, best, quantum, learned)
 
     def scores(self, velocity) -> np.ndarray:
         """The normalised score of steady velocities ``velocity`` (m/s, one per point; NaN where

@@ -35,6 +35,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ship", default=None, type=output_dir, metavar="DIR",
                    help="copy the run with the best mean score on the validation points to DIR/<algo>_plain, with "
                         "its model card; it replaces the plain policies DIR holds (DIR/*_plain), only with --force")
+    p.add_argument("--report", action="store_true",
+                   help="train nothing: write OUT's tables, figures and hyperparameter files again from its "
+                        "results.json (the same config)")
     add_executor_arguments(p)
 
 
@@ -42,8 +45,10 @@ def main(args: argparse.Namespace) -> int:
     from mdr_drive_env.cli_args import run_command
     from mdr_drive_env.sweep import executor_from
 
-    from ..rl_baselines.pipeline import run
+    from ..rl_baselines.pipeline import report_only, run
 
+    if args.report:
+        return run_command("mdr-drive rl-baselines", lambda: report_only(args.config, args.out), "nothing was written")
     return run_command("mdr-drive rl-baselines",
                        lambda: run(args.config, args.out, args.runs, executor_from(args), resume=args.resume,
                                    force=args.force, progress=not args.no_progress, ship=args.ship),

@@ -16,7 +16,7 @@ from ..run_record import RunLock, command_line, start_run, versions
 from ..yaml_config import from_yaml
 from .config import BaselinesConfig
 from .report import write_report
-from .runner import run_baselines
+from .runner import Plan, run_baselines
 
 DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "rl_baselines.yaml"
 
@@ -67,4 +67,22 @@ def run(config_path: str | Path, out: str | Path, runs: str | Path, executor: Ex
     return record
 
 
-__all__ = ["DEFAULT_CONFIG", "best_run", "run"]
+def report_only(config_path: str | Path, out: str | Path) -> dict:
+    """Write ``out``'s tables, figures and hyperparameter files again from its ``results.json`` (no
+    training): after a change of the report, or to redraw. ``config_path`` must name the same agents."""
+    config = from_yaml(BaselinesConfig, config_path)
+    out = Path(out)
+    try:
+        results = json.loads((out / "results.json").read_text())
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{out}/results.json: no results of mdr-drive rl-baselines to report ({type(e).__name__})") \
+            from None
+    names = [a.label for a in config.agents]
+    if sorted(names) != sorted(results.get("runs", {})):
+        raise ValueError(f"{config_path} names the agents {names}, {out}/results.json {sorted(results.get('runs', {}))}")
+    found = {"plan": Plan.of(config), "searches": results["searches"], "runs": results["runs"]}
+    with RunLock(out):
+        return write_report(out, config, found)
+
+
+__all__ = ["DEFAULT_CONFIG", "best_run", "report_only", "run"]

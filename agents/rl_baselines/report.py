@@ -47,9 +47,15 @@ def agent_summary(plan: Plan, runs: list[dict]) -> dict:
 
 
 def reference_rows(plan: Plan) -> dict:
-    """The fraction of the best drive of the trapezoid (its score is 0 by definition) and of the
-    records' own policies (``learned`` of each ``blind.json``: the distilled policy, not plain RL)."""
-    return {"trapezoid": aggregate([ref.fractions_of_best(ref.trapezoid) for ref in plan.reports])}
+    """The fraction of the best drive of the trapezoid (its score is 0 by definition), and the score
+    and fraction of the policies every report record judged (their ``learned``, e.g. the distilled
+    generalist: not plain RL), as measured by those benchmarks."""
+    rows = {"trapezoid": {"fraction_of_best": aggregate([r.fractions_of_best(r.trapezoid) for r in plan.reports])}}
+    common = set.intersection(*(set(r.learned) for r in plan.reports))
+    for policy in sorted(common):
+        rows[policy] = {"score": aggregate([r.scores(r.learned[policy]) for r in plan.reports]),
+                        "fraction_of_best": aggregate([r.fractions_of_best(r.learned[policy]) for r in plan.reports])}
+    return rows
 
 
 def curve_aggregates(plan: Plan, runs: list[dict]) -> list[dict]:
@@ -106,7 +112,12 @@ def table(config: BaselinesConfig, plan: Plan, summaries: dict, searches: dict, 
                      f"{_cell(s['score'], 'mean')} | {_cell(s['fraction_of_best'], 'mean')} | "
                      f"{int(np.median(below))} (median of {len(below)}; {min(below)}-{max(below)}) | "
                      f"{np.median(s['train_seconds']):.0f} |")
-    lines.append(f"| trapezoid (the paper's waveform) | - | - | 0 | 0 | {_cell(refs['trapezoid'], 'mean')} | 0 | - |")
+    lines.append(f"| trapezoid (the paper's waveform) | - | - | 0 | 0 | {_cell(refs['trapezoid']['fraction_of_best'], 'mean')}"
+                 " | 0 | - |")
+    for policy, row in refs.items():
+        if policy != "trapezoid":
+            lines.append(f"| `{policy}` (as its records measured it; not plain RL) | - | - | {_cell(row['score'], 'iqm')} | "
+                         f"{_cell(row['score'], 'mean')} | {_cell(row['fraction_of_best'], 'mean')} | - | - |")
     scored = next(iter(summaries.values()))["score"]["scores"]
     lines += ["", f"Each algorithm's aggregates are over {scored:,} scores (seeds x scored points).", ""]
     for agent in config.agents:

@@ -83,8 +83,12 @@ def test_the_tiny_pipeline_resumes_after_ctrl_c_and_writes_its_outputs(tmp_path,
     assert not (out / ".tasks").exists()
     table = (out / "benchmark.md").read_text()
     for row in ("| PPO | 512 | 2 x 256 |", "| TD3 | 300 | none |", "| RecurrentPPO | 256 |",
-                "| TD3, warm start | 300 | none |", "| trapezoid"):
+                "| TD3, warm start | 300 | none |", "| trapezoid", "| `agents/pretrained/ppo_generalist` (as its"):
         assert row in table
+    (out / "benchmark.md").unlink()
+    before = (out / "results.json").read_text()
+    assert main(["rl-baselines", str(TINY), "--out", str(out), "--report"]) == 0  # redrawn, nothing trained
+    assert (out / "benchmark.md").read_text() == table and (out / "results.json").read_text() == before
     results = json.loads((out / "results.json").read_text())
     assert [r["seed"] for r in results["runs"]["PPO"]] == [1, 2]
     assert len(results["searches"]["PPO"]["trials"]) == 2
