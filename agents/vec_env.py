@@ -68,6 +68,19 @@ class BatchedVecEnv(VecEnv):
         rewards = [self._baseline_env.step(action)[1] for _ in range(BASELINE_PERIODS)]
         self.baseline[starting] = np.mean(rewards[-BASELINE_AVERAGE:], axis=0)[starting]
 
+    @property
+    def load_ratio_range(self) -> tuple[float, float] | None:
+        """The range new episodes draw their load ratio from (None: a cargo mass range instead)."""
+        return self.venv.unwrapped.template.load_ratio_range
+
+    def set_load_ratio_range(self, low: float, high: float) -> None:
+        """Draw the load ratio of the episodes that start from now in [low, high] (a curriculum)."""
+        if self.load_ratio_range is None:
+            raise ValueError("a load curriculum needs a load_ratio range (the env draws a cargo mass instead)")
+        if not 0.0 <= low <= high <= 10.0:
+            raise ValueError(f"load ratio range ({low}, {high}) is outside the allowed range [0, 10]")
+        self.venv.unwrapped.template.load_ratio_range = (float(low), float(high))
+
     def reset(self) -> np.ndarray:
         obs, _ = self.venv.reset(seed=self._seed)
         self._seed = None  # seed only the first reset, as SB3 does

@@ -20,13 +20,14 @@ from ..yaml_config import read_yaml
 
 CONFIG_DIR = Path(__file__).parents[1] / "configs"
 #: Config keys of ``mdr-drive train`` itself: recorded in run.json, not passed to SB3.
-NOT_SB3_KEYS = ("warm_start", "action_noise_std", "reward_baseline", "action_cycle")
+NOT_SB3_KEYS = ("warm_start", "action_noise_std", "reward_baseline", "action_cycle", "load_curriculum")
 #: Keys every algorithm takes besides its constructor's (the number of envs, normalisation, the
 #: RL Zoo's step budget and policy name, the warm start, the exploration noise of an off-policy
 #: algorithm: Gaussian, its standard deviation in the action box's units; the training env's reward
-#: baseline, ``vec_env.REWARD_BASELINES``; periods one action sets, 1 or 2: ``vec_env.CycleActions``).
+#: baseline, ``vec_env.REWARD_BASELINES``; periods one action sets, 1 or 2: ``vec_env.CycleActions``;
+#: the fraction of the run over which the load range widens, ``train.curriculum``).
 EXTRA_KEYS = ("n_envs", "normalize", "n_timesteps", "policy", "warm_start", "action_noise_std", "reward_baseline",
-              "action_cycle")
+              "action_cycle", "load_curriculum")
 #: Set by ``mdr-drive train`` itself, never by a config or --hyperparams.
 SET_HERE = ("self", "policy", "env", "_init_setup_model", "device", "seed", "tensorboard_log", "verbose",
             "action_noise")
@@ -40,6 +41,7 @@ NUMERIC = {
     "learning_starts": (0, math.inf, True, False), "tau": (0.0, 1.0, False, True),
     "train_freq": (1, math.inf, True, False), "gradient_steps": (1, math.inf, True, False),
     "n_timesteps": (1, math.inf, False, False), "action_noise_std": (0.0, 2.0, False, False),
+    "load_curriculum": (0.0, 1.0, False, False),
 }
 
 

@@ -345,6 +345,10 @@ def _train(algo, steps, seed, out, hyper, env_kwargs, previous, overrides, eval_
                      callback_on_new_best=_save_normalisation_callback(out / "best"), verbose=verbose),
         *extra_callbacks,
     ]
+    if hyper.get("load_curriculum"):
+        from .curriculum import load_curriculum_callback
+
+        callbacks.append(load_curriculum_callback(float(hyper["load_curriculum"]), total))
     main_start = None if critic_warmup else start_steps  # the step the actor starts learning at
     t0 = time.perf_counter()
 

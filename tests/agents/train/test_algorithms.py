@@ -127,3 +127,39 @@ def test_a_two_period_cycle_action_plays_its_halves_in_turn(tmp_path):
     np.testing.assert_array_equal(second, pair[:, 5:])
     np.testing.assert_array_equal(third, first)  # a new cycle
     assert np.isfinite(policy.play(k=0.2, cargo_mass=0.05, periods=4)).all()
+
+
+def test_a_load_curriculum_widens_the_load_range_over_its_fraction_of_the_run(tmp_path, monkeypatch):
+    from mdr_drive_agents.train.curriculum import load_range_at
+    from mdr_drive_agents.vec_env import BatchedVecEnv
+
+    assert load_range_at(0.0, (0.0, 0.6), 0.5) == (0.0, 0.15)
+    assert load_range_at(0.25, (0.0, 0.6), 0.5) == pytest.approx((0.0, 0.375))
+    assert load_range_at(0.5, (0.0, 0.6), 0.5) == load_range_at(0.9, (0.0, 0.6), 0.5) == (0.0, 0.6)
+    env = BatchedVecEnv(2, k=0.2, load_ratio=(0.0, 0.6))
+    env.set_load_ratio_range(0.0, 0.1)
+    env.reset()
+    assert env.venv.unwrapped.load.max() <= 0.1 * env.venv.unwrapped.friction_ref.max() + 1e-9
+    with pytest.raises(ValueError, match="needs a load_ratio range"):
+        BatchedVecEnv(2, cargo_mass=(0.0, 0.1)).set_load_ratio_range(0.0, 0.1)
+
+    seen = []
+    from mdr_drive_agents.train import curriculum
+
+    callback = curriculum.load_curriculum_callback
+
+    def spy(fraction, total):
+        cb = callback(fraction, total)
+        original = cb._on_rollout_start
+
+        def record():
+            original()
+            seen.append(cb.env.load_ratio_range)
+        cb._on_rollout_start = record
+        return cb
+
+    monkeypatch.setattr(curriculum, "load_curriculum_callback", spy)
+    train("ppo", steps=2048, seed=0, out=tmp_path / "cur", warm_start="none",
+          hyperparams={"load_curriculum": 0.5, "n_steps": 64, "batch_size": 128}, **KW)
+    highs = [high for _, high in seen]
+    assert highs[0] == pytest.approx(0.15) and highs[-1] == pytest.approx(0.6) and highs == sorted(highs)
