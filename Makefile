@@ -81,7 +81,7 @@ dense: $(STAMP)
 adaptation: $(STAMP)
 	$(MDR) adaptation --seed 20261125 --out results/adaptation
 
-## make rl-baselines: plain PPO, SAC, TD3 and RecurrentPPO searched, 5 seeds each, then PPO's ablations; ships the best (results/rl_baselines; about 1.5 hours on 2 cores)
+## make rl-baselines: plain PPO, SAC, TD3 and RecurrentPPO searched, 5 seeds each, then what helps PPO; ships the best (results/rl_baselines; about 1.5 hours on 2 cores)
 rl-baselines: $(STAMP)
 	$(MDR) rl-baselines agents/configs/rl_baselines.yaml --out results/rl_baselines --runs runs/rl_baselines \
 	    --ship agents/pretrained --force

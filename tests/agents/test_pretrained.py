@@ -15,24 +15,29 @@ from tests import ROOT
 
 pytest.importorskip("stable_baselines3")
 
+#: The shipped policies: the generalist, the sensor policy and the best plain-RL run (make rl-baselines).
+PLAIN = sorted(PRETRAINED.parent.glob("*_plain"))
+SHIPPED = [PRETRAINED, SENSOR_PRETRAINED, *PLAIN]
+IDS = ["full", "sensor", *[p.name for p in PLAIN]]
+
 
 def snippets(folder) -> list[str]:
     return re.findall(r"```python\n(.*?)```", (folder / "MODEL_CARD.md").read_text(), flags=re.S)
 
 
-@pytest.mark.parametrize("folder", [PRETRAINED, SENSOR_PRETRAINED], ids=["full", "sensor"])
+@pytest.mark.parametrize("folder", SHIPPED, ids=IDS)
 def test_both_model_card_snippets_load_and_drive_the_same(folder, tmp_path):
     """The ``load_policy`` snippet from an unrelated folder, the plain SB3 one from the checkout's root:
-    the same steady velocity."""
+    the same steady velocity (forward, but for the plain-RL policy, which may not move there)."""
     found = []
     for code, cwd in zip(snippets(folder), (tmp_path, ROOT)):
         r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=cwd)
         assert r.returncode == 0, r.stderr
         found.append(float(re.search(r"steady velocity (-?[\d.]+) mm/s", r.stdout).group(1)))
-    assert len(found) == 2 and found[0] == found[1] > 0.0
+    assert len(found) == 2 and found[0] == found[1] and (found[0] > 0.0 or folder in PLAIN)
 
 
-@pytest.mark.parametrize("folder", [PRETRAINED, SENSOR_PRETRAINED], ids=["full", "sensor"])
+@pytest.mark.parametrize("folder", SHIPPED, ids=IDS)
 def test_shipped_folder_holds_only_the_policy_its_card_and_its_teacher(folder):
     files = sorted(p.name for p in folder.iterdir() if p.name != "teacher")
     extra = ["recipe.json", "teacher_field.npz"] if folder == PRETRAINED else []
@@ -81,7 +86,7 @@ def test_the_sensor_policy_is_rebuilt_from_its_pinned_teacher():
 
 
 def test_each_policy_sees_the_observation_it_was_trained_on():
-    for folder in (PRETRAINED, SENSOR_PRETRAINED):
+    for folder in SHIPPED:
         policy = load_policy(folder)
         env = policy.make_env()
         assert policy.normalize.mean.shape == env.observation_space.shape == policy.model.observation_space.shape
