@@ -37,7 +37,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "its model card; it replaces the plain policies DIR holds (DIR/*_plain), only with --force")
     p.add_argument("--report", action="store_true",
                    help="train nothing: write OUT's tables, figures and hyperparameter files again from its "
-                        "results.json (the same config)")
+                        "results.json (the same config); with --ship, ship its best run again")
     add_executor_arguments(p)
 
 
@@ -48,7 +48,8 @@ def main(args: argparse.Namespace) -> int:
     from ..rl_baselines.pipeline import report_only, run
 
     if args.report:
-        return run_command("mdr-drive rl-baselines", lambda: report_only(args.config, args.out), "nothing was written")
+        return run_command("mdr-drive rl-baselines",
+                           lambda: report_only(args.config, args.out, args.ship, args.force), "nothing was written")
     return run_command("mdr-drive rl-baselines",
                        lambda: run(args.config, args.out, args.runs, executor_from(args), resume=args.resume,
                                    force=args.force, progress=not args.no_progress, ship=args.ship),

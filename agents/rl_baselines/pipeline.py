@@ -41,9 +41,7 @@ def run(config_path: str | Path, out: str | Path, runs: str | Path, executor: Ex
     (``ship/*_plain``: refused without ``force``, before any work). Returns the run record also written to
     ``out/run.json``."""
     config = from_yaml(BaselinesConfig, config_path)
-    shipped = sorted(Path(ship).glob("*_plain")) if ship is not None else []
-    if shipped and not force:
-        raise ValueError(f"--ship {ship}: {shipped[0]} holds a plain policy, which the new one replaces: add --force")
+    shipped = shipped_before(ship, force)
     out, executor = start_run(out, resume, force, executor, progress)
     out.mkdir(parents=True, exist_ok=True)
     with RunLock(out):
@@ -51,13 +49,7 @@ def run(config_path: str | Path, out: str | Path, runs: str | Path, executor: Ex
         tasks = task_folder(out, resume)
         found = run_baselines(config, runs, executor, tasks)
         summaries = write_report(out, config, found)
-        best = best_run(summaries, found)
-        if ship is not None:
-            from .card import ship_plain
-
-            for folder in shipped:
-                shutil.rmtree(folder)
-            best["shipped_to"] = str(ship_plain(best, found, summaries, out, ship).parent)
+        best = ship_best(summaries, found, out, ship, shipped) if ship is not None else best_run(summaries, found)
         record = {"command": command_line(), "versions": versions(), "config": str(config_path),
                   "runs": str(runs), "best_run": best, "wall_time_s": round(time.perf_counter() - t0, 1)}
         write_text(out / "run.json", json.dumps(record, indent=2))
@@ -67,9 +59,10 @@ def run(config_path: str | Path, out: str | Path, runs: str | Path, executor: Ex
     return record
 
 
-def report_only(config_path: str | Path, out: str | Path) -> dict:
+def report_only(config_path: str | Path, out: str | Path, ship: str | Path | None = None, force: bool = False) -> dict:
     """Write ``out``'s tables, figures and hyperparameter files again from its ``results.json`` (no
-    training): after a change of the report, or to redraw. ``config_path`` must name the same agents."""
+    training): after a change of the report, or to redraw; with ``ship``, ship its best run again (as
+    ``run`` does; its runs folder must still hold it). ``config_path`` must name the same agents."""
     config = from_yaml(BaselinesConfig, config_path)
     out = Path(out)
     try:
@@ -81,8 +74,32 @@ def report_only(config_path: str | Path, out: str | Path) -> dict:
     if sorted(names) != sorted(results.get("runs", {})):
         raise ValueError(f"{config_path} names the agents {names}, {out}/results.json {sorted(results.get('runs', {}))}")
     found = {"plan": Plan.of(config), "searches": results["searches"], "runs": results["runs"]}
+    shipped = shipped_before(ship, force)
     with RunLock(out):
-        return write_report(out, config, found)
+        summaries = write_report(out, config, found)
+        if ship is not None:
+            ship_best(summaries, found, out, ship, shipped)
+        return summaries
+
+
+def shipped_before(ship: str | Path | None, force: bool) -> list[Path]:
+    """The plain policies in ``ship`` a new one replaces; ``ValueError`` if there are any and not ``force``."""
+    shipped = sorted(Path(ship).glob("*_plain")) if ship is not None else []
+    if shipped and not force:
+        raise ValueError(f"--ship {ship}: {shipped[0]} holds a plain policy, which the new one replaces: add --force")
+    return shipped
+
+
+def ship_best(summaries: dict, found: dict, out: Path, ship: str | Path, shipped: list[Path]) -> dict:
+    """Ship the best run on the validation points to ``ship/<algo>_plain`` (``card.ship_plain``),
+    replacing ``shipped``; returns ``best_run``'s record of it."""
+    from .card import ship_plain
+
+    best = best_run(summaries, found)
+    for folder in shipped:
+        shutil.rmtree(folder)
+    best["shipped_to"] = str(ship_plain(best, found, summaries, out, ship).parent)
+    return best
 
 
 __all__ = ["DEFAULT_CONFIG", "best_run", "report_only", "run"]

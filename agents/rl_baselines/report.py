@@ -127,6 +127,10 @@ def table(config: BaselinesConfig, plan: Plan, summaries: dict, searches: dict, 
                          f"{found['best_validation_mean_score']:.3f}.")
     lines.append("- Each agent's hyperparameters, as `mdr-drive train --config` reads them: "
                  "`hyperparameters/<agent>.yaml`.")
+    cycles = [a.label for a in config.agents if (a.hyperparameters or {}).get("action_cycle", 1) == 2]
+    if cycles:
+        lines.append(f"- {', '.join(cycles)}: one step plays a two-period cycle, so a run plays twice its steps in "
+                     "drive periods.")
     return "\n".join(lines) + "\n"
 
 
