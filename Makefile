@@ -8,6 +8,8 @@ STAMP  := $(VENV)/.installed-stamp
 PYTEST_ARGS ?=
 #: The shipped policy's record: blind benchmarks on these seeds (none was used to build or select it).
 RECORD_SEEDS := 20261255 20261256 20261257 20261258 20261259 20261260 20261273 20261274 20261275 20261276 20261277 20261278
+#: The plain-RL policy's record: the record seeds its baselines neither searched on (20261255) nor reported (20261256-57).
+PLAIN_RECORD_SEEDS := 20261258 20261259 20261260 20261273 20261274 20261275 20261276 20261277 20261278
 
 .PHONY: help install test demo reproduce claims convergence bench scaling train train-sensor benchmark record dense \
         adaptation rl-baselines cards clean
@@ -87,6 +89,11 @@ rl-baselines: $(STAMP)
 	    --ship agents/pretrained --force
 	$(MDR) rl-baselines agents/configs/rl_ablations.yaml --out results/rl_baselines/ablations \
 	    --runs runs/rl_ablations --force
+	for seed in $(PLAIN_RECORD_SEEDS); do \
+	    $(MDR) benchmark --blind 120 --seed $$seed --scan-draw --policies agents/pretrained/ppo_plain \
+	        --reuse-search results/record/seed$$seed/blind.json --out results/rl_baselines/record/seed$$seed || exit $$?; done
+	$(MDR) rl-baselines agents/configs/rl_baselines.yaml --out results/rl_baselines --report --ship agents/pretrained \
+	    --force --records $(foreach seed,$(PLAIN_RECORD_SEEDS),results/rl_baselines/record/seed$(seed)/blind.json)
 
 ## make cards: both shipped policies' model cards, from their files, the record and the adaptation report
 cards: $(STAMP)

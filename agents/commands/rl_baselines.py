@@ -20,7 +20,7 @@ DESCRIPTION = ("Train Stable-Baselines3 PPO, SAC and TD3 and sb3-contrib Recurre
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from mdr_drive_env.cli_args import output_dir
+    from mdr_drive_env.cli_args import input_file, output_dir
     from mdr_drive_env.sweep import add_executor_arguments
 
     from ..rl_baselines.pipeline import DEFAULT_CONFIG
@@ -35,6 +35,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ship", default=None, type=output_dir, metavar="DIR",
                    help="copy the run with the best mean score on the validation points to DIR/<algo>_plain, with "
                         "its model card; it replaces the plain policies DIR holds (DIR/*_plain), only with --force")
+    p.add_argument("--records", nargs="+", default=(), type=input_file, metavar="BLIND.json",
+                   help="with --report --ship: the blind benchmarks of the shipped folder (mdr-drive benchmark "
+                        "--blind ... --policies DIR/<algo>_plain), quoted in its model card")
     p.add_argument("--report", action="store_true",
                    help="train nothing: write OUT's tables, figures and hyperparameter files again from its "
                         "results.json (the same config); with --ship, ship its best run again")
@@ -47,9 +50,12 @@ def main(args: argparse.Namespace) -> int:
 
     from ..rl_baselines.pipeline import report_only, run
 
+    if args.records and not (args.report and args.ship):
+        raise ValueError("--records goes with --report --ship (the card of the policy they judged)")
     if args.report:
         return run_command("mdr-drive rl-baselines",
-                           lambda: report_only(args.config, args.out, args.ship, args.force), "nothing was written")
+                           lambda: report_only(args.config, args.out, args.ship, args.force, args.records),
+                           "nothing was written")
     return run_command("mdr-drive rl-baselines",
                        lambda: run(args.config, args.out, args.runs, executor_from(args), resume=args.resume,
                                    force=args.force, progress=not args.no_progress, ship=args.ship),

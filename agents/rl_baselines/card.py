@@ -9,6 +9,7 @@ from pathlib import Path
 from mdr_drive_env.files import write_text
 
 from ..benchmarks.model_card import copy_policy, evaluation_table, load_snippet, snippet
+from ..benchmarks.record import blind_record
 from ..benchmarks.score import aggregate, format_aggregate
 from ..protocol import AVERAGE_PERIODS, EVAL_PERIODS
 from .config import ALGORITHM_NAMES
@@ -21,9 +22,11 @@ def shipped_folder(root: str | Path, algo: str) -> Path:
     return Path(root) / f"{algo}_plain"
 
 
-def ship_plain(best: dict, found: dict, summaries: dict, results_dir: str | Path, root: str | Path) -> Path:
-    """Copy the run ``best`` (``pipeline.best_run``) to ``shipped_folder(root, algo)`` and write its card;
-    returns the card's path."""
+def ship_plain(best: dict, found: dict, summaries: dict, results_dir: str | Path, root: str | Path,
+               records=()) -> Path:
+    """Copy the run ``best`` (``pipeline.best_run``) to ``shipped_folder(root, algo)`` and write its card,
+    with its blind record if ``records`` (``blind.json`` files of ``mdr-drive benchmark --blind`` that
+    judged the shipped folder) are given; returns the card's path."""
     plan: Plan = found["plan"]
     run = next(r for r in found["runs"][best["agent"]] if r["seed"] == best["seed"])
     scores, fractions, parts = run_scores(plan, run)
@@ -32,7 +35,11 @@ def ship_plain(best: dict, found: dict, summaries: dict, results_dir: str | Path
     worst = min(st["worst_difference_to_trapezoid_mm_s"] for st in stats)
     fraction_min = min(st["fraction_of_best_min"] for st in stats)
     points = sum(len(ref.points) for ref in plan.reports)
-    dst, record = copy_policy(best["folder"], shipped_folder(root, best["algo"]))
+    dst = shipped_folder(root, best["algo"])
+    for path in records:  # before anything is copied
+        if dst.as_posix() not in json.loads(Path(path).read_text()).get("statistics", {}):
+            raise ValueError(f"{path} did not judge {dst.as_posix()}: its record is not this policy's")
+    dst, record = copy_policy(best["folder"], dst)
     name = ALGORITHM_NAMES[best["algo"]]
     own = format_aggregate(aggregate(scores))
     agent = summaries[best["agent"]]
@@ -97,7 +104,7 @@ of a fresh drive, computed from the shipped files. "runaway": the load accelerat
 without bound.
 
 {evaluation_table(dst)}
-"""
+{blind_record(list(records), dst.as_posix()) if records else ""}"""
     write_text(dst / "MODEL_CARD.md", card)
     return dst / "MODEL_CARD.md"
 

@@ -59,10 +59,12 @@ def run(config_path: str | Path, out: str | Path, runs: str | Path, executor: Ex
     return record
 
 
-def report_only(config_path: str | Path, out: str | Path, ship: str | Path | None = None, force: bool = False) -> dict:
+def report_only(config_path: str | Path, out: str | Path, ship: str | Path | None = None, force: bool = False,
+                records=()) -> dict:
     """Write ``out``'s tables, figures and hyperparameter files again from its ``results.json`` (no
     training): after a change of the report, or to redraw; with ``ship``, ship its best run again (as
-    ``run`` does; its runs folder must still hold it). ``config_path`` must name the same agents."""
+    ``run`` does; its runs folder must still hold it), its card quoting the blind benchmarks
+    ``records`` of the shipped folder. ``config_path`` must name the same agents."""
     config = from_yaml(BaselinesConfig, config_path)
     out = Path(out)
     try:
@@ -78,7 +80,7 @@ def report_only(config_path: str | Path, out: str | Path, ship: str | Path | Non
     with RunLock(out):
         summaries = write_report(out, config, found)
         if ship is not None:
-            ship_best(summaries, found, out, ship, shipped)
+            ship_best(summaries, found, out, ship, shipped, records)
         return summaries
 
 
@@ -90,15 +92,17 @@ def shipped_before(ship: str | Path | None, force: bool) -> list[Path]:
     return shipped
 
 
-def ship_best(summaries: dict, found: dict, out: Path, ship: str | Path, shipped: list[Path]) -> dict:
-    """Ship the best run on the validation points to ``ship/<algo>_plain`` (``card.ship_plain``),
-    replacing ``shipped``; returns ``best_run``'s record of it."""
+def ship_best(summaries: dict, found: dict, out: Path, ship: str | Path, shipped: list[Path], records=()) -> dict:
+    """Ship the best run on the validation points to ``ship/<algo>_plain`` (``card.ship_plain``, its
+    card quoting ``records``), replacing ``shipped``; returns ``best_run``'s record of it."""
     from .card import ship_plain
 
     best = best_run(summaries, found)
-    for folder in shipped:
-        shutil.rmtree(folder)
-    best["shipped_to"] = str(ship_plain(best, found, summaries, out, ship).parent)
+    card = ship_plain(best, found, summaries, out, ship, records)  # into its folder, replacing its files
+    for folder in shipped:  # the plain policies of other algorithms
+        if folder.resolve() != card.parent.resolve():
+            shutil.rmtree(folder)
+    best["shipped_to"] = str(card.parent)
     return best
 
 

@@ -112,6 +112,15 @@ def test_the_tiny_pipeline_resumes_after_ctrl_c_and_writes_its_outputs(tmp_path,
     from mdr_drive_agents.policy import load_policy
 
     assert np.isfinite(load_policy(ship / shipped[0]).play(k=0.2, cargo_mass=0.05, periods=3)).all()
+    # its blind record, quoted in its card: only a record that judged the shipped folder
+    folder = (ship / shipped[0]).as_posix()
+    assert main(["benchmark", "--blind", "3", "--seed", "5", "--quick", "--policies", folder, "--out",
+                 str(tmp_path / "rec"), "--workers", "1"]) == 0
+    report = ["rl-baselines", str(TINY), "--out", str(out), "--report", "--ship", str(ship), "--force", "--records"]
+    assert main(report + [str(DATA / "blind_tiny_b.json")]) == 2
+    assert "did not judge" in capsys.readouterr().err
+    assert main(report + [str(tmp_path / "rec" / "blind.json")]) == 0
+    assert "## Blind results" in (ship / shipped[0] / "MODEL_CARD.md").read_text()
     # the tuned file is a config of mdr-drive train
     assert main(["train", "--config", str(out / "hyperparameters" / "ppo.yaml"), "--algo", "ppo", "--steps", "64",
                  "--out", str(tmp_path / "again"), "--no-progress"]) == 0
