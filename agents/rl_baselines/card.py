@@ -104,6 +104,7 @@ of a fresh drive, computed from the shipped files. "runaway": the load accelerat
 without bound.
 
 {evaluation_table(dst)}
+
 {blind_record(list(records), dst.as_posix()) if records else ""}"""
     write_text(dst / "MODEL_CARD.md", card)
     return dst / "MODEL_CARD.md"
