@@ -70,6 +70,14 @@ class Reference:
         unscored, ``benchmarks.score``)."""
         return normalized_scores(self.trapezoid, self.best, velocity)
 
+    def load_fractions(self) -> np.ndarray:
+        """Each point's cargo mass over the trapezoid's critical load at its k (the blind benchmark
+        draws them from 0 to 1.25)."""
+        from ..protocol import trapezoid_critical_load
+
+        ks = [k for k, _ in self.points]
+        return np.array([m for _, m in self.points]) / trapezoid_critical_load(ks)
+
     def fractions_of_best(self, velocity) -> np.ndarray:
         """The fraction of the best drive at each point where it moves at least ``MOVING_THRESHOLD``
         (a runaway counts as 0)."""

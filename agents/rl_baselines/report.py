@@ -20,8 +20,10 @@ from ..train.hyperparameters import load_config
 from .config import BaselinesConfig
 from .runner import Plan, slug
 
-#: Bootstrap resamples of each point of a learning curve (the table's aggregates use the default).
+#: Bootstrap resamples of each point of a learning curve and of each band (the main table's use the default).
 CURVE_REPS = 2000
+#: Bands of the load, as a fraction of the trapezoid's critical load at the point's k.
+LOAD_BANDS = (0.0, 0.25, 0.5, 0.75, 1.0, 1.25)
 
 
 def run_scores(plan: Plan, run: dict, index: int = -1) -> tuple[list, list, list]:
@@ -58,6 +60,33 @@ def reference_rows(plan: Plan) -> dict:
     return rows
 
 
+def band_scores(plan: Plan, found: dict) -> dict:
+    """The IQM score of every agent's final runs and of the records' own policies in each load band
+    (``LOAD_BANDS``), over seeds and points: where along the load each falls short."""
+    fractions = [ref.load_fractions() for ref in plan.reports]
+    edges = np.array(LOAD_BANDS[1:-1])
+    bands = [np.digitize(f, edges) for f in fractions]
+
+    def per_band(score_sets):  # score_sets: one array per (run, record), the record's points
+        return [aggregate([s[bands[j % len(bands)] == b] for j, s in enumerate(score_sets)], reps=CURVE_REPS)
+                for b in range(len(LOAD_BANDS) - 1)]
+
+    rows = {name: per_band([s for run in runs for s in run_scores(plan, run)[0]]) for name, runs in found["runs"].items()}
+    for policy in sorted(set.intersection(*(set(r.learned) for r in plan.reports))):
+        rows[f"`{policy}`"] = per_band([r.scores(r.learned[policy]) for r in plan.reports])
+    return rows
+
+
+def band_table(rows: dict) -> str:
+    """The load bands' table of ``band_scores``: IQM and its interval, scored points in brackets."""
+    heads = [f"{lo:g}-{hi:g}" for lo, hi in zip(LOAD_BANDS[:-1], LOAD_BANDS[1:])]
+    lines = ["| agent | " + " | ".join(f"load {h} x critical" for h in heads) + " |", "|---|" + "---|" * len(heads)]
+    for name, cells in rows.items():
+        lines.append(f"| {name} | " + " | ".join(f"{_cell(c, 'iqm')} ({c['scores']})" if c.get("iqm") is not None
+                                                 else "-" for c in cells) + " |")
+    return "\n".join(lines)
+
+
 def curve_aggregates(plan: Plan, runs: list[dict]) -> list[dict]:
     """The IQM score with its interval at each evaluation of a learning curve (runs of one agent
     evaluated at the same steps)."""
@@ -88,7 +117,7 @@ def _cell(agg: dict, key: str) -> str:
     return f"{v:.3f} [{lo:.3f}, {hi:.3f}]"
 
 
-def table(config: BaselinesConfig, plan: Plan, summaries: dict, searches: dict, refs: dict) -> str:
+def table(config: BaselinesConfig, plan: Plan, summaries: dict, searches: dict, refs: dict, bands: dict) -> str:
     """benchmark.md: one row per algorithm and the trapezoid's."""
     points = sum(len(r.points) for r in plan.reports)
     lines = [
@@ -131,6 +160,8 @@ def table(config: BaselinesConfig, plan: Plan, summaries: dict, searches: dict, 
     if cycles:
         lines.append(f"- {', '.join(cycles)}: one step plays a two-period cycle, so a run plays twice its steps in "
                      "drive periods.")
+    lines += ["", "Score IQM by load (the cargo over the trapezoid's critical load at the point's k; scores in "
+              "brackets):", "", band_table(bands)]
     return "\n".join(lines) + "\n"
 
 
@@ -175,8 +206,9 @@ def write_report(out: str | Path, config: BaselinesConfig, found: dict) -> dict:
     summaries = {name: agent_summary(plan, runs) for name, runs in found["runs"].items()}
     curves = {name: curve_aggregates(plan, runs) for name, runs in found["runs"].items()}
     refs = reference_rows(plan)
+    bands = band_scores(plan, found)
     out.mkdir(parents=True, exist_ok=True)
-    write_text(out / "benchmark.md", table(config, plan, summaries, found["searches"], refs))
+    write_text(out / "benchmark.md", table(config, plan, summaries, found["searches"], refs, bands))
     plot_curves(out / "curves.png", config, curves)
     for agent in config.agents:
         tuned = found["searches"][agent.label]["hyperparameters"]
@@ -184,7 +216,7 @@ def write_report(out: str | Path, config: BaselinesConfig, found: dict) -> dict:
         write_text(out / "hyperparameters" / f"{slug(agent)}.yaml", hyperparameter_yaml(agent, tuned, plan.time_quantum))
     results = {"config": asdict(config), "validation": plan.validation.name, "reports": [r.name for r in plan.reports],
                "time_quantum_s": plan.time_quantum, "summaries": summaries, "curves": curves, "references": refs,
-               "searches": found["searches"], "runs": found["runs"]}
+               "searches": found["searches"], "load_bands": {"edges": LOAD_BANDS, "iqm_score": bands}, "runs": found["runs"]}
     write_text(out / "results.json", json.dumps(json_safe(results), indent=1))
     return summaries
 
