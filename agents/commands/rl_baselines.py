@@ -9,11 +9,11 @@ from __future__ import annotations
 import argparse
 
 HELP = "plain RL baselines: hyperparameter search, several seeds, normalised scores and learning curves"
-DESCRIPTION = ("Train Stable-Baselines3 PPO, SAC and TD3 and sb3-contrib RecurrentPPO on MDRDrive-v0 from scratch "
-               "(no teacher, no action table, no warm start): an Optuna search of each one's hyperparameters on "
+DESCRIPTION = ("Train the agents of a config (Stable-Baselines3 PPO, SAC and TD3, sb3-contrib RecurrentPPO; "
+               "from scratch unless an agent names a warm start or a training aid) on MDRDrive-v0: an Optuna search of each one's hyperparameters on "
                "the points of the validation blind record, then one run per training seed, each scored through "
                "training on the report records' points with the normalised score (0 the trapezoid, 1 the best "
-               "drive the blind benchmark's search found) and aggregated as rliable does (IQM and mean, 95 %% "
+               "drive the blind benchmark's search found) and aggregated as rliable does (IQM and mean, 95 % "
                "stratified-bootstrap intervals). Writes OUT/benchmark.md, OUT/curves.png, OUT/results.json and "
                "the tuned hyperparameters (OUT/hyperparameters/<algo>.yaml, for mdr-drive train --config); the "
                "trained runs go to --runs. Ctrl-C keeps every finished run: continue with --resume.")
@@ -30,12 +30,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                                             "of mdr_drive_agents.rl_baselines.config.BaselinesConfig)",
                          "results/rl_baselines")
     p.add_argument("--runs", default="runs/rl_baselines", type=output_dir,
-                   help="where the trained runs go, RUNS/<algo>/s<seed> and RUNS/tuning/ (a Ray cluster needs it "
+                   help="where the trained runs go, RUNS/<agent>/s<seed> and RUNS/tuning/ (a Ray cluster needs it "
                         "on a shared file system); default runs/rl_baselines")
     p.add_argument("--ship", default=None, type=output_dir, metavar="DIR",
                    help="copy the run with the best mean score on the validation points to DIR/<algo>_plain, with "
                         "its model card; it replaces the plain policies DIR holds (DIR/*_plain), only with --force")
-    p.add_argument("--records", nargs="+", default=(), type=input_file, metavar="BLIND.json",
+    p.add_argument("--records", nargs="+", default=None, type=input_file, metavar="BLIND.json",
                    help="with --report --ship: the blind benchmarks of the shipped folder (mdr-drive benchmark "
                         "--blind ... --policies DIR/<algo>_plain), quoted in its model card")
     p.add_argument("--report", action="store_true",
@@ -54,7 +54,7 @@ def main(args: argparse.Namespace) -> int:
         raise ValueError("--records goes with --report --ship (the card of the policy they judged)")
     if args.report:
         return run_command("mdr-drive rl-baselines",
-                           lambda: report_only(args.config, args.out, args.ship, args.force, args.records),
+                           lambda: report_only(args.config, args.out, args.ship, args.force, args.records or ()),
                            "nothing was written")
     return run_command("mdr-drive rl-baselines",
                        lambda: run(args.config, args.out, args.runs, executor_from(args), resume=args.resume,
