@@ -15,7 +15,7 @@ DESCRIPTION = ("Train the agents of a config (Stable-Baselines3 PPO, SAC and TD3
                "training on the report records' points with the normalised score (0 the trapezoid, 1 the best "
                "drive the blind benchmark's search found) and aggregated as rliable does (IQM and mean, 95 % "
                "stratified-bootstrap intervals). Writes OUT/benchmark.md, OUT/curves.png, OUT/results.json and "
-               "the tuned hyperparameters (OUT/hyperparameters/<algo>.yaml, for mdr-drive train --config); the "
+               "the tuned hyperparameters (OUT/hyperparameters/<agent>.yaml, for mdr-drive train --config); the "
                "trained runs go to --runs. Ctrl-C keeps every finished run: continue with --resume.")
 
 

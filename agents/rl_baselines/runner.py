@@ -141,10 +141,11 @@ def run_baselines(config: BaselinesConfig, runs: str | Path, executor: Executor,
 
 
 def slug(agent: Agent) -> str:
-    """The folder name of an agent's runs: its name in lower case, runs of other characters as ``_``."""
+    """The file and folder name of an agent: its algorithm (``recurrent_ppo``), or, if it has a name, that
+    name in lower case with runs of other characters as ``_``."""
     import re
 
-    return re.sub(r"[^a-z0-9]+", "_", agent.label.lower()).strip("_")
+    return agent.algo if agent.name is None else re.sub(r"[^a-z0-9]+", "_", agent.name.lower()).strip("_")
 
 
 __all__ = ["Plan", "run_baselines", "run_task", "slug", "tune"]
