@@ -89,8 +89,8 @@ rl-baselines: $(STAMP)
 	    --ship agents/pretrained --force
 	$(MDR) rl-baselines agents/configs/rl_ablations.yaml --out results/rl_baselines/ablations \
 	    --runs runs/rl_ablations --force
-	for seed in $(PLAIN_RECORD_SEEDS); do \
-	    $(MDR) benchmark --blind 120 --seed $$seed --scan-draw --policies agents/pretrained/ppo_plain \
+	plain=$$(ls -d agents/pretrained/*_plain) && for seed in $(PLAIN_RECORD_SEEDS); do \
+	    $(MDR) benchmark --blind 120 --seed $$seed --scan-draw --policies $$plain \
 	        --reuse-search results/record/seed$$seed/blind.json --out results/rl_baselines/record/seed$$seed || exit $$?; done
 	$(MDR) rl-baselines agents/configs/rl_baselines.yaml --out results/rl_baselines --report --ship agents/pretrained \
 	    --force --records $(foreach seed,$(PLAIN_RECORD_SEEDS),results/rl_baselines/record/seed$(seed)/blind.json)
