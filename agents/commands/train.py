@@ -50,14 +50,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--critic-warmup", type=int_range(0), default=0, metavar="STEPS",
                    help="first train only the value function for STEPS environment steps, the actor frozen, >= 0 "
                         "(-); for fine-tuning a distilled or adapted policy, which has no trained critic")
-    from ..train.hyperparameters import key_value
+    from ..train.hyperparameters import WARM_STARTS, key_value
 
     p.add_argument("--hyperparams", nargs="+", default=None, type=key_value, metavar="KEY:VALUE",
                    help="SB3 hyperparameters that replace the config's, or the run's when resuming, as the RL "
                         "Zoo's -params (e.g. learning_rate:1e-5 n_steps:512; values read as YAML)")
     p.add_argument("--eval-freq", type=positive_int, default=20_000, help="evaluate on held-out points every N steps (-)")
     p.add_argument("--checkpoint-freq", type=positive_int, default=100_000, help="checkpoint every N steps (-)")
-    p.add_argument("--warm-start", default=None, choices=("none", "trapezoid"),
+    p.add_argument("--warm-start", default=None, choices=WARM_STARTS,
                    help="initial policy: as is, or its mean at the trapezoid; default from the config (the "
                         "shipped policy is distilled from a teacher instead: mdr-drive recipe)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

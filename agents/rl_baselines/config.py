@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..policy import ALGORITHMS
+from ..train.hyperparameters import WARM_STARTS
 
 
 def _at_least(name: str, value, low: int) -> None:
@@ -54,8 +55,8 @@ class Agent:
         _at_least("steps", self.steps, 1)
         _at_least("tune_trials", self.tune_trials, 0)
         _at_least("tune_steps", self.tune_steps, 1 if self.tune_trials else 0)
-        if self.warm_start not in ("none", "trapezoid"):
-            raise ValueError(f"warm_start={self.warm_start!r} is not one of ['none', 'trapezoid']")
+        if self.warm_start not in WARM_STARTS:
+            raise ValueError(f"warm_start={self.warm_start!r} is not one of {list(WARM_STARTS)}")
         for field in ("env_kwargs", "hyperparameters"):
             if getattr(self, field) is not None and not isinstance(getattr(self, field), dict):
                 raise ValueError(f"{field}={getattr(self, field)!r} must be a mapping")

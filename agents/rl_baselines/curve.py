@@ -5,7 +5,6 @@ runaways marked)."""
 from __future__ import annotations
 
 import time
-from typing import Callable
 
 import numpy as np
 
@@ -37,13 +36,10 @@ def curve_steps(total: int, count: int) -> list[int]:
 
 
 def learning_curve_callback(algo: str, env_kwargs: dict, points, at_steps: list[int],
-                            on_evaluation: Callable[[int, np.ndarray], bool] | None = None,
                             hyperparameters: dict | None = None):
     """An SB3 callback that plays the model at ``points`` when its step count first reaches each of
     ``at_steps`` (and at the end of training if it ends short of the last); ``.curve`` is then
-    [(steps, seconds of training so far, evaluations excluded, velocities), ...].
-    ``on_evaluation(steps, velocities)`` is called after each evaluation; training stops when it
-    returns False."""
+    [(steps, seconds of training so far, evaluations excluded, velocities), ...]."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     class LearningCurve(BaseCallback):
@@ -51,30 +47,27 @@ def learning_curve_callback(algo: str, env_kwargs: dict, points, at_steps: list[
             super().__init__()
             self.pending = sorted(at_steps)
             self.curve: list[tuple[int, float, np.ndarray]] = []
-            self.stopped = False
             self.start = self.evaluating = 0.0
 
         def _on_training_start(self) -> None:
             self.start, self.evaluating = time.perf_counter(), 0.0
 
-        def _evaluate(self) -> np.ndarray:
+        def _evaluate(self) -> None:
             t = time.perf_counter()
             v = model_velocity(self.model, algo, env_kwargs, points, hyperparameters)
             self.curve.append((int(self.num_timesteps), round(t - self.start - self.evaluating, 3), v))
             self.evaluating += time.perf_counter() - t
-            return v
 
         def _on_step(self) -> bool:
             if not self.pending or self.num_timesteps < self.pending[0]:
                 return True
             while self.pending and self.num_timesteps >= self.pending[0]:
                 self.pending.pop(0)
-            v = self._evaluate()
-            self.stopped = on_evaluation is not None and not on_evaluation(int(self.num_timesteps), v)
-            return not self.stopped
+            self._evaluate()
+            return True
 
         def _on_training_end(self) -> None:  # the last point, when the run ends short of it
-            if self.pending and not self.stopped and (not self.curve or self.curve[-1][0] != self.num_timesteps):
+            if self.pending and (not self.curve or self.curve[-1][0] != self.num_timesteps):
                 self._evaluate()
                 self.pending = []
 

@@ -13,10 +13,10 @@ import numpy as np
 
 from mdr_drive_env.sweep import Executor, TaskStore
 
+from ..benchmarks.reference import Reference, common_time_quantum
 from ..train.hyperparameters import load_config
 from .config import Agent, BaselinesConfig
 from .curve import curve_steps
-from ..benchmarks.reference import Reference, common_time_quantum
 from .tuning import fixed_hyperparameters, make_study, sample_hyperparameters
 
 

@@ -20,6 +20,8 @@ from ..yaml_config import read_yaml
 
 CONFIG_DIR = Path(__file__).parents[1] / "configs"
 #: Config keys of ``mdr-drive train`` itself: recorded in run.json, not passed to SB3.
+#: How a new run's policy starts: as SB3 builds it, or its mean action at the paper's trapezoid.
+WARM_STARTS = ("none", "trapezoid")
 NOT_SB3_KEYS = ("warm_start", "action_noise_std", "reward_baseline", "action_cycle", "load_curriculum")
 #: Keys every algorithm takes besides its constructor's (the number of envs, normalisation, the
 #: RL Zoo's step budget and policy name, the warm start, the exploration noise of an off-policy
@@ -79,8 +81,11 @@ def check_hyperparameters(algo: str, hyper: dict[str, Any], source: str) -> None
         if key not in known:
             raise ValueError(f"{source}: {key!r} is not a {algo.upper()} hyperparameter this command sets (seed, device "
                              f"and logging have their own); one of {known}")
-        if key == "reward_baseline" and value not in ("none", "trapezoid"):
-            raise ValueError(f"{source}: reward_baseline={value!r} is not one of ['none', 'trapezoid']")
+        if key == "reward_baseline":
+            from ..vec_env import REWARD_BASELINES
+
+            if value not in REWARD_BASELINES:
+                raise ValueError(f"{source}: reward_baseline={value!r} is not one of {list(REWARD_BASELINES)}")
         if key == "action_cycle" and value not in (1, 2):
             raise ValueError(f"{source}: action_cycle={value!r} is not one of [1, 2]")
         if key not in NUMERIC or (key == "ent_coef" and is_auto_entropy(value)):
@@ -124,4 +129,4 @@ def key_value(text: str) -> tuple[str, Any]:
         raise argparse.ArgumentTypeError(f"{text!r}: {value!r} is not a YAML value") from None
 
 
-__all__ = ["CONFIG_DIR", "NOT_SB3_KEYS", "NUMERIC", "check_hyperparameters", "key_value", "known_keys", "load_config"]
+__all__ = ["CONFIG_DIR", "NOT_SB3_KEYS", "WARM_STARTS", "NUMERIC", "check_hyperparameters", "key_value", "known_keys", "load_config"]

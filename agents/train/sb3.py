@@ -34,7 +34,7 @@ from ..policy import policy_name, run_env_kwargs, save_normalization, save_polic
 from ..protocol import trapezoid_action
 from ..run_record import RunLock, command_line, versions
 from ..sb3_files import NORMALIZATION_FILE, NormalizationState, read_model
-from .hyperparameters import NOT_SB3_KEYS, check_hyperparameters, key_value, load_config  # noqa: F401
+from .hyperparameters import NOT_SB3_KEYS, WARM_STARTS, check_hyperparameters, key_value, load_config  # noqa: F401
 
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
 HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0.25))
@@ -285,8 +285,8 @@ def train(algo: str | None = None, steps: int | None = None, seed: int = 0, out:
                           f"hyperparameters of {'the run' if resume else algo}")
     if previous is None:
         hyper["warm_start"] = warm_start or hyper.get("warm_start") or "trapezoid"
-        if hyper["warm_start"] not in ("none", "trapezoid"):
-            raise ValueError(f"warm_start={hyper['warm_start']!r} is not one of ['none', 'trapezoid']")
+        if hyper["warm_start"] not in WARM_STARTS:
+            raise ValueError(f"warm_start={hyper['warm_start']!r} is not one of {list(WARM_STARTS)}")
         if hyper.get("action_cycle", 1) == 2 and env_kwargs.get("action_codebook") is not None:
             raise ValueError("action_cycle=2 plays two Box actions a step; with action_codebook use action_cycle: 1")
         if hyper["warm_start"] == "trapezoid" and env_kwargs.get("action_codebook") is not None:
