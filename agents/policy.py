@@ -28,6 +28,7 @@ import numpy as np
 
 from mdr_drive_env.gym_envs.spaces import load_action_codebook
 
+from .drive import DRIVE_KEYS
 from .sb3_files import NORMALIZATION_FILE, NormalizationState, read_model
 
 
@@ -49,7 +50,8 @@ CODEBOOK_FILE = "action_codebook.npy"
 OBSERVATION_KEYS = ("observation", "history", "sensor_forces", "sensor_tier", "trace_samples", "encoder_noise",
                     "force_noise")
 ACTION_KEYS = ("z_phase_origin", "time_quantum")
-PLAY_KEYS = OBSERVATION_KEYS + ACTION_KEYS
+#: ... and the drive it was built for (``mdr_drive_agents.drive.DRIVE_KEYS``): it plays on that drive.
+PLAY_KEYS = OBSERVATION_KEYS + ACTION_KEYS + tuple(DRIVE_KEYS)
 #: The algorithms a policy folder's run.json may name (``algo``): Stable-Baselines3's PPO, SAC and TD3,
 #: and sb3-contrib's RecurrentPPO (an LSTM policy).
 ALGORITHMS = ("ppo", "sac", "td3", "recurrent_ppo")

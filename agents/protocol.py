@@ -10,6 +10,10 @@ The critical load of a drive at k is the largest cargo mass before its steady ve
 drops to <= 0 (or runs away), on a fine load grid (``critical_loads``). The paper's trapezoid is
 the reference every result is compared with (``trapezoid_action``, ``trapezoid_critical_load``).
 
+Every function judges on one drive (``drive``, a :class:`~mdr_drive_agents.drive.DriveDescription`;
+default the paper's): its physics, its period and its strokes. A closed-loop policy plays on its
+own drive, the keywords its run.json records (``drive_of``).
+
 A closed-loop drive is any ``act(observations) -> Box actions`` callable, or an object with such an
 ``act`` method (a loaded policy, ``mdr_drive_agents.policy.Policy``); one with a ``play_kwargs``
 attribute plays in an env built with those keywords (its observation layout, time quantum, z phase
@@ -25,14 +29,17 @@ import gymnasium as gym
 import numpy as np
 
 import mdr_drive_env  # noqa: F401  registers MDRDrive-v0
-from mdr_drive_env.core import DriveParams, Waveform
+from mdr_drive_env.core import DriveParams
 from mdr_drive_env.core import kernel as K
 from mdr_drive_env.core.analysis import is_runaway
 from mdr_drive_env.core.batch import BatchedDriveSimulator
 from mdr_drive_env.gym_envs.spaces import ActionMap, shift_phase_origin
 
+from .drive import DRIVE_KEYS, PAPER_DRIVE, DriveDescription
+
 EVAL_PERIODS = 30
 AVERAGE_PERIODS = 10
+#: The paper drive's action map (the env's default).
 ACTION_MAP = ActionMap()
 #: The env's default time quantum of rises and the z phase (s): the action units every search and
 #: teacher uses unless told otherwise.
@@ -44,27 +51,26 @@ CRITICAL_GRID = 64
 @functools.lru_cache(maxsize=None)
 def action_map_at(time_quantum: float = TIME_QUANTUM) -> ActionMap:
     """``ACTION_MAP`` with rises and the z phase quantised to ``time_quantum`` (s) instead
-    (``MDRDrive-v0``'s ``time_quantum``)."""
+    (``MDRDrive-v0``'s ``time_quantum``); another drive's is ``drive.action_map(time_quantum)``."""
     return dataclasses.replace(ACTION_MAP, time_quantum=float(time_quantum))
 
 
-#: The fastest backward x stroke any action can make (m/s): full amplitude over the shortest fall.
-INDENTER_MIN_VELOCITY = -ACTION_MAP.x_amplitude_max / ((1.0 - ACTION_MAP.max_rise_fraction) * ACTION_MAP.period)
-
-
-def steady_velocity_of(displacements: np.ndarray, average: int = AVERAGE_PERIODS, runaway=None) -> np.ndarray:
-    """Steady velocity (m/s): mean of the last ``average`` rows of per-period displacements (m) / T;
-    NaN where ``runaway`` (a bool per point) is True."""
-    v = np.asarray(displacements)[-average:].mean(axis=0) / ACTION_MAP.period
+def steady_velocity_of(displacements: np.ndarray, average: int = AVERAGE_PERIODS, runaway=None,
+                       period: float = ACTION_MAP.period) -> np.ndarray:
+    """Steady velocity (m/s): mean of the last ``average`` rows of per-period displacements (m) / T
+    (``period``, s; the drive's); NaN where ``runaway`` (a bool per point) is True."""
+    v = np.asarray(displacements)[-average:].mean(axis=0) / period
     return v if runaway is None else np.where(runaway, np.nan, v)
 
 
-def runaway_of(displacements: np.ndarray, peak_normal_force: np.ndarray, params: list[DriveParams]) -> np.ndarray:
-    """Per point, whether the load ran away with the slider (core.analysis.is_runaway) in a run with
-    per-period ``displacements`` (periods, n) (m) and the last period's ``peak_normal_force`` (n,) (N)."""
+def runaway_of(displacements: np.ndarray, peak_normal_force: np.ndarray, params: list[DriveParams],
+               drive: DriveDescription = PAPER_DRIVE) -> np.ndarray:
+    """Per point, whether the load ran away with the slider (core.analysis.is_runaway) in a run on
+    ``drive`` with per-period ``displacements`` (periods, n) (m) and the last period's
+    ``peak_normal_force`` (n,) (N)."""
     margin = np.array([(p.contact.friction_coefficient + p.contact.base_friction_coefficient) * fz - p.drive.load
                        for p, fz in zip(params, peak_normal_force)])
-    return is_runaway(np.asarray(displacements) / ACTION_MAP.period, INDENTER_MIN_VELOCITY, margin)
+    return is_runaway(np.asarray(displacements) / drive.period, drive.indenter_min_velocity, margin)
 
 
 def format_velocity(v: float, width: int = 0, digits: int = 2) -> str:
@@ -77,24 +83,44 @@ def csv_velocity(v):
     return "runaway" if v is None or (isinstance(v, float) and np.isnan(v)) else v
 
 
-def trapezoid_action() -> np.ndarray:
-    """The env action of the paper's waveform (Fig. 2)."""
-    return ACTION_MAP.to_action(Waveform.paper())
+def trapezoid_action(drive: DriveDescription = PAPER_DRIVE) -> np.ndarray:
+    """The env action of the baseline: the paper's waveform (Fig. 2) on the paper's drive, its shape
+    at the drive's period and full strokes on another (``DriveDescription.trapezoid_action``)."""
+    return drive.trapezoid_action()
 
 
-def point_params(point, variant: str = "as-specified") -> DriveParams:
-    """The paper's model at ``point``: (k, cargo mass kg), or (k, cargo mass, mu, mu1) with those
+def point_params(point, drive: DriveDescription = PAPER_DRIVE) -> DriveParams:
+    """The drive's model at ``point``: (k, cargo mass kg), or (k, cargo mass, mu, mu1) with those
     friction coefficients (indenter-slider, slider-base)."""
-    params = DriveParams.paper(k=point[0], cargo_mass=point[1], variant=variant)
-    if len(point) == 4:
-        params = dataclasses.replace(params, contact=dataclasses.replace(
-            params.contact, friction_coefficient=point[2], base_friction_coefficient=point[3]))
-    return params
+    return drive.params(point[0], point[1], tuple(point[2:4]) if len(point) == 4 else None)
+
+
+def drive_of(policy, drive: DriveDescription = PAPER_DRIVE) -> DriveDescription:
+    """The drive a closed-loop policy plays on: ``drive`` with the drive keywords the policy's
+    ``play_kwargs`` (its run.json) set replacing its own."""
+    own = {k: v for k, v in play_kwargs_of(policy).items() if k in DRIVE_KEYS}
+    return drive.with_settings(**own) if own else drive
+
+
+def play_drive(policies, drive: DriveDescription = PAPER_DRIVE) -> DriveDescription:
+    """The one drive ``policies`` play on (:func:`drive_of` each); ``drive`` with none. Raises
+    ``ValueError`` if they were built for different drives, or for another drive than ``drive``
+    names (a ``--drive`` given with a policy of another drive)."""
+    drives = {drive_of(p, drive).settings for p in policies}
+    if len(drives) > 1:
+        raise ValueError("the policies were built for different drives: benchmark them apart")
+    if drives:
+        settings = drives.pop()
+        if drive.settings and settings != drive.settings:
+            raise ValueError(f"the policies were built for another drive than {drive.name} "
+                             f"({dict(settings) or 'the paper drive'}): judge them on their own (leave out --drive)")
+        return dataclasses.replace(drive, settings=settings)
+    return drive
 
 
 # ---------------------------------------------------------------------------------------- open loop
 def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS,
-                       mark_runaway: bool = False, variant: str = "as-specified",
+                       mark_runaway: bool = False, drive: DriveDescription = PAPER_DRIVE,
                        time_quantum: float = TIME_QUANTUM) -> np.ndarray:
     """Steady velocity (m/s) of open-loop drives, one per (k, cargo mass) point, batched in one call per period.
 
@@ -102,13 +128,13 @@ def open_loop_velocity(points, actions, periods: int = EVAL_PERIODS, average: in
     (n, p, 5) played in turn (period t uses action t mod p), e.g. p = 2 alternates two waveforms.
     ``mark_runaway``: NaN where the load runs away with the slider (for tables); without it the
     mean is returned there too (a large negative number, as optimisers want). ``time_quantum`` (s):
-    the actions' rises and z phase are quantised to it (``action_map_at``).
+    the actions' rises and z phase are quantised to it (``drive.action_map``).
     """
-    disp, runaway = open_loop_displacements(points, actions, periods, variant, time_quantum)
-    return steady_velocity_of(disp, average, runaway if mark_runaway else None)
+    disp, runaway = open_loop_displacements(points, actions, periods, drive, time_quantum)
+    return steady_velocity_of(disp, average, runaway if mark_runaway else None, drive.period)
 
 
-def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, variant: str = "as-specified",
+def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, drive: DriveDescription = PAPER_DRIVE,
                             time_quantum: float = TIME_QUANTUM):
     """Per-period displacements (periods, n) (m) of open-loop drives (see :func:`open_loop_velocity`;
     ``points`` as :func:`point_params` takes them) and whether each ran away (n,).
@@ -122,7 +148,7 @@ def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, varian
         actions = np.atleast_2d(actions)[:, None, :]
     if len(actions) == 1 and len(points) > 1:
         actions = np.repeat(actions, len(points), axis=0)
-    action_map = action_map_at(time_quantum)
+    action_map = drive.action_map(time_quantum)
     cycle = np.array([[[p.x_amplitude, p.x_rise_time, p.z_amplitude, p.z_rise_time, p.z_phase]
                        for p in (action_map.to_params(a) for a in actions[:, j])]
                       for j in range(actions.shape[1])]).reshape(actions.shape[1], len(points), 5)
@@ -135,7 +161,7 @@ def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, varian
             drive_of[key] = len(unique)
             unique.append(i)
         inverse[i] = drive_of[key]
-    sim = BatchedDriveSimulator(len(unique))
+    sim = BatchedDriveSimulator(len(unique), max_depth=drive.z_amplitude_max)
     params, first_of = [], {}  # the model is built once per distinct point (searches play many drives at one)
     for row, i in enumerate(unique):
         key = point_keys[i]
@@ -143,12 +169,12 @@ def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, varian
             sim.copy_params(row, first_of[key])
         else:
             first_of[key] = row
-            sim.set_params(row, point_params(points[i], variant))
+            sim.set_params(row, point_params(points[i], drive))
         params.append(sim.params[row])
     rows = np.array(unique)
     disp = np.array([sim.step(cycle[t % len(cycle)][rows], action_map.period)[:, K.O_DISPLACEMENT].copy()
                      for t in range(periods)])
-    runaway = runaway_of(disp, sim.out[:, K.O_PEAK_FZ], params)
+    runaway = runaway_of(disp, sim.out[:, K.O_PEAK_FZ], params, drive)
     return np.ascontiguousarray(disp[:, inverse]), runaway[inverse]  # C order: means over periods as before
 
 
@@ -166,15 +192,15 @@ def actions_of(policy):
     return policy.act if hasattr(policy, "act") else policy
 
 
-def policy_rollout(policy, points, periods: int = EVAL_PERIODS, variant: str = "as-specified"):
+def policy_rollout(policy, points, periods: int = EVAL_PERIODS, drive: DriveDescription = PAPER_DRIVE):
     """Run ``policy`` (``act(obs) -> Box actions``) closed loop at each (k, cargo mass) point, in the
-    batched env it expects (:func:`play_kwargs_of`); returns (displacements (periods, n) m, actions
+    batched env it expects (:func:`play_kwargs_of`, on its own drive: :func:`drive_of`); returns (displacements (periods, n) m, actions
     (periods, n, 5) in the default action units (``ACTION_MAP``, whatever the policy's
     ``z_phase_origin``), runaway (n,) bool)."""
     n = len(points)
-    play, act = play_kwargs_of(policy), actions_of(policy)
+    play, act, drive = play_kwargs_of(policy), actions_of(policy), drive_of(policy, drive)
     venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods,
-                        variant=variant, **play)
+                        **{**drive.env_kwargs, **play})
     obs, _ = venv.reset(seed=0, options={"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]})
     disp, acts = [], []
     for _ in range(periods):
@@ -182,28 +208,30 @@ def policy_rollout(policy, points, periods: int = EVAL_PERIODS, variant: str = "
         obs, _, _, _, info = venv.step(a)
         disp.append(info["displacement"])
         acts.append(a)
-    params = [DriveParams.paper(k=k, cargo_mass=m, variant=variant) for k, m in points]
+    params = [drive.params(k, m) for k, m in points]
     acts = shift_phase_origin(np.array(acts), play.get("z_phase_origin", 0.0), ACTION_MAP.z_phase_origin)
-    return np.array(disp), acts.astype(np.float32), runaway_of(np.array(disp), info["peak_normal_force"], params)
+    return np.array(disp), acts.astype(np.float32), runaway_of(np.array(disp), info["peak_normal_force"], params,
+                                                               drive)
 
 
 def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = AVERAGE_PERIODS,
-                    mark_runaway: bool = False, variant: str = "as-specified") -> np.ndarray:
+                    mark_runaway: bool = False, drive: DriveDescription = PAPER_DRIVE) -> np.ndarray:
     """Steady velocity (m/s) of a closed-loop policy at each point (NaN where runaway, with ``mark_runaway``)."""
-    disp, _, runaway = policy_rollout(policy, points, periods, variant)
-    return steady_velocity_of(disp, average, runaway if mark_runaway else None)
+    disp, _, runaway = policy_rollout(policy, points, periods, drive)
+    return steady_velocity_of(disp, average, runaway if mark_runaway else None, drive_of(policy, drive).period)
 
 
 def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS, load_step=None,
-                seed: int = 0, **env_kwargs):
-    """One run of the single env ``MDRDrive-v0`` at (k, cargo mass): closed loop with ``policy``
-    (``act(obs) -> Box actions``), or the trapezoid every period if ``policy`` is None.
-    ``load_step``: (period, cargo mass in kg); a policy plays in the env it expects
-    (:func:`play_kwargs_of`, under ``env_kwargs``). Returns (per-period mean velocities (periods,) m/s,
+                seed: int = 0, drive: DriveDescription = PAPER_DRIVE, **env_kwargs):
+    """One run of the single env ``MDRDrive-v0`` at (k, cargo mass) on ``drive`` (a policy: on its
+    own, :func:`drive_of`): closed loop with ``policy`` (``act(obs) -> Box actions``), or the
+    trapezoid every period if ``policy`` is None. ``load_step``: (period, cargo mass in kg); a policy
+    plays in the env it expects (:func:`play_kwargs_of`, under ``env_kwargs``). Returns (per-period mean velocities (periods,) m/s,
     actions (periods, 5) in the default action units (``ACTION_MAP``, whatever ``z_phase_origin``
     the env has), whether the load ran away)."""
+    drive = drive if policy is None else drive_of(policy, drive)
     env = gym.make("MDRDrive-v0", k=k, cargo_mass=cargo_mass, max_periods=periods,
-                   **{**play_kwargs_of(policy), **env_kwargs})
+                   **{**drive.env_kwargs, **play_kwargs_of(policy), **env_kwargs})
     obs, _ = env.reset(seed=seed, options={"load_step": load_step} if load_step else None)
     trapezoid = env.unwrapped.trapezoid_action()
     act = None if policy is None else actions_of(policy)
@@ -214,7 +242,7 @@ def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS
         velocities.append(info["mean_velocity"])
         actions.append(a)
     v = np.array(velocities)
-    runaway = runaway_of(v[:, None] * ACTION_MAP.period, [info["peak_normal_force"]], [env.unwrapped.params])
+    runaway = runaway_of(v[:, None] * drive.period, [info["peak_normal_force"]], [env.unwrapped.params], drive)
     actions = shift_phase_origin(np.array(actions), env.unwrapped.action_map.z_phase_origin, ACTION_MAP.z_phase_origin)
     return v, actions.astype(np.float32), bool(runaway[0])
 
@@ -237,21 +265,21 @@ def first_stall(masses: np.ndarray, velocity: np.ndarray) -> float:
     return float(masses[bad[0] - 1]) if bad[0] > 0 else 0.0
 
 
-def upper_mass(k: float, variant: str = "as-specified") -> float:
-    """A load (kg) above every method's critical load at k: 0.8 of mu F_ref / g (the trapezoid stalls
-    at 0.18-0.33 of it)."""
-    env = gym.make("MDRDrive-v0", k=k, load_ratio=0.8, variant=variant).unwrapped
+def upper_mass(k: float, drive: DriveDescription = PAPER_DRIVE) -> float:
+    """A load (kg) above every method's critical load at k on ``drive``: 0.8 of mu F_ref / g (the
+    paper drive's trapezoid stalls at 0.18-0.33 of it)."""
+    env = gym.make("MDRDrive-v0", k=k, load_ratio=0.8, **drive.env_kwargs).unwrapped
     env.reset(seed=0)
     return env.cargo_mass
 
 
-def critical_loads(ks, velocity_fn, variant: str = "as-specified") -> dict[float, float]:
+def critical_loads(ks, velocity_fn, drive: DriveDescription = PAPER_DRIVE) -> dict[float, float]:
     """Critical load (kg) per k from ``velocity_fn(points) -> velocities`` on a fine load grid (two
     passes of ``CRITICAL_GRID`` loads up to :func:`upper_mass`): the largest load before the
     velocity first drops to <= 0 (or runs away)."""
     out = {}
     for k in ks:
-        hi = upper_mass(k, variant)
+        hi = upper_mass(k, drive)
         masses = np.linspace(0.0, hi, CRITICAL_GRID)
         m1 = first_stall(masses, velocity_fn([(k, m) for m in masses]))
         step = masses[1]
@@ -260,15 +288,15 @@ def critical_loads(ks, velocity_fn, variant: str = "as-specified") -> dict[float
     return out
 
 
-def trapezoid_critical_load(ks, variant: str = "as-specified") -> np.ndarray:
-    """The trapezoid's critical load (kg) at each k (:func:`critical_loads`)."""
-    crit = critical_loads(sorted(set(ks)), lambda pts: open_loop_velocity(pts, trapezoid_action(), variant=variant),
-                          variant)
+def trapezoid_critical_load(ks, drive: DriveDescription = PAPER_DRIVE) -> np.ndarray:
+    """The trapezoid's critical load (kg) at each k on ``drive`` (:func:`critical_loads`)."""
+    crit = critical_loads(sorted(set(ks)), lambda pts: open_loop_velocity(pts, trapezoid_action(drive), drive=drive),
+                          drive)
     return np.array([crit[k] for k in ks])
 
 
 __all__ = ["ACTION_MAP", "AVERAGE_PERIODS", "actions_of", "CRITICAL_GRID", "EVAL_PERIODS", "TIME_QUANTUM", "action_map_at",
-           "critical_loads", "csv_velocity", "env_rollout", "first_stall", "format_velocity", "open_loop_displacements",
+           "critical_loads", "csv_velocity", "drive_of", "play_drive", "env_rollout", "first_stall", "format_velocity", "open_loop_displacements",
            "open_loop_velocity", "play_kwargs_of", "play_time_quantum", "point_params", "policy_rollout",
            "policy_velocity", "runaway_of", "steady_velocity_of", "trapezoid_action", "trapezoid_critical_load",
            "upper_mass"]

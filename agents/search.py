@@ -21,6 +21,7 @@ import numpy as np
 
 from mdr_drive_env.core.analysis import bisect_critical_load
 
+from .drive import PAPER_DRIVE, DriveDescription
 from .protocol import TIME_QUANTUM, open_loop_velocity, trapezoid_action
 
 #: Default CMA-ES budget: steady-velocity evaluations per point (each one 30 simulated periods).
@@ -48,7 +49,7 @@ class CMAResult:
 
 def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize: int = CMA_POPSIZE,
                  seed: int = 0, sigma0: float = FIXED_SIGMA, cycle: int = 1, x0=None, friction=None,
-                 time_quantum: float = TIME_QUANTUM) -> CMAResult:
+                 time_quantum: float = TIME_QUANTUM, drive: DriveDescription = PAPER_DRIVE) -> CMAResult:
     """Maximise the steady velocity over open-loop drives in [-1, 1]^5.
 
     ``cycle = 1`` searches fixed actions (one waveform every period); ``cycle = p`` searches cycles
@@ -56,19 +57,20 @@ def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize:
     or a (p, 5) cycle; default: the trapezoid every period), and the result is never worse than
     the trapezoid. ``action`` is (5,) for ``cycle = 1``, else (p, 5). ``friction``: (mu, mu1), the
     indenter-slider and slider-base friction coefficients (default: the paper's 0.3, 0.1).
-    ``time_quantum`` (s): the env's quantum of rises and the z phase (``open_loop_velocity``).
+    ``time_quantum`` (s): the env's quantum of rises and the z phase (``open_loop_velocity``);
+    ``drive``: the drive searched on (default the paper's).
     """
     import cma
 
-    start = np.tile(trapezoid_action(), (cycle, 1)) if x0 is None else np.reshape(np.asarray(x0, float), (cycle, 5))
+    start = np.tile(trapezoid_action(drive), (cycle, 1)) if x0 is None else np.reshape(np.asarray(x0, float), (cycle, 5))
     es = cma.CMAEvolutionStrategy(np.clip(start, -0.95, 0.95).ravel().tolist(), sigma0, {
         "bounds": [-1.0, 1.0], "popsize": popsize, "maxfevals": budget, "seed": seed + 1, "verbose": -9})
     point = [(k, cargo_mass) if friction is None else (k, cargo_mass, *friction)]
-    best_x = np.tile(trapezoid_action(), (cycle, 1)).astype(np.float64)  # never worse than the trapezoid
-    best_v, evals = float(open_loop_velocity(point, best_x[None], time_quantum=time_quantum)[0]), 1
+    best_x = np.tile(trapezoid_action(drive), (cycle, 1)).astype(np.float64)  # never worse than the trapezoid
+    best_v, evals = float(open_loop_velocity(point, best_x[None], time_quantum=time_quantum, drive=drive)[0]), 1
     while not es.stop():
         xs = np.clip(np.array(es.ask()), -1.0, 1.0)
-        v = open_loop_velocity(point * len(xs), xs.reshape(len(xs), cycle, 5), time_quantum=time_quantum)
+        v = open_loop_velocity(point * len(xs), xs.reshape(len(xs), cycle, 5), time_quantum=time_quantum, drive=drive)
         evals += len(xs)
         es.tell(list(xs), list(-v))
         i = int(np.argmax(v))
@@ -79,23 +81,23 @@ def cma_optimize(k: float, cargo_mass: float, budget: int = CMA_BUDGET, popsize:
 
 
 def best_cma_run(k: float, cargo_mass: float, starts, budget: int, popsize: int, sigma0: float, cycle: int = 1,
-                 seed: int = 0, friction=None, time_quantum: float = TIME_QUANTUM) -> CMAResult:
+                 seed: int = 0, friction=None, time_quantum: float = TIME_QUANTUM, drive: DriveDescription = PAPER_DRIVE) -> CMAResult:
     """The best of CMA-ES runs from each of ``starts`` (an action, a (cycle, 5) cycle, or None for the
     trapezoid), run i seeded ``seed + i``; ``friction`` and ``time_quantum`` as :func:`cma_optimize`."""
     runs = [cma_optimize(k, cargo_mass, budget, popsize=popsize, seed=seed + i, sigma0=sigma0, cycle=cycle, x0=x0,
-                         friction=friction, time_quantum=time_quantum)
+                         friction=friction, time_quantum=time_quantum, drive=drive)
             for i, x0 in enumerate(starts)]
     return max(runs, key=lambda r: r.velocity)
 
 
 def best_cycle(k: float, cargo_mass: float, starts=(None, PUSH_CLAMP), budget: int = CYCLE_SEARCH["budget"],
-               seed: int = 0, friction=None, time_quantum: float = TIME_QUANTUM,
+               seed: int = 0, friction=None, time_quantum: float = TIME_QUANTUM, drive: DriveDescription = PAPER_DRIVE,
                sigma0: float = CYCLE_SEARCH["sigma0"]) -> CMAResult:
     """The best two-action cycle found by CMA-ES runs from each of ``starts`` (None: the trapezoid
     every period), ``CYCLE_SEARCH``'s population, ``budget`` evaluations per start and step ``sigma0``;
     ``friction`` and ``time_quantum`` as :func:`cma_optimize`."""
     return best_cma_run(k, cargo_mass, starts, budget, popsize=CYCLE_SEARCH["popsize"], sigma0=sigma0, cycle=2,
-                        seed=seed, friction=friction, time_quantum=time_quantum)
+                        seed=seed, friction=friction, time_quantum=time_quantum, drive=drive)
 
 
 @dataclass(frozen=True)
@@ -126,32 +128,32 @@ class PointSearch:
 def search_point(k: float, load: float, fixed_budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_SEARCH["budget"],
                  fixed_sigma: float = FIXED_SIGMA, cycle_sigma: float = CYCLE_SEARCH["sigma0"], fixed_start=None,
                  cycle_starts=(None, PUSH_CLAMP), seed: int = 0, friction=None,
-                 time_quantum: float = TIME_QUANTUM) -> PointSearch:
+                 time_quantum: float = TIME_QUANTUM, drive: DriveDescription = PAPER_DRIVE) -> PointSearch:
     """The best drive at (k, load kg): CMA-ES over fixed actions (``fixed_budget`` evaluations, step
     ``fixed_sigma``, from ``fixed_start`` or the trapezoid) and over two-action cycles
     (``cycle_budget`` from each of ``cycle_starts``, step ``cycle_sigma``), both seeded with ``seed``;
     ``friction`` and ``time_quantum`` as :func:`cma_optimize`."""
     fixed = cma_optimize(k, load, fixed_budget, sigma0=fixed_sigma, seed=seed, x0=fixed_start, friction=friction,
-                         time_quantum=time_quantum)
-    cycle = best_cycle(k, load, cycle_starts, cycle_budget, seed=seed, friction=friction, time_quantum=time_quantum,
+                         time_quantum=time_quantum, drive=drive)
+    cycle = best_cycle(k, load, cycle_starts, cycle_budget, seed=seed, friction=friction, time_quantum=time_quantum, drive=drive,
                        sigma0=cycle_sigma)
     return PointSearch(fixed, cycle)
 
 
 def cycle_critical_load(k: float, trapezoid_critical: float, iterations: int = CRITICAL_BISECTIONS,
-                        budget: int = CYCLE_SEARCH["budget"], time_quantum: float = TIME_QUANTUM) -> tuple[float, np.ndarray]:
+                        budget: int = CYCLE_SEARCH["budget"], time_quantum: float = TIME_QUANTUM, drive: DriveDescription = PAPER_DRIVE) -> tuple[float, np.ndarray]:
     """Critical load (kg) of the best two-action cycle found, by bisection on the load from the
     trapezoid's critical load up, re-optimising the cycle at every trial load (starts: the
     push/clamp cycle and the best cycle so far). The bracket's upper end starts at 1.8x the
     trapezoid's and doubles while the cycle still moves there. Returns (load, its cycle).
     ``time_quantum`` as :func:`cma_optimize`."""
     if trapezoid_critical <= 0.0:
-        return 0.0, np.tile(trapezoid_action(), (2, 1))
+        return 0.0, np.tile(trapezoid_action(drive), (2, 1))
     found = {}  # the best cycle at the heaviest load that moved so far
 
     def moves(load: float) -> bool:
         starts = (PUSH_CLAMP,) if "cycle" not in found else (PUSH_CLAMP, found["cycle"])
-        trial = best_cycle(k, load, starts, budget, time_quantum=time_quantum)
+        trial = best_cycle(k, load, starts, budget, time_quantum=time_quantum, drive=drive)
         if trial.velocity > 0.0 or "cycle" not in found:  # the first search's cycle, even if it stalls
             found["cycle"] = trial.action
         return trial.velocity > 0.0
@@ -160,10 +162,11 @@ def cycle_critical_load(k: float, trapezoid_critical: float, iterations: int = C
     return (0.0 if bracket is None else bracket[0]), found["cycle"]
 
 
-def fixed_critical_load(k: float, high: float, budget: int = CMA_BUDGET, iterations: int = CRITICAL_BISECTIONS) -> float:
+def fixed_critical_load(k: float, high: float, budget: int = CMA_BUDGET, iterations: int = CRITICAL_BISECTIONS,
+                        drive: DriveDescription = PAPER_DRIVE) -> float:
     """Critical load (kg) of the best fixed action found, by bisection on the load between 0 and
     ``high``, re-optimising the action at every trial load (0 if it does not move unloaded)."""
-    bracket = bisect_critical_load(lambda load: cma_optimize(k, load, budget).velocity > 0.0, 0.0, high,
+    bracket = bisect_critical_load(lambda load: cma_optimize(k, load, budget, drive=drive).velocity > 0.0, 0.0, high,
                                    iterations=iterations, grow=False)
     return 0.0 if bracket is None else bracket[0]
 

@@ -80,6 +80,7 @@ def reproduce_sweep(n: int):
 
 
 def teacher_sweep(n: int):
+    from mdr_drive_agents.drive import PAPER_DRIVE
     from mdr_drive_agents.protocol import trapezoid_critical_load
     from mdr_drive_agents.teacher.node_search import search_slice
     from mdr_drive_agents.train.recipe import DEFAULT_CONFIG, load_recipe
@@ -87,7 +88,7 @@ def teacher_sweep(n: int):
     config = load_recipe(DEFAULT_CONFIG).teacher
     ks = config.ks[1::max(1, len(config.ks) // n)][:n]  # k slices of the shipped recipe's grid
     crit = trapezoid_critical_load([float(k) for k in ks])
-    return search_slice, [(float(k), config.fractions * c, config, i) for i, (k, c) in enumerate(zip(ks, crit))], \
+    return search_slice, [(float(k), config.fractions * c, config, i, PAPER_DRIVE) for i, (k, c) in enumerate(zip(ks, crit))], \
         config.k_values
 
 

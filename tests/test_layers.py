@@ -10,7 +10,7 @@ from tests import ROOT
 
 #: Layers from the bottom: a module may import its own layer and the layers below it.
 AGENT_LAYERS = (
-    {"blas", "cycles", "yaml_config", "run_record", "sb3_files"},
+    {"blas", "cycles", "yaml_config", "run_record", "sb3_files", "drive"},
     {"protocol"},
     {"policy", "search", "vec_env"},
     {"teacher"},

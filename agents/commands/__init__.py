@@ -12,3 +12,28 @@ def add_recipe_arguments(p, default_config, config_help: str, default_out: str) 
     p.add_argument("--out", default=default_out, type=output_dir, help="output folder")
     p.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
+
+
+def drive_file(text: str):
+    """argparse type: a drive description YAML (``mdr_drive_agents.drive.DriveDescription``), with a
+    one-line error for a missing file, an unknown key or a bad value."""
+    import argparse
+
+    from mdr_drive_env.cli_args import input_file
+
+    from ..drive import DriveDescription
+
+    input_file(text)
+    try:
+        return DriveDescription.load(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def add_drive_argument(p, what: str) -> None:
+    """``--drive FILE``: the drive description ``what`` is done on (default: the paper's drive)."""
+    p.add_argument("--drive", type=drive_file, default=None, metavar="FILE",
+                   help=f"a drive description YAML (MDRDrive-v0 keywords in SI units: slider_mass kg, indenter_radius m, "
+                        f"youngs_modulus Pa, poisson_ratio, friction_coefficient, base_friction_coefficient, period s, "
+                        f"x_amplitude_max m, z_amplitude_max m; optionally k and load_ratio ranges; docs/your_drive.md) "
+                        f"{what}; default the paper's drive")

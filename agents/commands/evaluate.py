@@ -14,19 +14,17 @@ import json
 
 import numpy as np
 
-from mdr_drive_env.core import DriveParams
-
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..policy import OBSERVATION_KEYS, load_policy, package_path
 from ..protocol import (
-    ACTION_MAP,
     AVERAGE_PERIODS,
     EVAL_PERIODS,
     TIME_QUANTUM,
-    action_map_at,
     critical_loads,
     env_rollout,
     format_velocity,
     open_loop_displacements,
+    play_drive,
     policy_rollout,
     policy_velocity,
     steady_velocity_of,
@@ -37,7 +35,8 @@ from ..protocol import (
 
 HELP = "a trained policy against the trapezoid at given points"
 DESCRIPTION = ("Steady velocities (or critical loads) of a policy and of the paper's trapezoid at given points, by the "
-               "evaluation protocol (30 periods, the mean of the last 10): text, or JSON in SI units.")
+               "evaluation protocol (30 periods, the mean of the last 10): text, or JSON in SI units. A policy plays "
+               "on the drive it was built for (its run.json), and so does the trapezoid it is compared with.")
 
 
 def load_step_type(text: str) -> tuple[int, float]:
@@ -89,11 +88,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--load-step", type=load_step_type, default=None, metavar="PERIOD:MASS",
                    help="the cargo becomes MASS (kg) before period PERIOD (counted from 0) is simulated")
     add_variant_argument(p)
+    from . import add_drive_argument
+
+    add_drive_argument(p, "to check the policy was built for (it always plays on its own)")
 
 
-def trained_range_warnings(run: dict, points, friction: dict | None = None) -> list[str]:
+def trained_range_warnings(run: dict, points, friction: dict | None = None,
+                           drive: DriveDescription = PAPER_DRIVE) -> list[str]:
     """Warnings for points outside the k and load-ratio ranges the policy was trained on (run.json),
-    and for friction coefficients (``friction``: option name -> value) it was not trained with."""
+    and for friction coefficients (``friction``: option name -> value) it was not trained with, on ``drive``."""
     env = run.get("env_kwargs", {})
     k_range = env.get("k")
     warnings = []
@@ -112,20 +115,21 @@ def trained_range_warnings(run: dict, points, friction: dict | None = None) -> l
     ratio = env.get("load_ratio")
     if isinstance(ratio, (list, tuple)) and len(ratio) == 2:
         for k, m in points:
-            hi = ratio[1] * upper_mass(k) / 0.8  # upper_mass is 0.8 of mu F_ref / g
+            hi = ratio[1] * upper_mass(k, drive) / 0.8  # upper_mass is 0.8 of mu F_ref / g
             if m > hi * (1 + 1e-9):
                 warnings.append(f"m = {m:g} kg at k = {k:g} is above the trained loads (load ratio <= "
                                 f"{ratio[1]:g}, i.e. m <= {hi:.4g} kg)")
     return warnings
 
 
-def _velocity_record(k, m, variant, learned, trapezoid, last_action, time_quantum: float = TIME_QUANTUM) -> dict:
+def _velocity_record(k, m, drive: DriveDescription, learned, trapezoid, last_action,
+                     time_quantum: float = TIME_QUANTUM) -> dict:
     """One point's JSON record; the last action's waveform as the policy's env quantises it (s)."""
-    return {"k": k, "cargo_mass": m, "variant": variant,
+    return {"k": k, "cargo_mass": m, "variant": drive.env_kwargs.get("variant", "as-specified"), "drive": drive.name,
             "learned_mean_velocity": None if np.isnan(learned) else float(learned),
             "trapezoid_mean_velocity": None if np.isnan(trapezoid) else float(trapezoid),
             "learned_runaway": bool(np.isnan(learned)), "trapezoid_runaway": bool(np.isnan(trapezoid)),
-            "learned_waveform_last_period": action_map_at(time_quantum).to_params(last_action)._asdict(),
+            "learned_waveform_last_period": drive.action_map(time_quantum).to_params(last_action)._asdict(),
             "protocol": f"mean over periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}, m/s"}
 
 
@@ -149,18 +153,22 @@ def main(args: argparse.Namespace) -> int:
         if len(args.cargo_mass) != len(ks):
             raise ValueError(f"--k and --cargo-mass pair up: got {len(ks)} and {len(args.cargo_mass)} values")
         points = list(zip(ks, args.cargo_mass))
+    base = args.drive or PAPER_DRIVE
+    if args.variant != "as-specified":
+        base = base.with_settings(variant=args.variant)
     for k, m in points:  # bad values fail here, with the option's name, before the policy loads
         try:
-            DriveParams.paper(k=k, cargo_mass=m)
+            base.params(k, m)
         except ValueError as e:
             from mdr_drive_env.cli import FIELD_OPTIONS, with_option_name
 
             raise with_option_name(e, FIELD_OPTIONS) from None
     policy = load_policy(args.policy, trust_pickle=args.trust_pickle)
+    drive = play_drive([policy], base)  # the drive it was built for; --drive must name the same
     env_kwargs = policy.play_kwargs
     friction = {name: getattr(args, name) for name in ("friction_coefficient", "base_friction_coefficient")
                 if getattr(args, name) is not None}
-    for warning in trained_range_warnings(policy.run, points if not args.critical_load else [], friction):
+    for warning in trained_range_warnings(policy.run, points if not args.critical_load else [], friction, drive):
         print(f"mdr-drive evaluate: warning: {warning}", file=sys.stderr)
     if args.load_step is not None and args.load_step[0] >= args.periods:
         raise ValueError(f"--load-step period {args.load_step[0]} is not before the last of --periods {args.periods}")
@@ -170,32 +178,32 @@ def main(args: argparse.Namespace) -> int:
         raise ValueError("--critical-load uses the fixed protocol: without --friction-coefficient, "
                          "--base-friction-coefficient, --load-step, --periods, and for full-observation policies")
     if args.critical_load:
-        learned = critical_loads(ks, lambda pts: policy_velocity(policy, pts, variant=args.variant), args.variant)
-        trap = trapezoid_critical_load(ks, args.variant)
+        learned = critical_loads(ks, lambda pts: policy_velocity(policy, pts, drive=drive), drive)
+        trap = trapezoid_critical_load(ks, drive)
         records = [{"k": k, "critical_load_learned": learned[k], "critical_load_trapezoid": float(t),
-                    "variant": args.variant} for k, t in zip(ks, trap)]
+                    "variant": args.variant, "drive": drive.name} for k, t in zip(ks, trap)]
         text = [f"k = {r['k']:g}: critical load learned {r['critical_load_learned']:.4f} kg, "
                 f"trapezoid {r['critical_load_trapezoid']:.4f} kg" for r in records]
     else:
         if single_env:  # one single env per run: sensor policies, other frictions, load steps
-            kw = {**env_kwargs, **friction, "variant": args.variant}
-            runs = [(env_rollout(policy, k, m, args.periods, args.load_step, **kw),
-                     env_rollout(None, k, m, args.periods, args.load_step, **{
+            kw = {**env_kwargs, **friction}
+            runs = [(env_rollout(policy, k, m, args.periods, args.load_step, drive=drive, **kw),
+                     env_rollout(None, k, m, args.periods, args.load_step, drive=drive, **{
                          **{key: v for key, v in kw.items() if key not in OBSERVATION_KEYS}, "observation": "full"}))
                     for k, m in points]
             v_learned = np.array([r[0][0] for r in runs]).T  # (periods, n) m/s
             v_trap = np.array([r[1][0] for r in runs]).T
             acts = np.array([r[0][1] for r in runs]).transpose(1, 0, 2)
-            learned = steady_velocity_of(v_learned * ACTION_MAP.period, runaway=[r[0][2] for r in runs])
-            trapezoid = steady_velocity_of(v_trap * ACTION_MAP.period, runaway=[r[1][2] for r in runs])
+            learned = steady_velocity_of(v_learned, runaway=[r[0][2] for r in runs], period=1.0)
+            trapezoid = steady_velocity_of(v_trap, runaway=[r[1][2] for r in runs], period=1.0)
         else:
-            disp, acts, runaway = policy_rollout(policy, points, variant=args.variant)
-            learned = steady_velocity_of(disp, runaway=runaway)
-            disp_trap, runaway_trap = open_loop_displacements(points, trapezoid_action(), variant=args.variant)
-            trapezoid = steady_velocity_of(disp_trap, runaway=runaway_trap)
-            v_learned, v_trap = disp / ACTION_MAP.period, disp_trap / ACTION_MAP.period
+            disp, acts, runaway = policy_rollout(policy, points, drive=drive)
+            learned = steady_velocity_of(disp, runaway=runaway, period=drive.period)
+            disp_trap, runaway_trap = open_loop_displacements(points, trapezoid_action(drive), drive=drive)
+            trapezoid = steady_velocity_of(disp_trap, runaway=runaway_trap, period=drive.period)
+            v_learned, v_trap = disp / drive.period, disp_trap / drive.period
         quantum = float(env_kwargs.get("time_quantum", TIME_QUANTUM))
-        records = [_velocity_record(k, m, args.variant, lv, tv, acts[-1, i], quantum)
+        records = [_velocity_record(k, m, drive, lv, tv, acts[-1, i], quantum)
                    for i, ((k, m), lv, tv) in enumerate(zip(points, learned, trapezoid))]
         for i, r in enumerate(records):
             r["learned_period_velocity"] = v_learned[:, i].tolist()

@@ -21,13 +21,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.sweep import add_executor_arguments
 
     from ..train.recipe import DEFAULT_CONFIG
-    from . import add_recipe_arguments
+    from . import add_drive_argument, add_recipe_arguments
 
     add_recipe_arguments(p, DEFAULT_CONFIG, "recipe YAML (default: agents/configs/recipe.yaml)", "runs/recipe")
     p.add_argument("--teacher", type=input_file, default=None,
                    help="a saved teacher field (.npz, a recipe's teacher_field.npz): skip the teacher search")
     p.add_argument("--snapshots", action="store_true",
                    help="also save the student after each hole round, in OUT/snapshots/hole_round<H>/")
+    add_drive_argument(p, "to build the policy for (its run.json records it)")
     add_executor_arguments(p)
 
 
@@ -41,6 +42,7 @@ def main(args: argparse.Namespace) -> int:
     pin_command()
     return run_command("mdr-drive recipe",
                        lambda: run(args.config, args.out, executor_from(args), resume=args.resume, force=args.force,
-                                   progress=not args.no_progress, teacher=args.teacher, snapshots=args.snapshots),
+                                   progress=not args.no_progress, teacher=args.teacher, snapshots=args.snapshots,
+                                   drive=args.drive),
                        f"the teacher's finished slices and the student's first fit are kept, continue with --resume "
                        f"--out {args.out}")

@@ -28,7 +28,8 @@ from mdr_drive_env import ENV_ID  # importing the package registers the env
 from mdr_drive_env.gym_envs.spaces import shift_phase_origin
 
 from ..cycles import align_phase, cycle_action
-from ..protocol import ACTION_MAP, TIME_QUANTUM
+from ..drive import PAPER_DRIVE, DriveDescription
+from ..protocol import TIME_QUANTUM
 from ..teacher import PAPER_FRICTION, DriveField
 
 
@@ -87,15 +88,15 @@ def stall_points(field_: DriveField, n: int, rng: np.random.Generator, band: tup
 
 
 def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int = 0, z_phase_origin: float = 0.0,
-            time_quantum: float = TIME_QUANTUM):
+            time_quantum: float = TIME_QUANTUM, drive: DriveDescription = PAPER_DRIVE):
     """Play at each (k, load kg) point, or (k, load kg, mu, mu1) point in the privileged observation:
     the teacher's drive (``act`` None) or ``act(obs) -> actions``, in the action units of an env with
-    ``z_phase_origin`` (``drives`` too) and ``time_quantum`` (s). Returns the observations (periods *
+    ``z_phase_origin`` (``drives`` too) and ``time_quantum`` (s), on ``drive``. Returns the observations (periods *
     n, 14 or 16), the teacher's drive of each observation's episode (periods * n, 2, 5) and the
     displacements (periods, n) m."""
     n = len(points)
     options = {"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]}
-    kwargs = {"z_phase_origin": z_phase_origin, "time_quantum": time_quantum}
+    kwargs = {**drive.env_kwargs, "z_phase_origin": z_phase_origin, "time_quantum": time_quantum}
     if len(points[0]) == 4:
         kwargs["observation"] = "privileged"
         options.update(friction_coefficient=[p[2] for p in points], base_friction_coefficient=[p[3] for p in points])
@@ -144,7 +145,7 @@ def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
 def grid_actions(field_: DriveField) -> np.ndarray:
     """The distinct actions of the field's grid drives at their time quanta's centres
     (``ActionMap.quantum_centre``), sorted: (N, 5), the codebook a student picks from."""
-    return np.unique(ACTION_MAP.quantum_centre(field_.drives.reshape(-1, 5)), axis=0)
+    return np.unique(field_.drive.action_map().quantum_centre(field_.drives.reshape(-1, 5)), axis=0)
 
 
 def labelled_episodes(field_: DriveField, points, act, config, seed: int, z_phase_origin: float = 0.0,
@@ -159,10 +160,10 @@ def labelled_episodes(field_: DriveField, points, act, config, seed: int, z_phas
     if drives is None:
         drives, _ = teacher_drives(field_, points, config)
     if config.quantum_centres:
-        drives = ACTION_MAP.quantum_centre(drives)
+        drives = field_.drive.action_map().quantum_centre(drives)
     drives = shift_phase_origin(drives, 0.0, z_phase_origin)
     obs, sample_drives, _ = rollout(points, drives, act, config.periods, seed=seed, z_phase_origin=z_phase_origin,
-                                    time_quantum=time_quantum)
+                                    time_quantum=time_quantum, drive=field_.drive)
     return obs, sample_drives
 
 

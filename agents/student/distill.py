@@ -397,8 +397,8 @@ def student_velocity(student: Student, points) -> np.ndarray:
     """The student's steady velocity (m/s) at each (k, load kg) or (k, load kg, mu, mu1) point, closed
     loop over 30 periods."""
     _, _, disp = rollout(points, np.zeros((len(points), 2, 5)), student.act, 30, z_phase_origin=student.z_phase_origin,
-                         time_quantum=student.time_quantum)
-    return steady_velocity_of(disp)
+                         time_quantum=student.time_quantum, drive=student.drive)
+    return steady_velocity_of(disp, period=student.drive.period)
 
 
 def check_drawn_friction(config: DistillConfig, friction_drawn: bool) -> None:

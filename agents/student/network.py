@@ -17,6 +17,7 @@ import numpy as np
 from tqdm import tqdm
 
 from ..policy import Policy, save_policy
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..protocol import TIME_QUANTUM
 
 #: Teacher actions this close to the box's edge count as on it (the fit lets the output pass it).
@@ -78,13 +79,16 @@ class Student:
     time_quantum: float = TIME_QUANTUM
     #: The (N, 5) Box actions a codebook student picks among (the env's ``action_codebook``), or None.
     codebook: np.ndarray | None = None
+    #: The drive it acts on (the drive keywords of its env).
+    drive: DriveDescription = PAPER_DRIVE
 
     @property
     def policy(self) -> Policy:
         """The network as a drive (``mdr_drive_agents.policy.Policy``), normalised with the training
         env's statistics as they stand."""
         return Policy(self.model, self.venv.normalize_obs, self.codebook,
-                      {"env_kwargs": {"z_phase_origin": self.z_phase_origin, "time_quantum": self.time_quantum}})
+                      {"env_kwargs": {**self.drive.env_kwargs, "z_phase_origin": self.z_phase_origin,
+                                      "time_quantum": self.time_quantum}})
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         """The Box actions (n, 5) the network plays at observations ``obs`` (n, d): its mean action, or
@@ -123,7 +127,8 @@ def make_student(net_arch, activation: str, log_std: float, seed: int, env_kwarg
     model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs, **hyper)
     return Student(model, venv, z_phase_origin=float(env_kwargs.get("z_phase_origin", 0.0)),
                    time_quantum=float(env_kwargs.get("time_quantum", TIME_QUANTUM)),
-                   codebook=venv.get_attr("action_codebook")[0])
+                   codebook=venv.get_attr("action_codebook")[0],
+                   drive=DriveDescription.from_env_kwargs(env_kwargs))
 
 
 def bf16_products(on: bool):

@@ -41,6 +41,7 @@ from mdr_drive_env.core.params import check_int
 from mdr_drive_env.files import atomic_path
 
 from ..cycles import align_phase
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..protocol import open_loop_velocity, trapezoid_critical_load
 from .config import PAPER_FRICTION, FieldConfig
 from .node_search import search_slice
@@ -57,11 +58,15 @@ class DriveField:
         self.velocities = np.asarray(velocities, dtype=np.float64)
         self.meta = dict(meta or {})
         self.friction = tuple(float(f) for f in self.meta.get("config", {}).get("friction", PAPER_FRICTION))
+        drive = self.meta.get("drive")
+        #: The drive its drives were searched on (meta ``drive``; the paper's for a field without one).
+        self.drive = PAPER_DRIVE if drive is None else DriveDescription.from_mapping(drive["settings"], drive["name"])
 
     # ------------------------------------------------------------------ building
     @classmethod
-    def search(cls, config: FieldConfig, seed: int = 0, executor=None, store=None) -> "DriveField":
-        """Search the grid, one task per k slice on ``executor`` (``mdr_drive_env.sweep``; default
+    def search(cls, config: FieldConfig, seed: int = 0, executor=None, store=None,
+               drive: DriveDescription = PAPER_DRIVE) -> "DriveField":
+        """Search the grid on ``drive`` (at ``config``'s friction), one task per k slice on ``executor`` (``mdr_drive_env.sweep``; default
         the cores available), each slice kept in ``store`` as it finishes; then exchange drives
         between neighbours, consolidate, polish and run ``config``'s refinement stages in turn."""
         from mdr_drive_env.sweep import Executor
@@ -70,11 +75,11 @@ class DriveField:
 
         t0 = time.perf_counter()
         ks, fractions = config.ks, config.fractions
-        crit = trapezoid_critical_load([float(k) for k in ks])
-        tasks = [(float(k), fractions * c, config, seed + 1000 * i) for i, (k, c) in enumerate(zip(ks, crit))]
+        crit = trapezoid_critical_load([float(k) for k in ks], drive)
+        tasks = [(float(k), fractions * c, config, seed + 1000 * i, drive) for i, (k, c) in enumerate(zip(ks, crit))]
         found = (executor or Executor()).map(search_slice, tasks, "teacher: k slices", store=store)
         field = cls(ks, fractions, crit, np.array([f[0] for f in found]), np.array([f[1] for f in found]),
-                    {"config": asdict(config), "seed": seed})
+                    {"config": asdict(config), "seed": seed, **drive_meta(drive)})
         field.exchange()
         if config.consolidate_tolerance > 0.0:
             field.consolidate(config.consolidate_tolerance)
@@ -136,7 +141,8 @@ class DriveField:
                         owner.append((i, j))
         if not owner:
             return [], [], np.zeros(0)
-        return owner, drives, open_loop_velocity([self.point(i, j) for i, j in owner], np.array(drives))
+        return owner, drives, open_loop_velocity([self.point(i, j) for i, j in owner], np.array(drives),
+                                                 drive=self.drive)
 
     def exchange(self) -> int:
         """Every node plays its four grid neighbours' drives and keeps the best; returns how many changed."""
@@ -271,7 +277,7 @@ class DriveField:
         points = self.with_friction(points)
         cands = [self.candidates(p[0], self.field_load(p), radius, load_radius)[0 if interpolation else 1:]
                  for p in points]  # c may differ at the edge
-        return pick_best(points, cands, prefer_interpolation if interpolation else 0.0)
+        return pick_best(points, cands, prefer_interpolation if interpolation else 0.0, self.drive)
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:
@@ -299,11 +305,17 @@ def with_friction(points, friction) -> list[tuple[float, float, float, float]]:
     return [tuple(map(float, p)) if len(p) == 4 else (float(p[0]), float(p[1]), *map(float, friction)) for p in points]
 
 
-def pick_best(points, cands: list, prefer_interpolation: float) -> tuple[np.ndarray, np.ndarray]:
+def drive_meta(drive: DriveDescription) -> dict:
+    """A field's meta entry for the drive it is searched on (none for the paper's, so its files are as before)."""
+    return {} if drive == PAPER_DRIVE else {"drive": {"name": drive.name, "settings": drive.to_mapping()}}
+
+
+def pick_best(points, cands: list, prefer_interpolation: float,
+              drive: DriveDescription = PAPER_DRIVE) -> tuple[np.ndarray, np.ndarray]:
     """Per point, the best of its candidate drives ``cands[i]`` (c_i, 2, 5) played there (one batched
     call), the first (an interpolation) unless another is better by more than
     ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s."""
-    v = open_loop_velocity([p for p, c in zip(points, cands) for _ in c], np.concatenate(cands))
+    v = open_loop_velocity([p for p, c in zip(points, cands) for _ in c], np.concatenate(cands), drive=drive)
     drives, velocities, start = [], [], 0
     for c in cands:
         vc = v[start:start + len(c)]

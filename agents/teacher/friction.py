@@ -40,6 +40,9 @@ class FrictionField:
         ks = fields[0].ks
         self.ks = ks
         self.trapezoid_critical = fields[0].trapezoid_critical  # at the paper's friction: loads' scale
+        self.drive = fields[0].drive
+        if any(f.drive.settings != self.drive.settings for f in fields[1:]):
+            raise ValueError("the fields must be searched on the same drive")
         for f in fields[1:]:
             if f.ks.shape != ks.shape or not np.allclose(f.ks, ks):
                 raise ValueError("the fields must share their k grid")

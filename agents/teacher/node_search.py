@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..protocol import open_loop_velocity, trapezoid_action
 from ..search import PUSH_CLAMP, best_cma_run, search_point
 
@@ -18,24 +19,25 @@ if TYPE_CHECKING:
 
 
 def search_node(k: float, load: float, previous: np.ndarray | None, config: FieldConfig,
-                seed: int = 0) -> tuple[np.ndarray, float]:
+                seed: int = 0, drive: DriveDescription = PAPER_DRIVE) -> tuple[np.ndarray, float]:
     """The best drive (2, 5) found at (k, load kg) and its steady velocity (m/s): ``search_point``
     with ``config``'s budgets and step size, over fixed actions from the lighter point's first action
     (or the trapezoid) and over two-action cycles from the lighter point's drive, the trapezoid and
-    the push/clamp cycle."""
-    starts = ([] if previous is None else [previous]) + [np.tile(trapezoid_action(), (2, 1)), PUSH_CLAMP]
+    the push/clamp cycle; on ``drive``."""
+    starts = ([] if previous is None else [previous]) + [np.tile(trapezoid_action(drive), (2, 1)), PUSH_CLAMP]
     found = search_point(k, load, config.fixed_budget, config.cycle_budget, fixed_sigma=config.sigma0,
                          cycle_sigma=config.sigma0, fixed_start=None if previous is None else previous[0],
-                         cycle_starts=starts, seed=seed, friction=tuple(config.friction))
+                         cycle_starts=starts, seed=seed, friction=tuple(config.friction), drive=drive)
     return found.drive, found.velocity
 
 
 def search_slice(args) -> tuple[np.ndarray, np.ndarray]:
-    """Drives (n_loads, 2, 5) and velocities (n_loads,) along one k, light to heavy (continuation)."""
-    k, loads, config, seed = args
+    """Drives (n_loads, 2, 5) and velocities (n_loads,) along one k, light to heavy (continuation);
+    ``args``: (k, loads kg, FieldConfig, seed, DriveDescription)."""
+    k, loads, config, seed, drive_description = args
     drives, velocities, previous = [], [], None
     for j, load in enumerate(loads):
-        drive, v = search_node(float(k), float(load), previous, config, seed=seed + j)
+        drive, v = search_node(float(k), float(load), previous, config, seed=seed + j, drive=drive_description)
         drives.append(drive)
         velocities.append(v)
         previous = drive
@@ -44,12 +46,13 @@ def search_slice(args) -> tuple[np.ndarray, np.ndarray]:
 
 def polish_slice(args) -> list[tuple[np.ndarray, float]]:
     """Per node of one k slice, the best two-action cycle (2, 5) and its velocity (m/s) found by
-    CMA-ES from each of its starts (``DriveField.polish``)."""
-    nodes, budget, sigma, seed, friction = args
+    CMA-ES from each of its starts (``DriveField.polish``); ``args``: (nodes, budget, sigma, seed,
+    friction (mu, mu1), DriveDescription)."""
+    nodes, budget, sigma, seed, friction, drive = args
     out = []
     for j, (k, load, starts) in enumerate(nodes):
         run = best_cma_run(k, load, list(starts), budget, popsize=16, sigma0=sigma, cycle=2, seed=seed + 31 * j,
-                           friction=tuple(friction))
+                           friction=tuple(friction), drive=drive)
         out.append((np.asarray(run.action, dtype=np.float64), float(run.velocity)))
     return out
 
@@ -62,9 +65,9 @@ def map_polish_by_node(line_tasks: list, desc: str, executor=None) -> list:
     from mdr_drive_env.sweep import Executor
 
     node_tasks, owner = [], []
-    for n, (nodes, budget, sigma, seed, friction) in enumerate(line_tasks):
+    for n, (nodes, budget, sigma, seed, friction, drive) in enumerate(line_tasks):
         for j, node in enumerate(nodes):
-            node_tasks.append(([node], budget, sigma, seed + 31 * j, friction))
+            node_tasks.append(([node], budget, sigma, seed + 31 * j, friction, drive))
             owner.append(n)
     found = (executor or Executor()).map(polish_slice, node_tasks, desc)
     lines: list = [[] for _ in line_tasks]
@@ -74,16 +77,16 @@ def map_polish_by_node(line_tasks: list, desc: str, executor=None) -> list:
 
 
 def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: int, friction, label: str,
-                     executor=None) -> tuple[np.ndarray, np.ndarray]:
+                     executor=None, drive: DriveDescription = PAPER_DRIVE) -> tuple[np.ndarray, np.ndarray]:
     """Drives (n_lines, n, 2, 5) and velocities (n_lines, n) m/s of new grid nodes (``DriveField.refine_k``,
     ``refine_load``), ``lines`` of [((k, load kg), trial drives (t, 2, 5)), ...] at ``friction`` (mu,
-    mu1): every node plays its trials (one batched call), CMA-ES over two-action cycles runs from the
+    mu1) on ``drive``: every node plays its trials (one batched call), CMA-ES over two-action cycles runs from the
     ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``; one task per node on
     ``executor``) and the node keeps the fastest drive found or played."""
     tasks, trial_d, trial_v = [], [], []  # per line: its task, its nodes' fastest trial drives and velocities
     for n, line in enumerate(lines):
         played = open_loop_velocity([(*node, *friction) for node, t in line for _ in t],
-                                    np.concatenate([t for _, t in line]))
+                                    np.concatenate([t for _, t in line]), drive=drive)
         nodes, fastest_d, fastest_v, at = [], [], [], 0
         for node, t in line:
             order = np.argsort(-played[at:at + len(t)])
@@ -91,7 +94,7 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
             fastest_v.append(played[at + order[0]])
             nodes.append((*node, t[order[:starts]]))
             at += len(t)
-        tasks.append((nodes, budget, sigma, seed + 7919 * (n + 1), friction))
+        tasks.append((nodes, budget, sigma, seed + 7919 * (n + 1), friction, drive))
         trial_d.append(fastest_d)
         trial_v.append(fastest_v)
     found = map_polish_by_node(tasks, label, executor)

@@ -35,7 +35,7 @@ def polish(field, budget: int, sigma: float, executor=None, seed: int = 0) -> in
                 if not any(np.array_equal(field.drives[a, b], d) for d in starts):
                     starts.append(field.drives[a, b])
             nodes.append((*field.point(i, j)[:2], np.array(starts)))
-        tasks.append((nodes, budget, sigma, seed + 7919 * (i + 1), field.friction))
+        tasks.append((nodes, budget, sigma, seed + 7919 * (i + 1), field.friction, field.drive))
     found = map_polish_by_node(tasks, "teacher: polish", executor)
     changed = 0
     for i, slice_ in enumerate(found):
@@ -61,7 +61,7 @@ def refine_k(field, budget: int, sigma: float, executor=None, seed: int = 0, sta
     if not cells:
         return 0
     mids = all_mids[cells]
-    mid_crit = trapezoid_critical_load([float(k) for k in mids])
+    mid_crit = trapezoid_critical_load([float(k) for k in mids], field.drive)
     lines = []
     for c, i in enumerate(cells):
         line = []
@@ -72,7 +72,7 @@ def refine_k(field, budget: int, sigma: float, executor=None, seed: int = 0, sta
                          np.array([0.5 * (left + align_phase(field.drives[i + 1, j], left)), *ring])))
         lines.append(line)
     new_drives, new_velocities = search_new_nodes(lines, budget, sigma, starts, seed, field.friction,
-                                                   "teacher: refine k", executor)
+                                                   "teacher: refine k", executor, field.drive)
     at = [i + 1 for i in cells]  # each new line goes before the old line above it
     field.ks = np.insert(field.ks, at, mids)
     field.trapezoid_critical = np.insert(field.trapezoid_critical, at, mid_crit)
@@ -125,7 +125,7 @@ def refine_load(field, budget: int, sigma: float, band: tuple[float, float], exe
     new_velocities = np.zeros((nk, len(cells)))
     if searched:
         new_drives[searched], new_velocities[searched] = search_new_nodes(
-            lines, budget, sigma, starts, seed, field.friction, "teacher: refine load", executor)
+            lines, budget, sigma, starts, seed, field.friction, "teacher: refine load", executor, field.drive)
     copied = [i for i in range(nk) if i not in searched]
     if copied:  # the faster of the lighter and heavier neighbours' drives, played at the new node
         pairs = [(i, c, d) for i in copied for c, j in enumerate(cells)
@@ -202,7 +202,7 @@ def polish_nodes(field, nodes, budget: int, sigma: float, executor=None, seed: i
     if lines:
         found_d, found_v = search_new_nodes([[(p, t) for (_, p), t in line] for line in lines.values()], budget,
                                             sigma, starts, seed, field.friction, f"teacher: polish {label}".strip(),
-                                            executor)
+                                            executor, field.drive)
         for (i, line), drives, velocities in zip(lines.items(), found_d, found_v):
             for ((j, _), _), drive, vel in zip(line, drives, velocities):
                 if vel > field.velocities[i, j] * (1.0 + 1e-3) + 1e-6:

@@ -41,6 +41,7 @@ from mdr_drive_env.files import write_text
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from ..blas import PINNED_CORE, blas_core
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..run_record import RunLock, command_line, start_run, versions
 from ..student.distill import DistillConfig, distill
 from ..student.network import save_student
@@ -115,12 +116,26 @@ def searched_with_another_config(field: DriveField, config: FieldConfig) -> bool
     return {**as_json(FieldConfig()), **field.meta.get("config", {})} != as_json(config)
 
 
+def on_drive(recipe: RecipeConfig, drive: DriveDescription) -> RecipeConfig:
+    """``recipe`` for ``drive``: the teacher searches the drive's k range at its friction, and the
+    student's env (its run.json's ``env_kwargs``) is the drive's, over its k and load ranges."""
+    mu_mu1 = drive.params(0.0, 0.0).contact
+    teacher = dataclasses.replace(recipe.teacher, k_range=drive.k_range,
+                                  friction=(mu_mu1.friction_coefficient, mu_mu1.base_friction_coefficient))
+    env_kwargs = {**recipe.env_kwargs, **drive.env_kwargs, "k": list(drive.k_range),
+                  "load_ratio": list(drive.load_ratio_range)}
+    return dataclasses.replace(recipe, teacher=teacher, env_kwargs=env_kwargs)
+
+
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
-        force: bool = False, progress: bool = True, teacher: str | Path | None = None, snapshots: bool = False) -> dict:
+        force: bool = False, progress: bool = True, teacher: str | Path | None = None, snapshots: bool = False,
+        drive: DriveDescription | None = None) -> dict:
     """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1; with
-    ``snapshots``: the student after each hole round in ``out/snapshots/hole_round<H>/`` too); returns
-    what ``recipe.json`` holds."""
+    ``snapshots``: the student after each hole round in ``out/snapshots/hole_round<H>/`` too; with
+    ``drive``: for that drive, :func:`on_drive`); returns what ``recipe.json`` holds."""
     recipe = load_recipe(config_path)
+    if drive is not None:
+        recipe = on_drive(recipe, drive)
     out, executor = start_run(out, resume, force, executor, progress)
     with RunLock(out):
         (seed, student_seed), stages = recipe.seeds, {}
@@ -134,12 +149,15 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
                   f"in the last bits, and its drives will differ from the shipped teacher's", file=sys.stderr)
         t0 = time.perf_counter()
         if teacher is None:
-            field = DriveField.search(recipe.teacher, seed=seed, executor=executor, store=TaskStore(tasks / "teacher"))
+            field = DriveField.search(recipe.teacher, seed=seed, executor=executor, store=TaskStore(tasks / "teacher"),
+                                      drive=drive or PAPER_DRIVE)
         else:
             try:
                 field = DriveField.load(teacher)
             except (OSError, ValueError, KeyError, zipfile.BadZipFile) as e:
                 raise ValueError(f"--teacher {teacher} is not a saved teacher field ({type(e).__name__}: {e})") from None
+            if drive is not None and field.drive.settings != drive.settings:
+                raise ValueError(f"--teacher {teacher} was searched on another drive than {drive.name}")
             if searched_with_another_config(field, recipe.teacher):
                 print(f"recipe: warning: {teacher} was searched with another teacher config than {config_path}'s",
                       file=sys.stderr)
@@ -168,6 +186,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
               flush=True)
         summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
+                   "drive": None if drive is None else {"name": drive.name, **drive.to_mapping()},
                    "stage_wall_time_s": stages,
                    "teacher_loaded_from": None if teacher is None else str(teacher), "blas_core": core,
                    "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",

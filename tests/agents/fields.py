@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from mdr_drive_agents.drive import PAPER_DRIVE
 from mdr_drive_agents.teacher import DriveField
 
 
@@ -21,6 +22,7 @@ class StepTeacher:
     ks, trapezoid_critical = np.array([0.0, 0.6]), np.array([0.1, 0.1])
     A = np.array([[0.9, 0.1, 1.0, -0.2, 0.5], [0.8, 0.3, 1.0, -0.1, 0.4]])
     B = np.array([[-0.6, -0.9, 1.0, -1.0, 0.9], [1.0, 0.9, 1.0, 0.0, 1.0]])
+    drive = PAPER_DRIVE
 
     def __init__(self, jump=True):
         self.jump, self.calls = jump, 0

@@ -134,9 +134,10 @@ def test_evaluate_reports_the_last_waveform_as_the_policys_env_quantises_it():
     import numpy as np
 
     from mdr_drive_agents.commands.evaluate import _velocity_record
+    from mdr_drive_agents.drive import PAPER_DRIVE
 
     action = np.array([0.5, 0.2 + 2.8 / 180, 0.8, 0.1, 0.3])  # 0.4 of a 10 us quantum past a centre
-    rise = [_velocity_record(0.2, 0.1, "as-specified", 1e-3, 1e-3, action, q)["learned_waveform_last_period"]["x_rise_time"]
+    rise = [_velocity_record(0.2, 0.1, PAPER_DRIVE, 1e-3, 1e-3, action, q)["learned_waveform_last_period"]["x_rise_time"]
             for q in (1e-5, 5e-6)]
     assert abs(rise[1] - rise[0]) == pytest.approx(5e-6)
 

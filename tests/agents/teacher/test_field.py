@@ -75,7 +75,7 @@ def test_polishing_one_node_per_task_finds_what_one_line_per_task_finds():
     field = synthetic_field(nk=2, ns=3)
     field.trapezoid_critical[:] = 0.02
     lines = [([(*field.point(i, j)[:2], field.drives[i, j:j + 2]) for j in range(2)], 16, 0.2, 7 + 100 * i,
-              field.friction) for i in range(2)]
+              field.friction, field.drive) for i in range(2)]
     by_line = [polish_slice(task) for task in lines]
     by_node = map_polish_by_node(lines, "test", Executor(workers=2, progress=False))
     assert [len(line) for line in by_node] == [2, 2]
@@ -107,7 +107,7 @@ def test_refine_k_adds_a_k_line_between_every_two_and_plays_what_it_records(monk
     field.velocities = open_loop_velocity([field.point(i, j) for i in range(2) for j in range(2)],
                                           field.drives.reshape(4, 2, 5)).reshape(2, 2)
     old_drives, old_velocities = field.drives.copy(), field.velocities.copy()
-    monkeypatch.setattr(refine, "trapezoid_critical_load", lambda ks: np.full(len(ks), 0.03))
+    monkeypatch.setattr(refine, "trapezoid_critical_load", lambda ks, drive: np.full(len(ks), 0.03))
     refine.refine_k(field, 8, 0.1, executor=Executor(workers=1, progress=False))
     assert np.allclose(field.ks, [0.0, 0.3, 0.6]) and field.velocities.shape == (3, 2)
     assert np.allclose(field.trapezoid_critical, [0.02, 0.03, 0.02])

@@ -1,0 +1,217 @@
+"""A drive description: the physical stage a policy is built for and judged on.
+
+A drive is a set of ``MDRDrive-v0`` keywords (SI units); anything left out keeps the env's default,
+the paper's drive (M = 50 g, R = 2.5 mm, steel, mu = 0.3, mu1 = 0.1, T = 2 ms, strokes 30 and 6 um).
+A YAML file holds one (``agents/configs/drives/``, docs/your_drive.md)::
+
+    slider_mass: 0.02          # kg
+    indenter_radius: 1.5e-3    # m
+    period: 1.0e-3             # s
+    x_amplitude_max: 20.0e-6   # m
+    z_amplitude_max: 4.0e-6    # m
+    k: [0.0, 0.6]              # optional: the grading exponents its policy is built for and judged on
+    load_ratio: [0.0, 0.55]    # optional: its loads, as fractions of mu F_ref (MDRDrive-v0's load_ratio)
+
+``mdr-drive recipe``, ``evaluate`` and ``benchmark`` take it as ``--drive FILE``; a policy built for
+it keeps its keywords in its ``run.json`` (``env_kwargs``) and plays on it wherever it is loaded.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mdr_drive_env.core import Waveform
+from mdr_drive_env.gym_envs.spaces import ActionMap, sample_range
+
+#: The keywords a drive description may set, with their units: the stage's physics and its strokes.
+DRIVE_KEYS = {
+    "slider_mass": "kg", "indenter_radius": "m", "youngs_modulus": "Pa (E0)", "poisson_ratio": "-",
+    "reference_depth": "m (c0)", "rigid_indenter": "bool", "friction_coefficient": "- (mu, indenter-slider)",
+    "base_friction_coefficient": "- (mu1, slider-base)", "gravity": "m/s^2", "cargo_inertia": "bool",
+    "variant": "as-specified or as-published", "period": "s (T)", "x_amplitude_max": "m (full x stroke)",
+    "z_amplitude_max": "m (full z stroke)",
+}
+#: The optional domain of a description: the k range and the load range (fractions of mu F_ref).
+DOMAIN_KEYS = {"k": "- (low, high)", "load_ratio": "- (low, high), fractions of mu F_ref"}
+#: The domain every policy of this package is built for unless a description says otherwise.
+DEFAULT_K_RANGE = (0.0, 0.6)
+DEFAULT_LOAD_RATIO_RANGE = (0.0, 0.55)
+
+
+@dataclass(frozen=True)
+class DriveDescription:
+    """One drive: ``MDRDrive-v0`` keywords and the k and load ranges its policies cover.
+
+    Attributes:
+        settings: the keywords it sets (a sorted tuple of (name, value) pairs, names in ``DRIVE_KEYS``);
+            empty for the paper's drive.
+        k_range: (low, high) of the grading exponent k (-).
+        load_ratio_range: (low, high) of the load as a fraction of mu F_ref (-).
+        name: a label for tables and files (the YAML file's stem).
+    """
+
+    settings: tuple = ()
+    k_range: tuple[float, float] = DEFAULT_K_RANGE
+    load_ratio_range: tuple[float, float] = DEFAULT_LOAD_RATIO_RANGE
+    name: str = "paper"
+
+    def __post_init__(self) -> None:
+        settings = dict(self.settings)
+        unknown = sorted(set(settings) - set(DRIVE_KEYS))
+        if unknown:
+            raise ValueError(f"drive key {unknown[0]!r} is not one of {sorted(DRIVE_KEYS) + sorted(DOMAIN_KEYS)}")
+        object.__setattr__(self, "settings", tuple(sorted((k, _plain(v)) for k, v in settings.items())))
+        object.__setattr__(self, "k_range", sample_range("k", self.k_range, 0.0, 1.0, high_open=True))
+        object.__setattr__(self, "load_ratio_range", sample_range("load_ratio", self.load_ratio_range, 0.0, 10.0))
+        template(self.settings)  # the env validates every value and names a bad one
+
+    @classmethod
+    def from_mapping(cls, mapping: dict, name: str = "drive") -> "DriveDescription":
+        """A description from a mapping of ``DRIVE_KEYS`` and, optionally, ``k`` and ``load_ratio``."""
+        if not isinstance(mapping, dict):
+            raise ValueError(f"a drive description is a mapping of MDRDrive-v0 keywords, not {type(mapping).__name__}")
+        mapping = dict(mapping)
+        k = mapping.pop("k", DEFAULT_K_RANGE)
+        load = mapping.pop("load_ratio", DEFAULT_LOAD_RATIO_RANGE)
+        return cls(tuple(mapping.items()), k, load, name)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "DriveDescription":
+        """The description in the YAML file ``path``; a one-line ``ValueError`` naming the file for a
+        missing file, bad YAML, an unknown key or a bad value."""
+        from .yaml_config import read_yaml
+
+        data = read_yaml(path)
+        try:
+            return cls.from_mapping(data, Path(path).stem)
+        except ValueError as e:
+            raise ValueError(f"{path}: {e}") from None
+
+    @classmethod
+    def from_env_kwargs(cls, env_kwargs: dict, name: str = "drive") -> "DriveDescription":
+        """The drive an env's keywords describe (a policy's run.json ``env_kwargs``): its ``DRIVE_KEYS``."""
+        return cls(tuple((k, v) for k, v in env_kwargs.items() if k in DRIVE_KEYS), name=name)
+
+    # --- what it is ---
+    @property
+    def env_kwargs(self) -> dict:
+        """Its ``MDRDrive-v0`` keywords (the drive's physics and strokes; not its ranges)."""
+        return dict(self.settings)
+
+    def to_mapping(self) -> dict:
+        """The mapping ``from_mapping`` reads back (for YAML and run.json)."""
+        return {**self.env_kwargs, "k": list(self.k_range), "load_ratio": list(self.load_ratio_range)}
+
+    @property
+    def is_paper(self) -> bool:
+        """Whether it is the paper's drive (every keyword at the env's default)."""
+        defaults = template(())
+        return all(getattr_env(defaults, key) == value for key, value in self.settings)
+
+    def with_settings(self, **settings) -> "DriveDescription":
+        """The same description with ``settings`` added or replaced."""
+        return dataclasses.replace(self, settings=tuple({**self.env_kwargs, **settings}.items()))
+
+    # --- derived quantities ---
+    @property
+    def period(self) -> float:
+        """T (s)."""
+        return self.action_map().period
+
+    @property
+    def z_amplitude_max(self) -> float:
+        """The full z stroke (m): the deepest indentation any action makes."""
+        return self.action_map().z_amplitude_max
+
+    def action_map(self, time_quantum: float | None = None) -> ActionMap:
+        """The env's action map on this drive, with rises and the z phase quantised to ``time_quantum``
+        (s; default the env's)."""
+        return _action_map(self.settings, None if time_quantum is None else float(time_quantum))
+
+    @property
+    def indenter_min_velocity(self) -> float:
+        """The fastest backward x stroke any action can make (m/s): full stroke over the shortest fall."""
+        amap = self.action_map()
+        return -amap.x_amplitude_max / ((1.0 - amap.max_rise_fraction) * amap.period)
+
+    def trapezoid_action(self, time_quantum: float | None = None) -> np.ndarray:
+        """The baseline's action (float64): the paper's waveform shape (Fig. 2, its rise fractions and
+        phase) at this drive's period and full strokes; for the paper's drive its waveform exactly."""
+        amap = self.action_map(time_quantum)
+        waveform = Waveform.paper() if self.is_paper else Waveform.paper(amap.period, amap.x_amplitude_max,
+                                                                         amap.z_amplitude_max)
+        return amap.to_action(waveform)
+
+    def params(self, k: float, cargo_mass: float, friction: tuple[float, float] | None = None):
+        """The physical model (``DriveParams``) at grading exponent k and cargo mass (kg), with
+        ``friction`` = (mu, mu1) instead of the drive's own if given."""
+        env = template(self.settings)
+        contact = None
+        if friction is not None:
+            contact = dataclasses.replace(env._contact, friction_coefficient=float(friction[0]),
+                                          base_friction_coefficient=float(friction[1]))
+        return env.params_for(float(k), float(cargo_mass), contact)
+
+    def reference_force(self, k: float, friction_coefficient: float | None = None) -> float:
+        """mu F_ref (N) at k: the largest friction force the contact transmits at the full z stroke."""
+        env = template(self.settings)
+        p = self.params(k, 0.0)
+        mu = p.contact.friction_coefficient if friction_coefficient is None else friction_coefficient
+        return mu * env.reference_force(p)
+
+    def __str__(self) -> str:
+        shown = ", ".join(f"{k}={v}" for k, v in self.settings) or "the paper's"
+        return f"{self.name} ({shown}; k {self.k_range[0]:g}-{self.k_range[1]:g})"
+
+
+def _plain(value):
+    """A YAML or NumPy value as a plain, hashable Python value (lists as tuples)."""
+    if isinstance(value, (list, tuple)):
+        return tuple(_plain(v) for v in value)
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def getattr_env(env, key: str):
+    """The value an env holds for the drive keyword ``key`` (for comparing a description with the defaults)."""
+    amap, params = env.action_map, env.params_for(0.0, 0.0)
+    values = {"slider_mass": params.drive.slider_mass, "gravity": params.drive.gravity,
+              "cargo_inertia": params.drive.cargo_inertia, "indenter_radius": params.contact.indenter_radius,
+              "friction_coefficient": params.contact.friction_coefficient,
+              "base_friction_coefficient": params.contact.base_friction_coefficient,
+              "youngs_modulus": params.slider.youngs_modulus, "poisson_ratio": params.slider.poisson_ratio,
+              "reference_depth": params.slider.reference_depth, "rigid_indenter": env.rigid_indenter,
+              "variant": env.variant, "period": amap.period, "x_amplitude_max": amap.x_amplitude_max,
+              "z_amplitude_max": amap.z_amplitude_max}
+    return values[key]
+
+
+@functools.lru_cache(maxsize=32)
+def template(settings: tuple):
+    """An ``MDRDriveEnv`` (unwrapped, never stepped) with the drive ``settings``: the one home of how
+    keywords become a physical model and an action map."""
+    from mdr_drive_env.gym_envs.mdr_drive import MDRDriveEnv
+
+    try:
+        return MDRDriveEnv(**dict(settings))
+    except TypeError as e:
+        raise ValueError(f"drive: {e}") from None
+
+
+@functools.lru_cache(maxsize=64)
+def _action_map(settings: tuple, time_quantum: float | None) -> ActionMap:
+    amap = template(settings).action_map
+    return amap if time_quantum is None else dataclasses.replace(amap, time_quantum=time_quantum)
+
+
+#: The paper's drive: every keyword at the env's default.
+PAPER_DRIVE = DriveDescription()
+
+__all__ = ["DEFAULT_K_RANGE", "DEFAULT_LOAD_RATIO_RANGE", "DOMAIN_KEYS", "DRIVE_KEYS", "DriveDescription", "PAPER_DRIVE",
+           "template"]
