@@ -75,7 +75,7 @@ class DriveDescription:
         """A description from a mapping of ``DRIVE_KEYS`` and, optionally, ``k`` and ``load_ratio``."""
         if not isinstance(mapping, dict):
             raise ValueError(f"a drive description is a mapping of MDRDrive-v0 keywords, not {type(mapping).__name__}")
-        mapping = dict(mapping)
+        mapping = {key: _number(value) if key != "variant" else value for key, value in mapping.items()}
         k = mapping.pop("k", DEFAULT_K_RANGE)
         load = mapping.pop("load_ratio", DEFAULT_LOAD_RATIO_RANGE)
         return cls(tuple(mapping.items()), k, load, name)
@@ -167,6 +167,18 @@ class DriveDescription:
     def __str__(self) -> str:
         shown = ", ".join(f"{k}={v}" for k, v in self.settings) or "the paper's"
         return f"{self.name} ({shown}; k {self.k_range[0]:g}-{self.k_range[1]:g})"
+
+
+def _number(value):
+    """A YAML value, with a number YAML 1.1 reads as a string (``3.0e11``, without the exponent's sign) as a float."""
+    if isinstance(value, list):
+        return [_number(v) for v in value]
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
 
 
 def _plain(value):

@@ -97,9 +97,16 @@ def point_params(point, drive: DriveDescription = PAPER_DRIVE) -> DriveParams:
 
 def drive_of(policy, drive: DriveDescription = PAPER_DRIVE) -> DriveDescription:
     """The drive a closed-loop policy plays on: ``drive`` with the drive keywords the policy's
-    ``play_kwargs`` (its run.json) set replacing its own."""
+    ``play_kwargs`` (its run.json) set replacing its own; without ``drive`` settings, the description
+    its run.json names (``drive``: its name and ranges), if it has one."""
     own = {k: v for k, v in play_kwargs_of(policy).items() if k in DRIVE_KEYS}
-    return drive.with_settings(**own) if own else drive
+    if not own:
+        return drive
+    described = dict((getattr(policy, "run", None) or {}).get("drive") or {})  # the description, named, with its ranges
+    if described and not drive.settings:
+        name = described.pop("name", "drive")
+        return DriveDescription.from_mapping({**described, **own}, name)
+    return drive.with_settings(**own)
 
 
 def play_drive(policies, drive: DriveDescription = PAPER_DRIVE) -> DriveDescription:
@@ -114,7 +121,7 @@ def play_drive(policies, drive: DriveDescription = PAPER_DRIVE) -> DriveDescript
         if drive.settings and settings != drive.settings:
             raise ValueError(f"the policies were built for another drive than {drive.name} "
                              f"({dict(settings) or 'the paper drive'}): judge them on their own (leave out --drive)")
-        return dataclasses.replace(drive, settings=settings)
+        return dataclasses.replace(drive_of(policies[0], drive), settings=settings)
     return drive
 
 

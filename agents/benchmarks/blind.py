@@ -42,6 +42,7 @@ import numpy as np
 from mdr_drive_env.files import json_safe, nan_array, write_csv, write_text
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..policy import load_policy
 from ..protocol import (
     AVERAGE_PERIODS,
@@ -51,6 +52,7 @@ from ..protocol import (
     csv_velocity,
     format_velocity,
     open_loop_velocity,
+    play_drive,
     play_time_quantum,
     policy_rollout,
     policy_velocity,
@@ -75,12 +77,12 @@ EVEN_SCAN, DRAWN_SCAN = "evenly spaced", "drawn with the seed, one per equal cel
 SCAN_STREAM = 1
 
 
-def draw_points(n: int, seed: int) -> tuple[list[tuple[float, float]], np.ndarray]:
-    """``n`` (k, cargo mass) points of the training domain from ``seed``, and the trapezoid's
-    critical load at each k."""
+def draw_points(n: int, seed: int, drive: DriveDescription = PAPER_DRIVE) -> tuple[list[tuple[float, float]], np.ndarray]:
+    """``n`` (k, cargo mass) points of the drive's domain (its k range; the paper drive's is
+    ``K_RANGE``) from ``seed``, and the trapezoid's critical load at each k."""
     rng = np.random.default_rng(seed)
-    ks = [float(round(k, 6)) for k in rng.uniform(*K_RANGE, n)]
-    crit = trapezoid_critical_load(ks)
+    ks = [float(round(k, 6)) for k in rng.uniform(*drive.k_range, n)]
+    crit = trapezoid_critical_load(ks, drive)
     masses = rng.uniform(0.0, 1.0, n) * LOAD_FACTOR * crit
     return [(k, float(m)) for k, m in zip(ks, masses)], crit
 
@@ -91,14 +93,21 @@ def scan_of(res: dict) -> str:
     return res.get("scan", EVEN_SCAN)
 
 
-def scan_k_values(count: int, seed: int | None = None) -> list[float]:
-    """The k values of the critical-load scan: ``count`` evenly spaced over ``K_RANGE`` (``seed``
+def scan_k_values(count: int, seed: int | None = None, k_range: tuple[float, float] = K_RANGE) -> list[float]:
+    """The k values of the critical-load scan: ``count`` evenly spaced over ``k_range`` (``seed``
     None), or drawn with ``seed``, one uniform k in each of ``count`` equal cells of it (a stream of
     its own: the points ``draw_points`` draws with the same seed are unchanged). Rounded to 1e-6."""
-    low, high = K_RANGE
+    low, high = k_range
     if seed is None:
         return [float(k) for k in np.round(np.linspace(low, high, count), 6)]
-    return [float(k) for k in np.round(in_k_cells(np.random.default_rng([seed, SCAN_STREAM]).uniform(size=count)), 6)]
+    offsets = np.random.default_rng([seed, SCAN_STREAM]).uniform(size=count)
+    return [float(k) for k in np.round(in_k_cells(offsets, k_range), 6)]
+
+
+def task_drive(rest: list) -> DriveDescription:
+    """The drive a search task names as its last entry (popped from ``rest``), or the paper's: tasks on
+    the paper drive carry none, so their stored results stay those of earlier runs."""
+    return rest.pop() if rest and isinstance(rest[-1], DriveDescription) else PAPER_DRIVE
 
 
 def in_k_cells(offsets, k_range: tuple[float, float] = K_RANGE) -> np.ndarray:
@@ -113,17 +122,19 @@ def best_drive(args) -> dict:
     """The best drive found at one point (``search_point``: CMA-ES over fixed actions and over
     two-action cycles, the blind benchmark's settings), its velocity played again with runaways
     marked. ``args``: (k, cargo mass, fixed budget, cycle budget), then optionally (mu, mu1), then
-    optionally the time quantum (s) the drives are quantised to (default ``TIME_QUANTUM``)."""
+    optionally the time quantum (s) the drives are quantised to (default ``TIME_QUANTUM``), then
+    optionally the drive (``task_drive``)."""
     k, m, fixed_budget, cycle_budget, *rest = args
+    drive = task_drive(rest)
     friction = tuple(rest[:2]) if len(rest) >= 2 else None
     time_quantum = float(rest[-1]) if len(rest) in (1, 3) else TIME_QUANTUM
-    found = search_point(k, m, fixed_budget, cycle_budget, friction=friction, time_quantum=time_quantum)
+    found = search_point(k, m, fixed_budget, cycle_budget, friction=friction, time_quantum=time_quantum, drive=drive)
     fixed, cyc = found.fixed, found.cycle
     best = cyc if found.cycle_wins else fixed
     actions = np.asarray(best.action).reshape(1, -1, 5)
     point = (k, m) if friction is None else (k, m, *friction)
     velocity = float(open_loop_velocity([point], actions, mark_runaway=True,  # NaN if the load runs away
-                                        time_quantum=time_quantum)[0])
+                                        time_quantum=time_quantum, drive=drive)[0])
     return {"velocity": velocity, "kind": "two-action cycle" if best is cyc else "fixed action",
             "action": np.asarray(best.action).tolist(), "fixed_velocity": fixed.velocity,
             "cycle_velocity": cyc.velocity, "evaluations": fixed.evaluations + cyc.evaluations}
@@ -133,8 +144,8 @@ def reusable_search(path: str | Path, res: dict, scan_ks: int) -> dict:
     """The earlier ``blind.json`` at ``path`` if it was drawn and searched as ``res`` asks, else
     ``ValueError`` saying what differs."""
     previous = json.loads(Path(path).read_text())
-    for key in ("seed", "n", "search"):
-        if previous.get(key) != res[key]:
+    for key in ("seed", "n", "search", "drive"):
+        if previous.get(key) != res.get(key):
             raise ValueError(f"--reuse-search {path}: its {key} {previous.get(key)!r} is not this run's {res[key]!r}")
     if len(previous["critical_load_kg"]["k"]) != scan_ks:
         raise ValueError(f"--reuse-search {path}: it scanned {len(previous['critical_load_kg']['k'])} k values, "
@@ -147,16 +158,17 @@ def reusable_search(path: str | Path, res: dict, scan_ks: int) -> dict:
 
 def cycle_scan_task(args) -> float:
     """The best cycle's critical load (kg) at one k. ``args``: (k, the trapezoid's critical load kg,
-    bisection steps, cycle budget), optionally with the time quantum (s) last."""
+    bisection steps, cycle budget), optionally with the time quantum (s), then the drive (``task_drive``)."""
     k, m_trap, iterations, budget, *rest = args
+    drive = task_drive(rest)
     time_quantum = float(rest[0]) if rest else TIME_QUANTUM
-    return cycle_critical_load(k, m_trap, iterations, budget, time_quantum=time_quantum)[0]
+    return cycle_critical_load(k, m_trap, iterations, budget, time_quantum=time_quantum, drive=drive)[0]
 
 
 def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = False, scan_ks: int = 25,
         workers: int | None = None, fixed_budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_SEARCH["budget"],
         iterations: int = CRITICAL_BISECTIONS, reuse: str | Path | None = None, executor: Executor | None = None,
-        resume: bool = False, scan_draw: bool = False) -> dict:
+        resume: bool = False, scan_draw: bool = False, drive: DriveDescription | None = None) -> dict:
     """The blind benchmark (module docstring); returns what ``blind.json`` holds.
 
     ``reuse``: a ``blind.json`` of the same seed, size, search budgets and scan, whose points,
@@ -164,7 +176,8 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     are (the searches are most of the cost); only the policies are run. ``executor`` runs the
     searches (default: ``workers`` local processes); ``resume`` reuses the searches an interrupted
     run into ``out`` finished; ``scan_draw`` draws the scan's k values with ``seed``
-    (``scan_k_values``) instead of spacing them evenly.
+    (``scan_k_values``) instead of spacing them evenly. ``drive``: the drive judged on (default the
+    paper's, or the one the policies were built for; ``protocol.play_drive``), its k range drawn from.
     """
     if quick:
         fixed_budget, cycle_budget, scan_ks, iterations = (QUICK[key] for key in
@@ -173,13 +186,17 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     out = Path(out)
     tasks = task_folder(out, resume)
     t0 = time.perf_counter()
-    res: dict = {"seed": seed, "n": n, "domain": {"k": list(K_RANGE), "load": f"0-{LOAD_FACTOR}x trapezoid critical"},
+    loaded = [load_policy(p) for p in policies]
+    drive = play_drive(loaded, drive or PAPER_DRIVE)
+    res: dict = {"seed": seed, "n": n, "domain": {"k": list(drive.k_range), "load": f"0-{LOAD_FACTOR}x trapezoid critical"},
                  "search": {"fixed_action_cma_evaluations": fixed_budget,
                             "two_action_cycle_cma_evaluations_per_start": cycle_budget, "cycle_starts": 2,
                             "cycle_critical_load_bisection_steps": iterations},
                  "protocol": f"fast numerics; mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}",
                  "scan": DRAWN_SCAN if scan_draw else EVEN_SCAN, "policies": list(policies)}
-    loaded = [load_policy(p) for p in policies]
+    on_drive = () if drive.settings == () else (drive,)  # paper-drive tasks as before: stored searches stay valid
+    if on_drive:
+        res["drive"] = {"name": drive.name, **drive.to_mapping()}
     time_quantum = play_time_quantum(loaded)  # the search runs in the action units the policies act in
     if time_quantum != TIME_QUANTUM:  # files of the default quantum stay reusable
         res["search"]["time_quantum_s"] = time_quantum
@@ -190,29 +207,31 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
         trap = nan_array(previous["trapezoid"])
         found = previous["best"]
     else:
-        points, _ = draw_points(n, seed)
-        trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
-        found = executor.map(best_drive, [(k, m, fixed_budget, cycle_budget, time_quantum) for k, m in points],
+        points, _ = draw_points(n, seed, drive)
+        trap = open_loop_velocity(points, trapezoid_action(drive), mark_runaway=True, drive=drive)
+        found = executor.map(best_drive, [(k, m, fixed_budget, cycle_budget, time_quantum, *on_drive)
+                                          for k, m in points],
                              "best drive per point", store=TaskStore(tasks / "best_drive"))
     res["points"], res["trapezoid"], res["best"] = points, trap.tolist(), found
     best_v = nan_array([f["velocity"] for f in found])
     learned = {}
     for path, pol in zip(policies, loaded):
-        disp, _, runaway = policy_rollout(pol, points)
-        learned[path] = steady_velocity_of(disp, runaway=runaway)
+        disp, _, runaway = policy_rollout(pol, points, drive=drive)
+        learned[path] = steady_velocity_of(disp, runaway=runaway, period=drive.period)
     res["learned"] = {p: v.tolist() for p, v in learned.items()}
     if previous:
         old = previous["critical_load_kg"]
         ks, crit_trap, crit_cycle = old["k"], np.array(old["trapezoid"]), old["best cycle"]
     else:
-        ks = scan_k_values(scan_ks, seed if scan_draw else None)
-        crit_trap = trapezoid_critical_load(ks)
+        ks = scan_k_values(scan_ks, seed if scan_draw else None, drive.k_range)
+        crit_trap = trapezoid_critical_load(ks, drive)
         crit_cycle = executor.map(cycle_scan_task,
-                                  [(k, m, iterations, cycle_budget, time_quantum) for k, m in zip(ks, crit_trap)],
+                                  [(k, m, iterations, cycle_budget, time_quantum, *on_drive)
+                                   for k, m in zip(ks, crit_trap)],
                                   "critical load of the best cycle per k", store=TaskStore(tasks / "cycle_scan"))
     crit = {"k": ks, "trapezoid": crit_trap.tolist(), "best cycle": crit_cycle}
     for path, pol in zip(policies, loaded):
-        c = critical_loads(ks, lambda pts, pol=pol: policy_velocity(pol, pts))
+        c = critical_loads(ks, lambda pts, pol=pol: policy_velocity(pol, pts, drive=drive), drive)
         crit[path] = [c[k] for k in ks]
     res["critical_load_kg"] = crit
     res["statistics"] = {p: statistics(trap, best_v, learned[p], {**crit, "policy": crit[p]}, ks)
@@ -226,7 +245,10 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
 
 
 def markdown(res: dict) -> str:
-    lines = [f"Blind benchmark, seed {res['seed']}: {res['n']} points, k uniform in {res['domain']['k']}, "
+    drive = res.get("drive")
+    settings = ", ".join(f"{k}={v}" for k, v in (drive or {}).items() if k not in ("name", "k", "load_ratio"))
+    shown = "" if drive is None else f" on drive {drive['name']} ({settings})"
+    lines = [f"Blind benchmark{shown}, seed {res['seed']}: {res['n']} points, k uniform in {res['domain']['k']}, "
              f"load {res['domain']['load']}; {res['protocol']}.",
              f"Best drive: the better of CMA-ES over fixed actions ({res['search']['fixed_action_cma_evaluations']} "
              f"evaluations) and over two-action cycles ({res['search']['two_action_cycle_cma_evaluations_per_start']} "

@@ -28,6 +28,7 @@ from ..protocol import (
     critical_loads,
     format_velocity,
     open_loop_velocity,
+    play_drive,
     policy_rollout,
     policy_velocity,
     steady_velocity_of,
@@ -77,13 +78,16 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
     rows, res = [], {"grid": {"k": list(ks), "cargo_mass": list(masses)}, "protocol": {
         "periods": EVAL_PERIODS, "averaged_over_last": AVERAGE_PERIODS}, "cma_budget_per_point": budget}
 
+    loaded = [load_policy(p) for p in tqdm(policies, desc="load policies")]
+    if play_drive(loaded).settings:
+        raise ValueError("the policies were built for another drive than the paper's: the fixed grid is the paper "
+                         "drive's; judge them with --blind N --seed S")
     trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)
     rows += [("trapezoid", "", k, m, v) for (k, m), v in zip(points, trap)]
     found = executor.map(cma_point_task, [(k, m, budget) for k, m in points], "CMA-ES per point",
                          store=TaskStore(tasks / "cma_points"))
     cma_v, cma_actions = [f[0] for f in found], [f[1] for f in found]
     rows += [("cma-es", "", k, m, v) for (k, m), v in zip(points, cma_v)]
-    loaded = [load_policy(p) for p in tqdm(policies, desc="load policies")]
     learned = []
     waveforms = {}
     for path, pol in zip(policies, loaded):

@@ -32,6 +32,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="output folder (default: results/benchmark, or runs/blind/seed<S> with --blind)")
     p.add_argument("--quick", action="store_true", help="a CI-sized grid and CMA-ES budget")
     add_executor_arguments(p)  # the CMA-ES searches, of the grid and of --blind
+    from . import add_drive_argument
+
+    add_drive_argument(p, "to judge on, with --blind (the policies must have been built for it)")
     b = p.add_argument_group("blind benchmark: random points of the training domain")
     b.add_argument("--blind", type=positive_int, default=None, metavar="N",
                    help="draw N (k, load) points with --seed instead of the fixed grid (-)")
@@ -65,12 +68,15 @@ def main(args: argparse.Namespace) -> int:
         budget = {"fixed_budget": args.cma_budget} if args.cma_budget else {}
         blind.run(args.policies, args.blind, args.seed, out, quick=args.quick, scan_ks=args.scan_ks,
                   scan_draw=args.scan_draw, reuse=args.reuse_search, executor=executor_from(args), resume=args.resume,
-                  **budget)
+                  drive=args.drive, **budget)
         print((Path(out) / "blind.md").read_text())
         print(f"tables and figures in {out}/")
         return 0
     if args.seed is not None:
         raise ValueError("--seed draws blind points: give --blind N too (the fixed grid has no seed)")
+    if args.drive is not None:
+        raise ValueError("--drive needs --blind N: the fixed grid is the paper drive's (its loads in kg); a blind "
+                         "benchmark draws loads relative to the drive's trapezoid")
     from ..benchmarks.grid import run
 
     out = args.out or "results/benchmark"

@@ -90,11 +90,12 @@ def load_recipe(path: str | Path) -> RecipeConfig:
 
 
 def student_record(seed: int, env_kwargs: dict, ppo: dict, config: DistillConfig, student, wall_time_s: float,
-                   command: str, teacher: dict) -> dict:
+                   command: str, teacher: dict, drive: DriveDescription | None = None) -> dict:
     """The distilled student's ``run.json``: what ``mdr-drive train --resume`` and ``evaluate`` read
-    (env keywords, PPO settings, network), and where it came from (``teacher``: {"teacher" or
-    "fields", "recipe"}, with the distillation settings and fit history added)."""
-    return {
+    (env keywords, the drive's among them, PPO settings, network), and where it came from (``teacher``:
+    {"teacher" or "fields", "recipe"}, with the distillation settings and fit history added; ``drive``:
+    the description it was built for, named)."""
+    return {**({} if drive is None else {"drive": {"name": drive.name, **drive.to_mapping()}}),
         "algo": "ppo", "seed": seed, "env_id": ENV_ID, "env_kwargs": env_kwargs,
         "hyperparameters": {**dict(ppo), "normalize": True, "warm_start": "none",
                             "policy_kwargs": {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]},
@@ -172,7 +173,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         def save_snapshot(student, round_record: dict) -> None:
             if snapshots and "hole_round" in round_record:
                 record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student,
-                                        round(time.perf_counter() - t1, 1), command, teacher_record)
+                                        round(time.perf_counter() - t1, 1), command, teacher_record, drive)
                 save_student(student, out / "snapshots" / f"hole_round{round_record['hole_round']}", record)
 
         student = distill(field, recipe.distill, seed=student_seed, env_kwargs=recipe.env_kwargs,
@@ -180,7 +181,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
                           checkpoint=tasks / "student_round0.npz")
         stages["student_s"] = round(time.perf_counter() - t1, 1)
         record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student, stages["student_s"],
-                                command, teacher_record)
+                                command, teacher_record, drive)
         save_student(student, out / "policy", record)
         stages["total_s"] = round(time.perf_counter() - t0, 1)
         print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",

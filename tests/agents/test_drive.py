@@ -1,0 +1,122 @@
+"""Drive descriptions (mdr_drive_agents.drive): a YAML of MDRDrive-v0 keywords that the protocol,
+the recipe, evaluate and the blind benchmark act on; end to end on a tiny drive."""
+
+from __future__ import annotations
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import mdr_drive_env  # noqa: F401
+from mdr_drive_agents.drive import PAPER_DRIVE, DriveDescription
+from mdr_drive_agents.protocol import ACTION_MAP, open_loop_velocity, trapezoid_action
+from mdr_drive_env.cli import main
+from tests import DATA, ROOT
+
+TINY_DRIVE = DATA / "drive_tiny.yaml"
+
+
+def test_the_paper_drive_is_the_env_default_and_its_trapezoid_the_papers():
+    assert PAPER_DRIVE.is_paper and PAPER_DRIVE.env_kwargs == {}
+    assert np.array_equal(PAPER_DRIVE.trapezoid_action(), ACTION_MAP.to_action(mdr_drive_env.core.Waveform.paper()))
+    assert PAPER_DRIVE.period == 2e-3 and PAPER_DRIVE.z_amplitude_max == 6e-6
+
+
+def test_a_description_reads_yaml_numbers_validates_keys_and_values(tmp_path):
+    drive = DriveDescription.load(TINY_DRIVE)
+    assert drive.name == "drive_tiny" and drive.k_range == (0.1, 0.3) and drive.load_ratio_range == (0.0, 0.5)
+    assert drive.env_kwargs["youngs_modulus"] == 1.2e11  # written 1.2e11: YAML 1.1 reads a string, the loader a float
+    assert not drive.is_paper and drive.period == 1e-3
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("slider_mas: 0.02\n")
+    with pytest.raises(ValueError, match="bad.yaml: drive key 'slider_mas' is not one of"):
+        DriveDescription.load(bad)
+    bad.write_text("slider_mass: -1\n")
+    with pytest.raises(ValueError, match=r"slider_mass=-1.0 is outside the allowed range"):
+        DriveDescription.load(bad)
+    bad.write_text("k: [0.5, 0.2]\n")
+    with pytest.raises(ValueError, match="low must not exceed high"):
+        DriveDescription.load(bad)
+    with pytest.raises(ValueError, match="cannot be read"):
+        DriveDescription.load(tmp_path / "missing.yaml")
+
+
+def test_the_trapezoid_of_any_drive_is_the_papers_shape_at_its_strokes_and_period():
+    env = gym.make("MDRDrive-v0", period=1e-3, x_amplitude_max=20e-6, z_amplitude_max=4e-6).unwrapped
+    action = env.trapezoid_action()  # the example of issue 76: it used to raise "lies outside the action box"
+    assert np.all(np.abs(action) <= 1.0)
+    waveform = env.action_to_waveform(action)
+    assert waveform.x.amplitude == pytest.approx(20e-6) and waveform.z.amplitude == pytest.approx(4e-6)
+    assert waveform.x.rise_time == pytest.approx(0.95e-3) and waveform.z.rise_time == pytest.approx(0.85e-3)
+    drive = DriveDescription.from_mapping({"period": 1e-3, "x_amplitude_max": 20e-6, "z_amplitude_max": 4e-6})
+    np.testing.assert_array_equal(drive.trapezoid_action(), action)
+
+
+def test_the_protocol_on_a_drive_plays_what_the_env_on_that_drive_plays():
+    drive = DriveDescription.load(TINY_DRIVE)
+    k, m = 0.2, 0.002
+    v = open_loop_velocity([(k, m)], trapezoid_action(drive), drive=drive)[0]
+    env = gym.make("MDRDrive-v0", k=k, cargo_mass=m, max_periods=30, **drive.env_kwargs)
+    env.reset(seed=0)
+    displacements = [env.step(env.unwrapped.trapezoid_action())[4]["displacement"] for _ in range(30)]
+    assert v == pytest.approx(np.mean(displacements[-10:]) / 1e-3, rel=1e-9)
+    assert v != pytest.approx(open_loop_velocity([(k, m)], trapezoid_action())[0], rel=1e-3)  # not the paper drive
+
+
+@pytest.fixture(scope="module")
+def drive_recipe(tmp_path_factory):
+    out = tmp_path_factory.mktemp("drive_recipe")
+    code = main(["recipe", str(DATA / "recipe_tiny.yaml"), "--drive", str(TINY_DRIVE), "--out", str(out / "r"),
+                 "--force", "--no-progress", "--workers", "1"])
+    assert code == 0
+    return out / "r"
+
+
+def test_the_recipe_builds_a_policy_for_the_drive_that_loads_and_plays_on_it(drive_recipe):
+    from mdr_drive_agents.policy import load_policy
+    from mdr_drive_agents.protocol import drive_of
+    from mdr_drive_agents.teacher import DriveField
+
+    run = json.loads((drive_recipe / "policy" / "run.json").read_text())
+    assert run["env_kwargs"]["period"] == 1e-3 and run["env_kwargs"]["k"] == [0.1, 0.3]
+    assert run["drive"]["name"] == "drive_tiny"
+    field = DriveField.load(drive_recipe / "teacher_field.npz")
+    assert field.drive.settings == DriveDescription.load(TINY_DRIVE).settings
+    assert field.ks.min() == 0.1 and field.ks.max() == 0.3 and field.friction == (0.25, 0.08)
+    recipe = json.loads((drive_recipe / "recipe.json").read_text())
+    assert recipe["drive"]["name"] == "drive_tiny"
+    policy = load_policy(drive_recipe / "policy")
+    drive = drive_of(policy)
+    assert drive.name == "drive_tiny" and drive.k_range == (0.1, 0.3) and drive.period == 1e-3
+
+
+def test_evaluate_plays_the_policy_and_the_trapezoid_on_the_policys_drive(drive_recipe, capsys):
+    code = main(["evaluate", "--policy", str(drive_recipe / "policy"), "--k", "0.2", "--cargo-mass", "0.002", "--json"])
+    record = json.loads(capsys.readouterr().out)
+    assert code == 0 and record["drive"] == "drive_tiny"
+    drive = DriveDescription.load(TINY_DRIVE)
+    trapezoid = open_loop_velocity([(0.2, 0.002)], trapezoid_action(drive), drive=drive, mark_runaway=True)[0]
+    assert record["trapezoid_mean_velocity"] == pytest.approx(trapezoid, rel=1e-12)
+    waveform = record["learned_waveform_last_period"]
+    assert waveform["x_amplitude"] <= 20e-6 + 1e-12 and waveform["x_rise_time"] < 1e-3  # the drive's strokes and period
+    assert main(["evaluate", "--policy", str(drive_recipe / "policy"), "--k", "0.2", "--cargo-mass", "0.002",
+                 "--drive", str(ROOT / "agents" / "configs" / "drives" / "heavy_stage.yaml")]) == 2
+    assert "built for another drive" in capsys.readouterr().err
+
+
+def test_the_blind_benchmark_judges_the_policy_on_its_drive(drive_recipe, tmp_path, capsys):
+    out = tmp_path / "blind"
+    assert main(["benchmark", "--blind", "3", "--seed", "5", "--quick", "--policies", str(drive_recipe / "policy"),
+                 "--out", str(out), "--workers", "1"]) == 0
+    res = json.loads((out / "blind.json").read_text())
+    assert res["drive"]["name"] == "drive_tiny" and res["domain"]["k"] == [0.1, 0.3]
+    assert all(0.1 <= k <= 0.3 for k, _ in res["points"]) and all(0.1 <= k <= 0.3 for k in res["critical_load_kg"]["k"])
+    drive = DriveDescription.load(TINY_DRIVE)
+    trapezoid = open_loop_velocity(res["points"], trapezoid_action(drive), drive=drive, mark_runaway=True)
+    np.testing.assert_allclose(res["trapezoid"], trapezoid, rtol=1e-12)
+    assert all(b["velocity"] >= t - 1e-12 for b, t in zip(res["best"], res["trapezoid"]))  # never worse than it
+    assert "on drive drive_tiny" in (out / "blind.md").read_text()
+    assert main(["benchmark", "--drive", str(TINY_DRIVE), "--policies", str(drive_recipe / "policy")]) == 2
+    assert "--drive needs --blind" in capsys.readouterr().err
