@@ -12,7 +12,7 @@ RECORD_SEEDS := 20261255 20261256 20261257 20261258 20261259 20261260 20261273 2
 PLAIN_RECORD_SEEDS := 20261258 20261259 20261260 20261273 20261274 20261275 20261276 20261277 20261278
 
 .PHONY: help install test demo reproduce claims convergence bench scaling train train-sensor benchmark record dense \
-        adaptation rl-baselines cards clean
+        adaptation rl-baselines your-drive cards clean
 
 ## make help: this list
 help:
@@ -82,6 +82,16 @@ dense: $(STAMP)
 ## make adaptation: the shipped sensor policy on blind hidden-parameter draws and load steps (results/adaptation)
 adaptation: $(STAMP)
 	$(MDR) adaptation --seed 20261125 --out results/adaptation
+
+#: The drive of docs/your_drive.md's worked example, and the seed of its blind benchmark (never used to choose anything).
+EXAMPLE_DRIVE := agents/configs/drives/small_stage.yaml
+EXAMPLE_DRIVE_SEED := 20261281
+
+## make your-drive: docs/your_drive.md's example: the recipe on another drive, then its blind benchmark (results/your_drive; about 25 minutes)
+your-drive: $(STAMP)
+	$(MDR) recipe agents/configs/recipe.yaml --drive $(EXAMPLE_DRIVE) --out runs/your_drive --force
+	$(MDR) benchmark --blind 120 --seed $(EXAMPLE_DRIVE_SEED) --scan-draw --policies runs/your_drive/policy \
+	    --out results/your_drive/seed$(EXAMPLE_DRIVE_SEED)
 
 ## make rl-baselines: plain PPO, SAC, TD3 and RecurrentPPO searched, 5 seeds each, then what helps PPO; ships the best (results/rl_baselines; about 1.5 hours on 2 cores)
 rl-baselines: $(STAMP)

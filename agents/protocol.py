@@ -96,33 +96,38 @@ def point_params(point, drive: DriveDescription = PAPER_DRIVE) -> DriveParams:
 
 
 def drive_of(policy, drive: DriveDescription = PAPER_DRIVE) -> DriveDescription:
-    """The drive a closed-loop policy plays on: ``drive`` with the drive keywords the policy's
-    ``play_kwargs`` (its run.json) set replacing its own; without ``drive`` settings, the description
-    its run.json names (``drive``: its name and ranges), if it has one."""
+    """The drive a closed-loop policy plays on: the one it was built for, the drive keywords of its
+    ``play_kwargs`` (its run.json; none: the paper's drive), under ``drive``'s model ``variant``
+    unless it names its own. ``drive`` itself if that is the same drive; else named and ranged as the
+    description its run.json keeps (``drive``), if any."""
     own = {k: v for k, v in play_kwargs_of(policy).items() if k in DRIVE_KEYS}
-    if not own:
+    if "variant" not in own and "variant" in drive.env_kwargs:
+        own["variant"] = drive.env_kwargs["variant"]
+    built_for = DriveDescription(tuple(own.items()))
+    if built_for.settings == drive.settings:
         return drive
-    described = dict((getattr(policy, "run", None) or {}).get("drive") or {})  # the description, named, with its ranges
-    if described and not drive.settings:
+    described = dict((getattr(policy, "run", None) or {}).get("drive") or {})  # its description: name and ranges
+    if described:
         name = described.pop("name", "drive")
         return DriveDescription.from_mapping({**described, **own}, name)
-    return drive.with_settings(**own)
+    return built_for if own else PAPER_DRIVE
 
 
-def play_drive(policies, drive: DriveDescription = PAPER_DRIVE) -> DriveDescription:
-    """The one drive ``policies`` play on (:func:`drive_of` each); ``drive`` with none. Raises
-    ``ValueError`` if they were built for different drives, or for another drive than ``drive``
-    names (a ``--drive`` given with a policy of another drive)."""
-    drives = {drive_of(p, drive).settings for p in policies}
-    if len(drives) > 1:
+def play_drive(policies, drive: DriveDescription | None = None) -> DriveDescription:
+    """The one drive ``policies`` were built for (:func:`drive_of` each; the paper's for none), or
+    ``drive`` if given (a ``--drive``), which must be theirs. Raises ``ValueError`` if they were built
+    for different drives, or for another than ``drive``."""
+    base = PAPER_DRIVE if drive is None else drive
+    drives = [drive_of(p, base) for p in policies]
+    if len({d.settings for d in drives}) > 1:
         raise ValueError("the policies were built for different drives: benchmark them apart")
-    if drives:
-        settings = drives.pop()
-        if drive.settings and settings != drive.settings:
-            raise ValueError(f"the policies were built for another drive than {drive.name} "
-                             f"({dict(settings) or 'the paper drive'}): judge them on their own (leave out --drive)")
-        return dataclasses.replace(drive_of(policies[0], drive), settings=settings)
-    return drive
+    if not drives:
+        return base
+    if drive is not None and drives[0].settings != drive.settings:
+        which = "the policy was" if len(drives) == 1 else "the policies were"
+        raise ValueError(f"{which} built for another drive ({dict(drives[0].settings) or 'the paper drive'}) than "
+                         f"{drive.name}: leave out --drive to judge on the drive it was built for")
+    return drives[0]
 
 
 # ---------------------------------------------------------------------------------------- open loop

@@ -187,7 +187,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     tasks = task_folder(out, resume)
     t0 = time.perf_counter()
     loaded = [load_policy(p) for p in policies]
-    drive = play_drive(loaded, drive or PAPER_DRIVE)
+    drive = play_drive(loaded, drive)
     res: dict = {"seed": seed, "n": n, "domain": {"k": list(drive.k_range), "load": f"0-{LOAD_FACTOR}x trapezoid critical"},
                  "search": {"fixed_action_cma_evaluations": fixed_budget,
                             "two_action_cycle_cma_evaluations_per_start": cycle_budget, "cycle_starts": 2,

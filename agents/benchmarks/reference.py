@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..protocol import TIME_QUANTUM, policy_velocity
+from ..drive import PAPER_DRIVE, DriveDescription
+from ..protocol import TIME_QUANTUM, drive_of, policy_velocity
 from .score import aggregate, normalized_scores
 from .targets import MOVING_THRESHOLD, velocity_statistics
 
@@ -36,6 +37,7 @@ class Reference:
             at the same.
         learned: the steady velocities (m/s) of the policies the benchmark judged, by the folder it
             ran them from.
+        drive: the drive it was run on (``blind.json``'s ``drive``; the paper's without one).
     """
 
     name: str
@@ -44,6 +46,7 @@ class Reference:
     best: np.ndarray
     time_quantum: float
     learned: dict = field(default_factory=dict)
+    drive: DriveDescription = PAPER_DRIVE
 
     @classmethod
     def load(cls, path: str | Path) -> "Reference":
@@ -57,13 +60,15 @@ class Reference:
             name = f"seed {res['seed']}"
             learned = {policy: np.array([np.nan if v is None else v for v in velocity], dtype=float)
                        for policy, velocity in (res.get("learned") or {}).items()}
+            described = dict(res.get("drive") or {})
+            drive = DriveDescription.from_mapping(described, described.pop("name")) if described else PAPER_DRIVE
         except OSError as e:
             raise ValueError(f"{path}: cannot be read ({e.strerror or e})") from None
         except (ValueError, KeyError, TypeError) as e:
             raise ValueError(f"{path} is not a blind benchmark's blind.json ({type(e).__name__}: {e})") from None
         if not len(points) == len(trap) == len(best):
             raise ValueError(f"{path}: its points, trapezoid and best velocities differ in number")
-        return cls(name, points, trap, best, quantum, learned)
+        return cls(name, points, trap, best, quantum, learned, drive)
 
     def scores(self, velocity) -> np.ndarray:
         """The normalised score of steady velocities ``velocity`` (m/s, one per point; NaN where
@@ -76,7 +81,7 @@ class Reference:
         from ..protocol import trapezoid_critical_load
 
         ks = [k for k, _ in self.points]
-        return np.array([m for _, m in self.points]) / trapezoid_critical_load(ks)
+        return np.array([m for _, m in self.points]) / trapezoid_critical_load(ks, self.drive)
 
     def fractions_of_best(self, velocity) -> np.ndarray:
         """The fraction of the best drive at each point where it moves at least ``MOVING_THRESHOLD``
@@ -92,12 +97,16 @@ class Reference:
         """A closed-loop ``policy``'s (``load_policy``'s, or any ``act(obs) -> Box actions``) steady
         velocity at every point (m/s; NaN a runaway), its normalised score there and the aggregates:
         ``score`` (IQM and mean, bootstrap over the points), the fraction of the best drive and the
-        blind statistics. The policy must act at this reference's time quantum (as its search did)."""
+        blind statistics. The policy must act at this reference's time quantum (as its search did)
+        and have been built for its drive."""
+        if drive_of(policy, self.drive).settings != self.drive.settings:
+            raise ValueError(f"the policy was built for another drive than this reference's ({self.drive.name}): "
+                             "score it against a blind benchmark run on its own")
         quantum = float(getattr(policy, "play_kwargs", {}).get("time_quantum", TIME_QUANTUM))
         if quantum != self.time_quantum:
             raise ValueError(f"the policy acts at a time quantum of {quantum:g} s, this reference's search at "
                              f"{self.time_quantum:g} s: score it against a blind benchmark run at its own")
-        velocity = policy_velocity(policy, list(self.points), mark_runaway=True)
+        velocity = policy_velocity(policy, list(self.points), mark_runaway=True, drive=self.drive)
         scores = self.scores(velocity)
         return {"velocity": velocity, "scores": scores, "score": aggregate([scores]),
                 "fraction_of_best": aggregate([self.fractions_of_best(velocity)]),

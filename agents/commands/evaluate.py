@@ -153,18 +153,17 @@ def main(args: argparse.Namespace) -> int:
         if len(args.cargo_mass) != len(ks):
             raise ValueError(f"--k and --cargo-mass pair up: got {len(ks)} and {len(args.cargo_mass)} values")
         points = list(zip(ks, args.cargo_mass))
-    base = args.drive or PAPER_DRIVE
-    if args.variant != "as-specified":
-        base = base.with_settings(variant=args.variant)
     for k, m in points:  # bad values fail here, with the option's name, before the policy loads
         try:
-            base.params(k, m)
+            (args.drive or PAPER_DRIVE).params(k, m)
         except ValueError as e:
             from mdr_drive_env.cli import FIELD_OPTIONS, with_option_name
 
             raise with_option_name(e, FIELD_OPTIONS) from None
     policy = load_policy(args.policy, trust_pickle=args.trust_pickle)
-    drive = play_drive([policy], base)  # the drive it was built for; --drive must name the same
+    drive = play_drive([policy], args.drive)  # the drive it was built for; --drive must name the same
+    if args.variant != "as-specified":
+        drive = drive.with_settings(variant=args.variant)
     env_kwargs = policy.play_kwargs
     friction = {name: getattr(args, name) for name in ("friction_coefficient", "base_friction_coefficient")
                 if getattr(args, name) is not None}

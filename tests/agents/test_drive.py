@@ -120,3 +120,21 @@ def test_the_blind_benchmark_judges_the_policy_on_its_drive(drive_recipe, tmp_pa
     assert "on drive drive_tiny" in (out / "blind.md").read_text()
     assert main(["benchmark", "--drive", str(TINY_DRIVE), "--policies", str(drive_recipe / "policy")]) == 2
     assert "--drive needs --blind" in capsys.readouterr().err
+
+
+def test_a_reference_scores_a_policy_only_on_the_drive_it_was_run_on(drive_recipe, tmp_path):
+    from mdr_drive_agents.benchmarks.reference import Reference
+    from mdr_drive_agents.policy import PRETRAINED, load_policy
+
+    assert main(["benchmark", "--blind", "2", "--seed", "6", "--quick", "--policies", str(drive_recipe / "policy"),
+                 "--out", str(tmp_path / "blind"), "--workers", "1"]) == 0
+    reference = Reference.load(tmp_path / "blind" / "blind.json")
+    assert reference.drive.name == "drive_tiny" and reference.drive.period == 1e-3
+    found = reference.score_policy(load_policy(drive_recipe / "policy"))
+    res = json.loads((tmp_path / "blind" / "blind.json").read_text())
+    np.testing.assert_allclose(found["velocity"], np.array(list(res["learned"].values())[0], dtype=float), rtol=1e-12)
+    with pytest.raises(ValueError, match="built for another drive"):
+        reference.score_policy(load_policy(PRETRAINED))  # the paper drive's policy
+    paper_reference = Reference.load(DATA / "blind_tiny_a.json")
+    with pytest.raises(ValueError, match="built for another drive"):
+        paper_reference.score_policy(load_policy(drive_recipe / "policy"))
