@@ -111,7 +111,7 @@ class DriveDescription:
     def is_paper(self) -> bool:
         """Whether it is the paper's drive (every keyword at the env's default)."""
         defaults = template(())
-        return all(getattr_env(defaults, key) == value for key, value in self.settings)
+        return all(_env_value(defaults, key) == value for key, value in self.settings)
 
     def with_settings(self, **settings) -> "DriveDescription":
         """The same description with ``settings`` added or replaced."""
@@ -151,11 +151,11 @@ class DriveDescription:
         """The physical model (``DriveParams``) at grading exponent k and cargo mass (kg), with
         ``friction`` = (mu, mu1) instead of the drive's own if given."""
         env = template(self.settings)
-        contact = None
-        if friction is not None:
-            contact = dataclasses.replace(env._contact, friction_coefficient=float(friction[0]),
-                                          base_friction_coefficient=float(friction[1]))
-        return env.params_for(float(k), float(cargo_mass), contact)
+        params = env.params_for(float(k), float(cargo_mass))
+        if friction is None:
+            return params
+        return dataclasses.replace(params, contact=dataclasses.replace(
+            params.contact, friction_coefficient=float(friction[0]), base_friction_coefficient=float(friction[1])))
 
     def reference_force(self, k: float, friction_coefficient: float | None = None) -> float:
         """mu F_ref (N) at k: the largest friction force the contact transmits at the full z stroke."""
@@ -190,7 +190,7 @@ def _plain(value):
     return value
 
 
-def getattr_env(env, key: str):
+def _env_value(env, key: str):
     """The value an env holds for the drive keyword ``key`` (for comparing a description with the defaults)."""
     amap, params = env.action_map, env.params_for(0.0, 0.0)
     values = {"slider_mass": params.drive.slider_mass, "gravity": params.drive.gravity,
