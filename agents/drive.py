@@ -107,11 +107,23 @@ class DriveDescription:
         """The mapping ``from_mapping`` reads back (for YAML and run.json)."""
         return {**self.env_kwargs, "k": list(self.k_range), "load_ratio": list(self.load_ratio_range)}
 
+    def to_record(self) -> dict:
+        """The named mapping a file keeps (run.json's, recipe.json's, blind.json's ``drive``, a teacher
+        field's meta): ``to_mapping`` with ``name``."""
+        return {"name": self.name, **self.to_mapping()}
+
+    @classmethod
+    def from_record(cls, record: dict) -> "DriveDescription":
+        """The description ``to_record`` wrote."""
+        record = dict(record)
+        return cls.from_mapping(record, record.pop("name", "drive"))
+
     @property
     def is_paper(self) -> bool:
-        """Whether it is the paper's drive (every keyword at the env's default)."""
-        defaults = template(())
-        return all(_env_value(defaults, key) == value for key, value in self.settings)
+        """Whether it is the paper's drive: the same physical model and action map as the env's defaults."""
+        paper = template(())
+        return (self.action_map() == paper.action_map
+                and template(self.settings).params_for(0.2, 0.0) == paper.params_for(0.2, 0.0))
 
     def with_settings(self, **settings) -> "DriveDescription":
         """The same description with ``settings`` added or replaced."""
@@ -142,10 +154,8 @@ class DriveDescription:
     def trapezoid_action(self, time_quantum: float | None = None) -> np.ndarray:
         """The baseline's action (float64): the paper's waveform shape (Fig. 2, its rise fractions and
         phase) at this drive's period and full strokes; for the paper's drive its waveform exactly."""
-        amap = self.action_map(time_quantum)
-        waveform = Waveform.paper() if self.is_paper else Waveform.paper(amap.period, amap.x_amplitude_max,
-                                                                         amap.z_amplitude_max)
-        return amap.to_action(waveform)
+        amap = self.action_map(time_quantum)  # as the env's trapezoid_action, in float64 and at time_quantum
+        return amap.to_action(Waveform.paper(amap.period, amap.x_amplitude_max, amap.z_amplitude_max))
 
     def params(self, k: float, cargo_mass: float, friction: tuple[float, float] | None = None):
         """The physical model (``DriveParams``) at grading exponent k and cargo mass (kg), with
@@ -188,20 +198,6 @@ def _plain(value):
     if isinstance(value, np.generic):
         return value.item()
     return value
-
-
-def _env_value(env, key: str):
-    """The value an env holds for the drive keyword ``key`` (for comparing a description with the defaults)."""
-    amap, params = env.action_map, env.params_for(0.0, 0.0)
-    values = {"slider_mass": params.drive.slider_mass, "gravity": params.drive.gravity,
-              "cargo_inertia": params.drive.cargo_inertia, "indenter_radius": params.contact.indenter_radius,
-              "friction_coefficient": params.contact.friction_coefficient,
-              "base_friction_coefficient": params.contact.base_friction_coefficient,
-              "youngs_modulus": params.slider.youngs_modulus, "poisson_ratio": params.slider.poisson_ratio,
-              "reference_depth": params.slider.reference_depth, "rigid_indenter": env.rigid_indenter,
-              "variant": env.variant, "period": amap.period, "x_amplitude_max": amap.x_amplitude_max,
-              "z_amplitude_max": amap.z_amplitude_max}
-    return values[key]
 
 
 @functools.lru_cache(maxsize=32)

@@ -22,8 +22,6 @@ origin).
 
 from __future__ import annotations
 
-import dataclasses
-import functools
 
 import gymnasium as gym
 import numpy as np
@@ -46,13 +44,6 @@ ACTION_MAP = ActionMap()
 TIME_QUANTUM = ACTION_MAP.time_quantum
 #: Fine load grid of the critical-load scan: loads per pass (two passes, ``critical_loads``).
 CRITICAL_GRID = 64
-
-
-@functools.lru_cache(maxsize=None)
-def action_map_at(time_quantum: float = TIME_QUANTUM) -> ActionMap:
-    """``ACTION_MAP`` with rises and the z phase quantised to ``time_quantum`` (s) instead
-    (``MDRDrive-v0``'s ``time_quantum``); another drive's is ``drive.action_map(time_quantum)``."""
-    return dataclasses.replace(ACTION_MAP, time_quantum=float(time_quantum))
 
 
 def steady_velocity_of(displacements: np.ndarray, average: int = AVERAGE_PERIODS, runaway=None,
@@ -106,10 +97,9 @@ def drive_of(policy, drive: DriveDescription = PAPER_DRIVE) -> DriveDescription:
     built_for = DriveDescription(tuple(own.items()))
     if built_for.settings == drive.settings:
         return drive
-    described = dict((getattr(policy, "run", None) or {}).get("drive") or {})  # its description: name and ranges
+    described = (getattr(policy, "run", None) or {}).get("drive")  # its description: name and ranges
     if described:
-        name = described.pop("name", "drive")
-        return DriveDescription.from_mapping({**described, **own}, name)
+        return DriveDescription.from_record({**described, **own})
     return built_for if own else PAPER_DRIVE
 
 
@@ -307,7 +297,7 @@ def trapezoid_critical_load(ks, drive: DriveDescription = PAPER_DRIVE) -> np.nda
     return np.array([crit[k] for k in ks])
 
 
-__all__ = ["ACTION_MAP", "AVERAGE_PERIODS", "actions_of", "CRITICAL_GRID", "EVAL_PERIODS", "TIME_QUANTUM", "action_map_at",
+__all__ = ["ACTION_MAP", "AVERAGE_PERIODS", "actions_of", "CRITICAL_GRID", "EVAL_PERIODS", "TIME_QUANTUM",
            "critical_loads", "csv_velocity", "drive_of", "play_drive", "env_rollout", "first_stall", "format_velocity", "open_loop_displacements",
            "open_loop_velocity", "play_kwargs_of", "play_time_quantum", "point_params", "policy_rollout",
            "policy_velocity", "runaway_of", "steady_velocity_of", "trapezoid_action", "trapezoid_critical_load",

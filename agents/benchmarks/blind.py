@@ -196,7 +196,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
                  "scan": DRAWN_SCAN if scan_draw else EVEN_SCAN, "policies": list(policies)}
     on_drive = () if drive.settings == () else (drive,)  # paper-drive tasks as before: stored searches stay valid
     if on_drive:
-        res["drive"] = {"name": drive.name, **drive.to_mapping()}
+        res["drive"] = drive.to_record()
     time_quantum = play_time_quantum(loaded)  # the search runs in the action units the policies act in
     if time_quantum != TIME_QUANTUM:  # files of the default quantum stay reusable
         res["search"]["time_quantum_s"] = time_quantum

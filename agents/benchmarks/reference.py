@@ -60,8 +60,7 @@ class Reference:
             name = f"seed {res['seed']}"
             learned = {policy: np.array([np.nan if v is None else v for v in velocity], dtype=float)
                        for policy, velocity in (res.get("learned") or {}).items()}
-            described = dict(res.get("drive") or {})
-            drive = DriveDescription.from_mapping(described, described.pop("name")) if described else PAPER_DRIVE
+            drive = DriveDescription.from_record(res["drive"]) if res.get("drive") else PAPER_DRIVE
         except OSError as e:
             raise ValueError(f"{path}: cannot be read ({e.strerror or e})") from None
         except (ValueError, KeyError, TypeError) as e:

@@ -193,8 +193,8 @@ def main(args: argparse.Namespace) -> int:
             v_learned = np.array([r[0][0] for r in runs]).T  # (periods, n) m/s
             v_trap = np.array([r[1][0] for r in runs]).T
             acts = np.array([r[0][1] for r in runs]).transpose(1, 0, 2)
-            learned = steady_velocity_of(v_learned, runaway=[r[0][2] for r in runs], period=1.0)
-            trapezoid = steady_velocity_of(v_trap, runaway=[r[1][2] for r in runs], period=1.0)
+            learned = steady_velocity_of(v_learned * drive.period, runaway=[r[0][2] for r in runs], period=drive.period)
+            trapezoid = steady_velocity_of(v_trap * drive.period, runaway=[r[1][2] for r in runs], period=drive.period)
         else:
             disp, acts, runaway = policy_rollout(policy, points, drive=drive)
             learned = steady_velocity_of(disp, runaway=runaway, period=drive.period)

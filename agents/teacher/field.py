@@ -60,7 +60,7 @@ class DriveField:
         self.friction = tuple(float(f) for f in self.meta.get("config", {}).get("friction", PAPER_FRICTION))
         drive = self.meta.get("drive")
         #: The drive its drives were searched on (meta ``drive``; the paper's for a field without one).
-        self.drive = PAPER_DRIVE if drive is None else DriveDescription.from_mapping(drive["settings"], drive["name"])
+        self.drive = PAPER_DRIVE if drive is None else DriveDescription.from_record(drive)
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -307,7 +307,7 @@ def with_friction(points, friction) -> list[tuple[float, float, float, float]]:
 
 def drive_meta(drive: DriveDescription) -> dict:
     """A field's meta entry for the drive it is searched on (none for the paper's, so its files are as before)."""
-    return {} if drive == PAPER_DRIVE else {"drive": {"name": drive.name, "settings": drive.to_mapping()}}
+    return {} if drive == PAPER_DRIVE else {"drive": drive.to_record()}
 
 
 def pick_best(points, cands: list, prefer_interpolation: float,

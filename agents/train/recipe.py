@@ -95,7 +95,7 @@ def student_record(seed: int, env_kwargs: dict, ppo: dict, config: DistillConfig
     (env keywords, the drive's among them, PPO settings, network), and where it came from (``teacher``:
     {"teacher" or "fields", "recipe"}, with the distillation settings and fit history added; ``drive``:
     the description it was built for, named)."""
-    return {**({} if drive is None else {"drive": {"name": drive.name, **drive.to_mapping()}}),
+    return {**({} if drive is None else {"drive": drive.to_record()}),
         "algo": "ppo", "seed": seed, "env_id": ENV_ID, "env_kwargs": env_kwargs,
         "hyperparameters": {**dict(ppo), "normalize": True, "warm_start": "none",
                             "policy_kwargs": {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]},
@@ -187,7 +187,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
               flush=True)
         summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
-                   "drive": None if drive is None else {"name": drive.name, **drive.to_mapping()},
+                   "drive": None if drive is None else drive.to_record(),
                    "stage_wall_time_s": stages,
                    "teacher_loaded_from": None if teacher is None else str(teacher), "blas_core": core,
                    "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
