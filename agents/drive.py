@@ -140,6 +140,13 @@ class DriveDescription:
         """The full z stroke (m): the deepest indentation any action makes."""
         return self.action_map().z_amplitude_max
 
+    @property
+    def stroke_speed(self) -> float:
+        """The full x stroke over the period (m/s): the drive's velocity scale (15 mm/s for the paper's).
+        The recipe's velocity thresholds are fractions of it, so they carry over to another drive."""
+        amap = self.action_map()
+        return amap.x_amplitude_max / amap.period
+
     def action_map(self, time_quantum: float | None = None) -> ActionMap:
         """The env's action map on this drive, with rises and the z phase quantised to ``time_quantum``
         (s; default the env's)."""

@@ -97,32 +97,37 @@ class RefineLoad:
 @dataclass(frozen=True)
 class RefineSteep:
     """A load line at the midpoint of every cell whose midpoint fraction lies in [``low``, ``high``] and
-    across which the forward velocity falls by more than ``drop`` (m/s) on at least one k line,
-    searched as ``RefineLoad``'s. Where the best drive falls off an edge within one cell, the teacher
-    between the two nodes plays one of their drives, and a search at the midpoint finds a faster one."""
+    across which the forward velocity falls by more than ``relative_drop`` times the drive's stroke
+    speed (``DriveDescription.stroke_speed``; 1/3 of it is 5 mm/s on the paper's drive) on at least one
+    k line, searched as ``RefineLoad``'s. Where the best drive falls off an edge within one cell, the
+    teacher between the two nodes plays one of their drives, and a search at the midpoint finds a
+    faster one."""
 
     budget: int
     sigma: float
     low: float
     high: float
-    drop: float
+    relative_drop: float
     SEED_OFFSET = 960_000
 
     def __post_init__(self) -> None:
         check_search("refine_steep", self.budget, self.sigma)
-        check_range("refine_steep drop", self.drop, 0.0, 0.1, low_open=True)
+        check_range("refine_steep relative_drop", self.relative_drop, 0.0, 2.0, low_open=True)
 
     def run(self, field, executor, seed: int) -> None:
         from .refine import refine_load
 
         refine_load(field, int(self.budget), float(self.sigma), (float(self.low), float(self.high)),
-                    executor=executor, seed=seed, min_drop=float(self.drop), record="refined_steep")
+                    executor=executor, seed=seed, min_drop=float(self.relative_drop) * field.drive.stroke_speed,
+                    record="refined_steep")
+        if "refined_steep" in field.meta:  # no record where no cell is steep
+            field.meta["refined_steep"]["relative_drop"] = float(self.relative_drop)
         field.settle()
 
 
 @dataclass(frozen=True)
 class PolishStall:
-    """On every k line (up to ``k_max``), the two nodes on either side of its stall (the heaviest that
+    """On every k line (up to ``k_max``, if given), the two nodes on either side of its stall (the heaviest that
     moves and the next heavier) play their own, their lighter and k neighbours' drives and the
     push/clamp cycle, then CMA-ES over two-action cycles runs from the three fastest and each keeps a
     faster drive (``refine.polish_stall``): the teacher's critical load is the stall node's."""
@@ -201,8 +206,50 @@ class RefineBand(Band):
         field.settle(keep_phases_of=field.drives.copy())
 
 
+@dataclass(frozen=True)
+class Audit:
+    """The teacher checked against a stronger search, and mended where it falls short
+    (``refine.audit``): at ``points`` random points of its domain (k over the grid's range, loads
+    ``low``-``high`` times the trapezoid's critical load), CMA-ES over two-action cycles (``budget``
+    evaluations from each of the ``starts`` fastest of the teacher's drives around the point, the
+    trapezoid and the push/clamp cycle; step ``sigma``) searches again. Where it beats the teacher's
+    drive (as the student is taught it) by more than ``gain`` (relative) and ``floor`` times the
+    drive's stroke speed, the four nodes of the point's cell play the drive found and are searched
+    again from it (``polish_budget`` evaluations per start). So the teacher searches more where a
+    search still finds more, wherever that is on the drive, instead of in bands of k and load set
+    by hand."""
+
+    points: int
+    budget: int
+    sigma: float
+    low: float
+    high: float
+    polish_budget: int
+    gain: float = 0.03
+    floor: float = 0.01
+    starts: int = 2
+    SEED_OFFSET = 995_000
+
+    def __post_init__(self) -> None:
+        check_int("audit points", self.points, 1)
+        check_search("audit", self.budget, self.sigma)
+        check_int("audit polish_budget", self.polish_budget, 1)
+        check_int("audit starts", self.starts, 1)
+        check_range("audit gain", self.gain, 0.0, 1.0)
+        check_range("audit floor", self.floor, 0.0, 1.0)
+
+    def run(self, field, executor, seed: int) -> None:
+        from .refine import audit
+
+        before = field.drives.copy()
+        audit(field, int(self.points), int(self.budget), float(self.sigma), (float(self.low), float(self.high)),
+              int(self.polish_budget), gain=float(self.gain), floor=float(self.floor), starts=int(self.starts),
+              executor=executor, seed=seed)
+        field.settle(keep_phases_of=before)
+
+
 #: The refinement stages in the order the search runs them (after the polish passes).
-STAGES = ("refine_k", "refine_load", "refine_steep", "polish_stall", "polish_band", "refine_band")
+STAGES = ("refine_k", "refine_load", "refine_steep", "polish_stall", "polish_band", "refine_band", "audit")
 
 
 @dataclass(frozen=True)
@@ -221,10 +268,12 @@ class FieldConfig:
         consolidate_tolerance: after the search, nodes take their neighbours' most shared drive if it
             loses at most this fraction of their velocity (``DriveField.consolidate``; 0: off) (-).
         polish: polish passes after the search, exchange and consolidation (``PolishPass``).
-        refine_k, refine_load, refine_steep, polish_stall, polish_band, refine_band: the refinement
-            stages, run in this order after the polish passes, each followed by an exchange between
-            neighbours (``RefineK``, ``RefineLoad``, ``RefineSteep``, ``PolishStall``,
-            ``PolishBand``, ``RefineBand``; None: not run).
+        refine_k, refine_load, refine_steep, polish_stall, polish_band, refine_band, audit: the
+            refinement stages, run in this order after the polish passes, each followed by an
+            exchange between neighbours (``RefineK``, ``RefineLoad``, ``RefineSteep``,
+            ``PolishStall``, ``PolishBand``, ``RefineBand``, ``Audit``; None: not run). The bands of
+            ``polish_band`` and ``refine_band`` are in k, so they fit one drive; the shipped recipe
+            uses ``audit`` instead.
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
@@ -245,6 +294,7 @@ class FieldConfig:
     polish_stall: PolishStall | None = None
     polish_band: PolishBand | None = None
     refine_band: RefineBand | None = None
+    audit: Audit | None = None
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -260,7 +310,7 @@ class FieldConfig:
             if not isinstance(entry, PolishPass):
                 raise ValueError(f"polish={self.polish!r}: each pass is a PolishPass (budget, sigma)")
         kinds = {"refine_k": RefineK, "refine_load": RefineLoad, "refine_steep": RefineSteep,
-                 "polish_stall": PolishStall, "polish_band": PolishBand, "refine_band": RefineBand}
+                 "polish_stall": PolishStall, "polish_band": PolishBand, "refine_band": RefineBand, "audit": Audit}
         for name, kind in kinds.items():
             stage = getattr(self, name)
             if stage is not None and not isinstance(stage, kind):
@@ -269,7 +319,7 @@ class FieldConfig:
                      if getattr(self, name) is not None and getattr(self, name).k_max is not None]
         for name, k_max in k_bounded:
             check_range(f"{name} k_max", k_max, *self.k_range, low_open=name == "refine_k")
-        for name in ("refine_load", "refine_steep"):
+        for name in ("refine_load", "refine_steep", "audit"):
             stage = getattr(self, name)
             if stage is not None:
                 check_range(f"{name} low", stage.low, 0.0, self.max_load_fraction)
@@ -299,5 +349,5 @@ class FieldConfig:
         return np.linspace(0.0, self.max_load_fraction, self.load_fractions)
 
 
-__all__ = ["PAPER_FRICTION", "STAGES", "Band", "FieldConfig", "PolishBand", "PolishPass", "PolishStall",
+__all__ = ["PAPER_FRICTION", "STAGES", "Audit", "Band", "FieldConfig", "PolishBand", "PolishPass", "PolishStall",
            "RefineBand", "RefineK", "RefineLoad", "RefineSteep", "check_search"]

@@ -82,7 +82,8 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
     ``refine_load``), ``lines`` of [((k, load kg), trial drives (t, 2, 5)), ...] at ``friction`` (mu,
     mu1) on ``drive``: every node plays its trials (one batched call), CMA-ES over two-action cycles runs from the
     ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``; one task per node on
-    ``executor``) and the node keeps the fastest drive found or played."""
+    ``executor``) and the node keeps the fastest drive found or played. Lines of different lengths
+    give lists of per-line arrays."""
     tasks, trial_d, trial_v = [], [], []  # per line: its task, its nodes' fastest trial drives and velocities
     for n, line in enumerate(lines):
         played = open_loop_velocity([(*node, *friction) for node, t in line for _ in t],
@@ -98,11 +99,15 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
         trial_d.append(fastest_d)
         trial_v.append(fastest_v)
     found = map_polish_by_node(tasks, label, executor)
-    searched_d = np.array([[d for d, _ in line] for line in found])
-    searched_v = np.array([[v for _, v in line] for line in found], dtype=np.float64)
-    trial_d, trial_v = np.array(trial_d), np.array(trial_v, dtype=np.float64)
-    keep_search = searched_v > trial_v
-    return np.where(keep_search[:, :, None, None], searched_d, trial_d), np.where(keep_search, searched_v, trial_v)
+    drives, velocities = [], []
+    for line, fastest_d, fastest_v in zip(found, trial_d, trial_v):
+        searched_v = np.array([v for _, v in line], dtype=np.float64)
+        keep = searched_v > np.array(fastest_v, dtype=np.float64)
+        drives.append(np.array([d if k else t for (d, _), t, k in zip(line, fastest_d, keep)]))
+        velocities.append(np.where(keep, searched_v, fastest_v))
+    if len({len(line) for line in lines}) > 1:  # lines of different lengths: one array per line
+        return drives, velocities
+    return np.array(drives), np.array(velocities)
 
 
 __all__ = ["map_polish_by_node", "polish_slice", "search_new_nodes", "search_node", "search_slice"]

@@ -3,7 +3,8 @@ polish passes (``polish``), a k line between every two of the grid's (``refine_k
 between two of its load lines (``refine_load``; with ``min_drop``, only where the velocity is
 steep), a stronger search at the nodes either side of each k line's stall (``polish_stall``) and at
 the nodes of a band of k and load (``polish_band``), and load lines searched in such a band only
-(``refine_band``). Each searches its new or chosen nodes with CMA-ES over two-action cycles from the
+(``refine_band``), and an audit against a stronger search at random points that mends the cells
+where the teacher falls short (``audit``). Each searches its new or chosen nodes with CMA-ES over two-action cycles from the
 drives around them (``mdr_drive_agents.teacher.node_search``), one task per node on an executor;
 ``DriveField.search`` runs them in the order ``FieldConfig`` gives (its stage dataclasses).
 """
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..cycles import align_phase
-from ..protocol import open_loop_velocity, trapezoid_critical_load
+from ..protocol import open_loop_velocity, trapezoid_action, trapezoid_critical_load
 from ..search import PUSH_CLAMP
 from .node_search import map_polish_by_node, search_new_nodes
 
@@ -185,18 +186,20 @@ def polish_band(field, budget: int, sigma: float, k_band: tuple[float, float],
 
 
 def polish_nodes(field, nodes, budget: int, sigma: float, executor=None, seed: int = 0, starts: int = 3,
-                 label: str = "", record: dict | None = None) -> int:
+                 label: str = "", record: dict | None = None, extra: dict | None = None) -> int:
     """At each node (i, j) of ``nodes``: play its own drive, its lighter and its two k neighbours'
-    (aligned to it) and the push/clamp cycle, run CMA-ES over two-action cycles from the
-    ``starts`` fastest (``budget`` evaluations each, step ``sigma``; one task per node on
-    ``executor``) and keep the fastest drive found if it beats the node's own. ``record``, if
-    given, gets the search's settings and counts. Returns the nodes changed."""
+    (aligned to it), the push/clamp cycle and the drives ``extra`` gives it (a mapping of nodes to
+    lists of drives), run CMA-ES over two-action cycles from the ``starts`` fastest (``budget``
+    evaluations each, step ``sigma``; one task per node on ``executor``) and keep the fastest drive
+    found or played if it beats the node's own. ``record``, if given, gets the search's settings and
+    counts. Returns the nodes changed."""
     nk = len(field.ks)
     lines: dict = {}
     for i, j in nodes:
         own = field.drives[i, j]
         trials = [own, align_phase(PUSH_CLAMP, own)] + [align_phase(field.drives[a, b], own) for a, b in
                                                         ((i, j - 1), (i - 1, j), (i + 1, j)) if 0 <= a < nk and 0 <= b]
+        trials += [align_phase(d, own) for d in (extra or {}).get((i, j), ())]
         lines.setdefault(i, []).append(((j, field.point(i, j)[:2]), np.array(trials)))
     changed = 0
     if lines:
@@ -213,4 +216,48 @@ def polish_nodes(field, nodes, budget: int, sigma: float, executor=None, seed: i
     return changed
 
 
-__all__ = ["polish", "polish_band", "polish_nodes", "polish_stall", "refine_band", "refine_k", "refine_load"]
+def audit(field, points: int, budget: int, sigma: float, band: tuple[float, float], polish_budget: int,
+          gain: float = 0.03, floor: float = 0.01, starts: int = 2, executor=None, seed: int = 0) -> dict:
+    """Check the teacher against a stronger search and mend it where it falls short (``config.Audit``).
+
+    ``points`` points drawn from ``seed``: k uniform over the grid's k range, the load uniform in
+    ``band`` (low, high) times the trapezoid's critical load at k. At each, the teacher's drive as
+    the student is taught it (``field.best`` over the grid drives of the 4 x 4 nodes around the
+    point) is searched again: CMA-ES over two-action cycles from the ``starts`` fastest of those
+    drives, the trapezoid and the push/clamp cycle (``budget`` evaluations each, step ``sigma``).
+    Where the search beats the teacher by more than ``gain`` (relative) and ``floor`` times the
+    drive's stroke speed, the four nodes of the point's cell play the drive found and are polished
+    from it (``polish_nodes``, ``polish_budget`` evaluations per start). ``field.meta["audited"]``
+    keeps the counts: the points that fell short, their mean shortfall, the nodes searched and
+    changed, and how many of those points still fall short after the mending. Returns that record."""
+    rng = np.random.default_rng(seed)
+    ks = rng.uniform(field.ks[0], field.ks[-1], points)
+    loads = rng.uniform(*band, points) * np.interp(ks, field.ks, field.trapezoid_critical)
+    at = [(float(k), float(m)) for k, m in zip(ks, loads)]
+    taught_d, taught_v = field.best(at, radius=2, interpolation=False)
+    trapezoid = np.tile(trapezoid_action(field.drive), (2, 1))
+    lines = [[(p, np.array([d, *field.candidates(*p, radius=2)[1:], align_phase(trapezoid, d),
+                            align_phase(PUSH_CLAMP, d)]))] for p, d in zip(at, taught_d)]
+    found_d, found_v = search_new_nodes(lines, budget, sigma, starts, seed, field.friction, "teacher: audit",
+                                        executor, field.drive)
+    found_d, found_v = found_d[:, 0], found_v[:, 0]
+    threshold = np.maximum(gain * np.abs(taught_v), floor * field.drive.stroke_speed)
+    short = np.flatnonzero(found_v - taught_v > threshold)
+    offers: dict = {}
+    for n in short:
+        i, j, _, _ = field._cell(*at[n])
+        for node in ((i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)):
+            offers.setdefault(node, []).append(found_d[n])
+    record = {"points": points, "band": list(band), "gain": gain, "floor": floor, "starts": starts,
+              "polish_budget": polish_budget, "short": int(len(short)),
+              "mean_shortfall_m_s": float(np.mean(found_v[short] - taught_v[short])) if len(short) else 0.0}
+    polish_nodes(field, sorted(offers), polish_budget, sigma, executor, seed + 1, starts, "audit", record, offers)
+    record["search_budget"] = budget
+    if len(short):
+        _, mended_v = field.best([at[n] for n in short], radius=2, interpolation=False)
+        record["still_short"] = int(np.sum(found_v[short] - mended_v > threshold[short]))
+    field.meta["audited"] = record
+    return record
+
+
+__all__ = ["audit", "polish", "polish_band", "polish_nodes", "polish_stall", "refine_band", "refine_k", "refine_load"]

@@ -13,12 +13,13 @@ import mdr_drive_env  # noqa: F401
 from mdr_drive_agents.cycles import align_phase
 from mdr_drive_agents.student.distill import DistillConfig
 from mdr_drive_agents.teacher import FieldConfig, refine
-from mdr_drive_agents.teacher.config import PolishBand, PolishStall, RefineBand, RefineK, RefineLoad, RefineSteep
+from mdr_drive_agents.teacher.config import (Audit, PolishBand, PolishStall, RefineBand, RefineK, RefineLoad,
+                                             RefineSteep)
 from mdr_drive_agents.yaml_config import build
 from tests.agents.fields import synthetic_field
 
 STAGES = {"refine_k": RefineK, "refine_load": RefineLoad, "refine_steep": RefineSteep, "polish_stall": PolishStall,
-          "polish_band": PolishBand, "refine_band": RefineBand}
+          "polish_band": PolishBand, "refine_band": RefineBand, "audit": Audit}
 
 
 def stage_config(name: str, values: tuple) -> FieldConfig:
@@ -191,10 +192,32 @@ def test_refine_steep_adds_load_lines_only_where_the_velocity_falls_steeply():
     assert refine.refine_load(field, 8, 0.1, (0.1, 1.1), executor=ex, min_drop=0.05, record="refined_steep") == 0
     assert np.array_equal(field.fractions, before)
     for bad, match in (((300, 0.1, 0.6, 1.5), "refine_steep"), ((0, 0.1, 0.6, 1.5, 0.005), "refine_steep budget"),
-                       ((300, 0.1, 1.0, 0.6, 0.005), "refine_steep high"), ((300, 0.1, 0.6, 1.2, 0.0), "refine_steep drop"),
-                       ((300, 0.1, 0.6, 1.2, 5.0), "refine_steep drop")):
+                       ((300, 0.1, 1.0, 0.6, 0.3), "refine_steep high"),
+                       ((300, 0.1, 0.6, 1.2, 0.0), "refine_steep relative_drop"),
+                       ((300, 0.1, 0.6, 1.2, 5.0), "refine_steep relative_drop")):
         with pytest.raises(ValueError, match=match):
             stage_config("refine_steep", bad)
+
+
+def test_refine_steep_reads_its_drop_in_the_drives_stroke_speed():
+    from mdr_drive_agents.drive import PAPER_DRIVE, DriveDescription
+    from mdr_drive_env.sweep import Executor
+
+    assert PAPER_DRIVE.stroke_speed == pytest.approx(0.015)  # 30 um over 2 ms
+    small = DriveDescription.from_mapping({"period": 1e-3, "x_amplitude_max": 20e-6})
+    assert small.stroke_speed == pytest.approx(0.02)
+    for drive, found in ((PAPER_DRIVE, [0.6]), (small, [])):  # drops of 6 and 5 mm/s: 0.35 x 15 = 5.25, 0.35 x 20 = 7
+        field = synthetic_field(nk=2, ns=4)
+        field.drive = drive
+        field.trapezoid_critical[:] = 0.02
+        field.velocities = np.array([[9e-3, 8e-3, 2e-3, -5e-3], [9e-3, 7e-3, 5e-3, -1e-3]])
+        stage_config("refine_steep", (8, 0.1, 0.1, 1.1, 0.35)).refine_steep.run(
+            field, Executor(workers=1, progress=False), seed=0)
+        if found:
+            assert field.meta["refined_steep"]["fractions"] == found
+            assert field.meta["refined_steep"]["relative_drop"] == pytest.approx(0.35)
+        else:
+            assert "refined_steep" not in field.meta and len(field.fractions) == 4
 
 
 def test_polish_stall_searches_the_nodes_either_side_of_each_stall_and_plays_what_it_records():
@@ -340,3 +363,33 @@ def test_a_wider_teacher_never_plays_a_slower_drive():
     _, wide = field.best(points, prefer_interpolation=0.0, radius=2)
     assert np.all(wide >= narrow)
 
+
+
+def test_audit_mends_the_cells_where_a_stronger_search_beats_the_teacher_and_records_it():
+    from mdr_drive_agents.protocol import open_loop_velocity
+    from mdr_drive_env.sweep import Executor
+
+    field = synthetic_field(nk=3, ns=4)  # k 0, 0.3, 0.6; fractions 0, 0.4, 0.8, 1.2
+    field.trapezoid_critical[:] = 0.02
+    field.drives[:] = 0.0  # a poor teacher: every node plays the zero action
+    points = [field.point(i, j) for i in range(3) for j in range(4)]
+    field.velocities = open_loop_velocity(points, field.drives.reshape(12, 2, 5)).reshape(3, 4)
+    before_v = field.velocities.copy()
+    ex = Executor(workers=1, progress=False)
+    record = refine.audit(field, 6, 16, 0.3, (0.2, 1.0), 8, executor=ex, seed=5)
+    assert field.meta["audited"] is record and record["points"] == 6 and record["band"] == [0.2, 1.0]
+    assert record["short"] > 0 and record["mean_shortfall_m_s"] > 0.01 * field.drive.stroke_speed
+    assert 0 < record["nodes"] <= 4 * record["short"] and 0 <= record["still_short"] <= record["short"]
+    assert np.all(field.velocities >= before_v) and record["changed"] == int((field.velocities > before_v).sum())
+    assert np.allclose(open_loop_velocity(points, field.drives.reshape(12, 2, 5)), field.velocities.ravel())
+    again = synthetic_field(nk=3, ns=4)
+    again.trapezoid_critical[:] = 0.02
+    again.drives[:] = 0.0
+    again.velocities = before_v.copy()
+    refine.audit(again, 6, 16, 0.3, (0.2, 1.0), 8, executor=ex, seed=5)
+    assert np.array_equal(again.drives, field.drives)  # seeded: the same audit mends the same way
+    for bad, match in (((0, 10, 0.3, 0.2, 1.0, 10), "audit points"), ((5, 10, 0.0, 0.2, 1.0, 10), "audit sigma"),
+                       ((5, 10, 0.3, 0.2, 9.0, 10), "audit high"), ((5, 10, 0.3, 0.2, 1.0, 0), "audit polish_budget"),
+                       ((5, 10, 0.3, 0.2, 1.0, 10, 2.0), "audit gain"), ((5, 10, 0.3), "audit")):
+        with pytest.raises(ValueError, match=match):
+            stage_config("audit", bad)

@@ -59,7 +59,9 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     field = DriveField.load(out / "teacher_field.npz")
     assert [p["budget"] for p in field.meta["polished"]] == [8]  # the polish ran
     assert np.allclose(field.ks, [0.0, 0.15, 0.3]) and field.meta["refined_k"]["new_nodes"] == 2  # and the refinement
-    assert field.meta["polished_stall"]["k_max"] == 0.15 and field.meta["polished_stall"]["nodes"] == 4  # and the last
+    assert field.meta["polished_stall"]["k_max"] is None and field.meta["polished_stall"]["nodes"] == 6  # every k line
+    audited = field.meta["audited"]  # and the audit against a stronger search, last
+    assert audited["points"] == 2 and 0 <= audited["short"] <= 2 and audited["nodes"] <= 4 * audited["short"]
 
 
 def test_the_distilled_policy_fine_tunes_with_train_resume(recipe_run):
@@ -153,17 +155,23 @@ def test_a_student_taught_with_the_phase_seam_moved_acts_in_that_env_and_reports
     np.testing.assert_allclose(acts[:, 1], shift_phase_origin(np.array(raw), 0.5, 0.0), atol=1e-6)  # reported in default units
 
 
-def test_the_shipped_teacher_field_counts_as_searched_with_the_shipped_config():
+def test_a_teacher_field_counts_as_searched_with_the_config_it_records_and_no_other():
     import dataclasses
 
     from mdr_drive_agents.teacher import DriveField
 
-    field, config = DriveField.load(PRETRAINED / "teacher_field.npz"), recipe.load_recipe(recipe.DEFAULT_CONFIG).teacher
+    config = recipe.load_recipe(recipe.DEFAULT_CONFIG).teacher
+    shipped = DriveField.load(PRETRAINED / "teacher_field.npz")  # searched before the audit replaced polish_band
+    assert "polished_band" in shipped.meta and "audited" not in shipped.meta
+    assert recipe.searched_with_another_config(shipped, config)
+    saved = json.loads(json.dumps(dataclasses.asdict(config)))
+    field = DriveField(shipped.ks, shipped.fractions, shipped.trapezoid_critical, shipped.drives, shipped.velocities,
+                       {"config": saved})
     assert not recipe.searched_with_another_config(field, config)
     assert recipe.searched_with_another_config(field, dataclasses.replace(config, cycle_budget=701))
     assert recipe.searched_with_another_config(field, dataclasses.replace(config, friction=(0.3, 0.13)))
     older = DriveField(field.ks, field.fractions, field.trapezoid_critical, field.drives, field.velocities,
-                       {"config": {key: value for key, value in json.loads(json.dumps(dataclasses.asdict(config))).items()
+                       {"config": {key: value for key, value in saved.items()
                                    if key not in ("friction", "refine_k")}})  # saved before those keys existed
     assert not recipe.searched_with_another_config(older, dataclasses.replace(config, refine_k=None))  # defaults count
     assert recipe.searched_with_another_config(older, config)
