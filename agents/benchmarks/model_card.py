@@ -134,6 +134,13 @@ print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
 ```"""
 
 
+def recipe_commit_note(run: dict) -> str:
+    """Where a run record names the commit whose recipe built it (``recipe_commit``; the recipe
+    has changed since): how to get that recipe back."""
+    commit = run.get("recipe_commit")
+    return f" at commit {commit} (`git checkout {commit}` first: the recipe has changed since)" if commit else ""
+
+
 def load_snippet(dst: Path, run: dict) -> str:
     """The card's tested ``load_policy`` snippet for the policy in ``dst``."""
     overrides = "k=0.2, cargo_mass=0.1"
@@ -274,7 +281,7 @@ the folder first: a resumed run writes into it; the observation statistics stay 
 
 ## How it was made
 
-* Command: `{run['command']}`
+* Command: `{run['command']}`{recipe_commit_note(run)}
 * Training: {training_note(run)}
 * Training range (env kwargs): `{json.dumps(run['env_kwargs'])}`
 * PPO settings: `{json.dumps(hyper)}`, policy `{json.dumps(run['hyperparameters'].get('policy_kwargs', {}))}`

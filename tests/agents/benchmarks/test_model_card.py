@@ -97,3 +97,12 @@ def test_the_model_card_command_explains_itself_and_refuses_a_folder_without_a_p
         main(["model-card", str(tmp_path / "empty"), str(tmp_path / "out")])
     err = capsys.readouterr().err
     assert exit_.value.code == 2 and "model.zip" in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_model_card_names_the_recipes_commit_where_the_run_record_keeps_one():
+    from mdr_drive_agents.benchmarks.model_card import recipe_commit_note
+
+    assert recipe_commit_note({"command": "mdr-drive recipe agents/configs/recipe.yaml"}) == ""
+    assert "git checkout 525a95b" in recipe_commit_note({"recipe_commit": "525a95b"})
+    card = (PRETRAINED / "MODEL_CARD.md").read_text()
+    assert "at commit 525a95b (`git checkout 525a95b` first" in card  # the shipped policy's recipe has changed since
