@@ -166,6 +166,9 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         stages["teacher_s"] = round(time.perf_counter() - t0, 1)
         print(f"recipe: teacher {stages['teacher_s']:.0f} s{' (loaded)' if teacher else ''}: {field.velocities.size} "
               f"grid points, {field.meta.get('exchanged', 0)} drives taken from a neighbour", flush=True)
+        if not teacher and field.meta.get("stage_wall_time_s"):
+            print("recipe: teacher stages: " + ", ".join(f"{name} {s:.0f} s" for name, s in
+                                                      field.meta["stage_wall_time_s"].items()), flush=True)
 
         t1 = time.perf_counter()
         teacher_record = {"teacher": str(out / "teacher_field.npz"), "recipe": str(config_path)}
@@ -189,6 +192,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
                    "drive": None if drive is None else drive.to_record(),
                    "stage_wall_time_s": stages,
+                   "teacher_stage_wall_time_s": field.meta.get("stage_wall_time_s"),
                    "teacher_loaded_from": None if teacher is None else str(teacher), "blas_core": core,
                    "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
                    "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},
