@@ -336,9 +336,13 @@ class FieldConfig:
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
         check_range("friction mu1", self.friction[1], 0.0, 2.0)
 
+    def named_stages(self) -> list[tuple[str, object]]:
+        """(name, stage) of the refinement stages that are set, in the order the search runs them (``STAGES``)."""
+        return [(name, getattr(self, name)) for name in STAGES if getattr(self, name) is not None]
+
     def stages(self) -> list:
         """The refinement stages that are set, in the order the search runs them (``STAGES``)."""
-        return [getattr(self, name) for name in STAGES if getattr(self, name) is not None]
+        return [stage for _, stage in self.named_stages()]
 
     @property
     def ks(self) -> np.ndarray:

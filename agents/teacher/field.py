@@ -43,7 +43,7 @@ from mdr_drive_env.files import atomic_path
 from ..cycles import align_phase
 from ..drive import PAPER_DRIVE, DriveDescription
 from ..protocol import open_loop_velocity, trapezoid_critical_load
-from .config import PAPER_FRICTION, STAGES, FieldConfig
+from .config import PAPER_FRICTION, FieldConfig
 from .node_search import search_slice
 
 
@@ -90,11 +90,10 @@ class DriveField:
             field.exchange()
             times[f"polish_{n + 1}"] = round(time.perf_counter() - t1, 1)
         field.align()  # the polish passes exchange after each pass and align once
-        for name, stage in zip(STAGES, [getattr(config, name) for name in STAGES]):
-            if stage is not None:
-                t1 = time.perf_counter()
-                stage.run(field, executor, seed + stage.SEED_OFFSET)
-                times[name] = round(time.perf_counter() - t1, 1)
+        for name, stage in config.named_stages():
+            t1 = time.perf_counter()
+            stage.run(field, executor, seed + stage.SEED_OFFSET)
+            times[name] = round(time.perf_counter() - t1, 1)
         field.meta["stage_wall_time_s"] = times
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field

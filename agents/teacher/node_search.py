@@ -77,13 +77,12 @@ def map_polish_by_node(line_tasks: list, desc: str, executor=None) -> list:
 
 
 def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: int, friction, label: str,
-                     executor=None, drive: DriveDescription = PAPER_DRIVE) -> tuple[np.ndarray, np.ndarray]:
-    """Drives (n_lines, n, 2, 5) and velocities (n_lines, n) m/s of new grid nodes (``DriveField.refine_k``,
+                     executor=None, drive: DriveDescription = PAPER_DRIVE) -> tuple[list, list]:
+    """Per line, drives (n, 2, 5) and velocities (n,) m/s of new grid nodes (``DriveField.refine_k``,
     ``refine_load``), ``lines`` of [((k, load kg), trial drives (t, 2, 5)), ...] at ``friction`` (mu,
     mu1) on ``drive``: every node plays its trials (one batched call), CMA-ES over two-action cycles runs from the
     ``starts`` fastest of them (``budget`` evaluations each, step ``sigma``; one task per node on
-    ``executor``) and the node keeps the fastest drive found or played. Lines of different lengths
-    give lists of per-line arrays."""
+    ``executor``) and the node keeps the fastest drive found or played. Lines may differ in length."""
     tasks, trial_d, trial_v = [], [], []  # per line: its task, its nodes' fastest trial drives and velocities
     for n, line in enumerate(lines):
         played = open_loop_velocity([(*node, *friction) for node, t in line for _ in t],
@@ -105,9 +104,7 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
         keep = searched_v > np.array(fastest_v, dtype=np.float64)
         drives.append(np.array([d if k else t for (d, _), t, k in zip(line, fastest_d, keep)]))
         velocities.append(np.where(keep, searched_v, fastest_v))
-    if len({len(line) for line in lines}) > 1:  # lines of different lengths: one array per line
-        return drives, velocities
-    return np.array(drives), np.array(velocities)
+    return drives, velocities
 
 
 __all__ = ["map_polish_by_node", "polish_slice", "search_new_nodes", "search_node", "search_slice"]

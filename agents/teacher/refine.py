@@ -72,8 +72,8 @@ def refine_k(field, budget: int, sigma: float, executor=None, seed: int = 0, sta
             line.append(((float(mids[c]), float(field.fractions[j] * mid_crit[c])),
                          np.array([0.5 * (left + align_phase(field.drives[i + 1, j], left)), *ring])))
         lines.append(line)
-    new_drives, new_velocities = search_new_nodes(lines, budget, sigma, starts, seed, field.friction,
-                                                   "teacher: refine k", executor, field.drive)
+    new_drives, new_velocities = map(np.array, search_new_nodes(lines, budget, sigma, starts, seed, field.friction,
+                                                                "teacher: refine k", executor, field.drive))
     at = [i + 1 for i in cells]  # each new line goes before the old line above it
     field.ks = np.insert(field.ks, at, mids)
     field.trapezoid_critical = np.insert(field.trapezoid_critical, at, mid_crit)
@@ -125,8 +125,8 @@ def refine_load(field, budget: int, sigma: float, band: tuple[float, float], exe
     new_drives = np.zeros((nk, len(cells), *field.drives.shape[2:]))
     new_velocities = np.zeros((nk, len(cells)))
     if searched:
-        new_drives[searched], new_velocities[searched] = search_new_nodes(
-            lines, budget, sigma, starts, seed, field.friction, "teacher: refine load", executor, field.drive)
+        new_drives[searched], new_velocities[searched] = map(np.array, search_new_nodes(
+            lines, budget, sigma, starts, seed, field.friction, "teacher: refine load", executor, field.drive))
     copied = [i for i in range(nk) if i not in searched]
     if copied:  # the faster of the lighter and heavier neighbours' drives, played at the new node
         pairs = [(i, c, d) for i in copied for c, j in enumerate(cells)
@@ -240,7 +240,7 @@ def audit(field, points: int, budget: int, sigma: float, band: tuple[float, floa
                             align_phase(PUSH_CLAMP, d)]))] for p, d in zip(at, taught_d)]
     found_d, found_v = search_new_nodes(lines, budget, sigma, starts, seed, field.friction, "teacher: audit",
                                         executor, field.drive)
-    found_d, found_v = found_d[:, 0], found_v[:, 0]
+    found_d, found_v = np.array([d[0] for d in found_d]), np.array([v[0] for v in found_v])
     threshold = np.maximum(gain * np.abs(taught_v), floor * field.drive.stroke_speed)
     short = np.flatnonzero(found_v - taught_v > threshold)
     offers: dict = {}
