@@ -92,7 +92,7 @@ def rollout(points, drives: np.ndarray, act=None, periods: int = 30, seed: int =
     """Play at each (k, load kg) point, or (k, load kg, mu, mu1) point in the privileged observation:
     the teacher's drive (``act`` None) or ``act(obs) -> actions``, in the action units of an env with
     ``z_phase_origin`` (``drives`` too) and ``time_quantum`` (s), on ``drive``. Returns the observations (periods *
-    n, 14 or 16), the teacher's drive of each observation's episode (periods * n, 2, 5) and the
+    n, 14 or 15), the teacher's drive of each observation's episode (periods * n, 2, 5) and the
     displacements (periods, n) m."""
     n = len(points)
     options = {"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]}

@@ -226,7 +226,7 @@ class DistillConfig:
 
 def epoch_samples(obs: np.ndarray, drives: np.ndarray, rng: np.random.Generator,
                   perturbed_share: float) -> tuple[np.ndarray, np.ndarray]:
-    """One epoch's inputs and labels from the teacher's episodes ``obs`` (n, 14 or 16) and each
+    """One epoch's inputs and labels from the teacher's episodes ``obs`` (n, 14 or 15) and each
     sample's drive ``drives`` (n, 2, 5): a ``perturbed_share`` of the previous actions replaced
     (``perturb_previous_actions``), each entry of the slider's motion and the episode's elapsed
     fraction taken from another sample (the teacher's action does not depend on them, and with the

@@ -16,7 +16,10 @@ from .network import Student, adam_fit, edge_loss, policy_mean
 
 SENSOR_ID = "MDRDriveSensor-v0"
 #: The full observation's entries the sensor observation hides (ObservationLayout.structure names);
-#: a teacher on the privileged observation is told ``"friction"`` (mu, mu1) too.
+#: a teacher on the privileged observation is told ``"friction_ratio"`` (mu1 / mu) too. These are what
+#: the slider's motion can tell (k, the load over mu F_ref, the load, mu1 / mu), never mu and mu1
+#: apart: position shows forces only as mass times acceleration, and k and mu trade off along
+#: mu F_ref(k) = const.
 HIDDEN = ("k", "load_over_friction", "load_over_10N")
 #: PPO settings of the shipped network: what ``mdr-drive train --resume`` fine-tunes it with (small
 #: steps: near an optimal drive the velocity changes steeply with the action).
@@ -31,9 +34,9 @@ def teacher_layout(teacher: Policy):
 
 
 def hidden_entries(layout) -> list[int]:
-    """Indices of the entries of ``layout`` the sensor observation hides: ``HIDDEN``, and friction
-    in the privileged layout."""
-    names = HIDDEN + (("friction",) if layout is PrivilegedLayout else ())
+    """Indices of the entries of ``layout`` the sensor observation hides: ``HIDDEN``, and the
+    friction ratio in the privileged layout."""
+    names = HIDDEN + (("friction_ratio",) if layout is PrivilegedLayout else ())
     return [i for name in names for i in range(*layout.structure[name].indices(len(layout.NAMES)))]
 
 

@@ -46,7 +46,8 @@ import numpy as np
 from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
 from mdr_drive_env.core.params import check_int, check_range
 from mdr_drive_env.files import write_text
-from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
+from mdr_drive_env.gym_envs.sensor import DEFAULT_ENCODER_NOISE, DEFAULT_TRACE_SAMPLES, SensorTier
+from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 
 from ..policy import CODEBOOK_FILE, Policy, load_policy, package_path
 from ..protocol import steady_velocity_of
@@ -86,8 +87,11 @@ class AdaptConfig:
         action_rounds: 0: that fit once after the rounds; N: instead, the last N rounds fit the
             estimator on the actions only (warm), so the rounds after the first of them drive with an
             estimator fitted on actions (DAgger for that fit) (-).
-        sensor_forces: the sensor observation adds each period's peak contact forces (a drive with a
-            force sensor, ``MDRDriveSensor-v0(sensor_forces=True)``).
+        sensor_tier: what the drive measures, ``MDRDriveSensor-v0(sensor_tier=...)``: ``"encoder"``
+            (per-period summaries), ``"trace"`` (also positions through each period) or
+            ``"self-sensing"`` (also the piezo-sensed peak forces).
+        trace_samples: position samples per period of the ``trace`` and ``self-sensing`` tiers (-).
+        encoder_noise: standard deviation of each position sample (m).
     """
 
     teacher: str = "agents/pretrained/ppo_sensor/teacher"
@@ -107,7 +111,9 @@ class AdaptConfig:
     action_steps: int = 0
     action_learning_rate: float = 3e-4
     action_rounds: int = 0
-    sensor_forces: bool = False
+    sensor_tier: str = "encoder"
+    trace_samples: int = DEFAULT_TRACE_SAMPLES
+    encoder_noise: float = DEFAULT_ENCODER_NOISE
 
     def __post_init__(self) -> None:
         for name in ("history", "episodes", "periods", "estimator_steps", "batch", "torch_threads"):
@@ -127,6 +133,7 @@ class AdaptConfig:
         check_range("load_step_share", self.load_step_share, 0.0, 1.0)
         check_range("action_noise", self.action_noise, 0.0, 1.0)
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
+        SensorTier(self.sensor_tier, self.trace_samples, self.encoder_noise)  # its own checks
 
 
 def sensor_envs(config: AdaptConfig, n: int, seed: int) -> tuple[list, np.ndarray]:
@@ -144,7 +151,7 @@ def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.ran
     """One episode in every env (reset, first observations ``obs``), each period's actions
     ``driver(sensor_obs, privileged_obs)`` plus Gaussian noise of std ``noise`` (from ``rng``).
     Returns the sensor observations (periods * n, d), the privileged observations (periods * n, 14;
-    with ``friction`` 16, mu and mu1 appended) and the displacements (periods, n) m."""
+    with ``friction`` 15, mu1 / mu appended) and the displacements (periods, n) m."""
     sensed, privileged, disp = [], [], []
     for _ in range(envs[0].unwrapped.max_periods):
         full = np.array([env.unwrapped.privileged_observation(friction=friction) for env in envs])
@@ -203,7 +210,7 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
     rng = np.random.default_rng(seed)
     layout = teacher_layout(teacher)
     hidden = hidden_entries(layout)
-    sensor_structure = SensorLayout(config.history, config.sensor_forces).structure
+    sensor_structure = sensor_structure_of(config)
     sensed, privileged, history = [], [], []
     estimator = sensor_teacher = None
 
@@ -251,9 +258,15 @@ def fit_on_actions(sensor_teacher: SensorTeacher, sensed: np.ndarray, privileged
 def sensor_env_kwargs(config: AdaptConfig) -> dict:
     """The env the sensor policy is trained and acts in, as ``MDRDriveSensor-v0`` keywords: its trained
     range (run.json: what ``evaluate`` warns outside) and its observation."""
+    tier = {} if config.sensor_tier == "encoder" else {
+        "sensor_tier": config.sensor_tier, "trace_samples": config.trace_samples, "encoder_noise": config.encoder_noise}
     return {**{key: list(v) if isinstance(v, tuple) else v for key, v in SENSOR_DEFAULTS.items()},
-            "history": config.history, "max_periods": config.periods,
-            **({"sensor_forces": True} if config.sensor_forces else {})}
+            "history": config.history, "max_periods": config.periods, **tier}
+
+
+def sensor_structure_of(config: AdaptConfig) -> dict[str, slice]:
+    """Where each group of entries sits in the sensor observation ``config`` trains on."""
+    return gym.make(SENSOR_ID, **sensor_env_kwargs(config)).unwrapped.observation_structure
 
 
 def merge_check(student: Student, sensor_teacher: SensorTeacher, config: AdaptConfig, seed: int) -> dict:
@@ -336,4 +349,4 @@ def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig
     return summary
 
 
-__all__ = ["AdaptConfig", "DEFAULT_CONFIG", "SensorRecipeConfig", "Validation", "collect", "load_config", "merge_check", "run", "sensor_env_kwargs", "sensor_envs", "train"]
+__all__ = ["AdaptConfig", "DEFAULT_CONFIG", "SensorRecipeConfig", "Validation", "collect", "load_config", "merge_check", "run", "sensor_env_kwargs", "sensor_envs", "sensor_structure_of", "train"]

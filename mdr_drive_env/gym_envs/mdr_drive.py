@@ -165,10 +165,11 @@ class MDRDriveEnv(gym.Env):
     (docs/adaptation.md).
 
     **Privileged observation** (``observation="privileged"``): the full observation and then the
-    episode's friction coefficients, entry 14 mu and entry 15 mu1 (-), bounds [0, 2]
-    (``observation_structure["friction"]``). For a teacher trained with friction drawn per episode:
-    the full observation gives the load over mu F_ref, on which the drive depends little at a given
-    ratio mu1 / mu, but not that ratio, on which it depends much.
+    episode's friction ratio mu1 / mu, entry 14 (-), bounds [0, 10]
+    (``observation_structure["friction_ratio"]``). For a teacher trained with friction drawn per
+    episode: the full observation gives the load over mu F_ref, on which the drive depends at a
+    given ratio mu1 / mu, but not that ratio, on which it depends much; mu itself follows from the
+    load entries and k. The slider's motion tells the ratio, not mu and mu1 apart.
     ``privileged_observation(friction=True)`` returns it from any env.
 
     ## Rewards
@@ -236,9 +237,9 @@ class MDRDriveEnv(gym.Env):
     ## Version History
 
     * v0: initial version; later within v0: the sensor observation, friction ranges, load steps,
-      ``MDRDriveSensor-v0``, the privileged observation, ``z_phase_origin``, ``time_quantum``,
-      ``action_codebook`` and the sensor tiers (the full observation, the action map and the
-      defaults are unchanged).
+      ``MDRDriveSensor-v0``, the privileged observation (one friction entry, the ratio mu1 / mu,
+      where it first had mu and mu1), ``z_phase_origin``, ``time_quantum``, ``action_codebook`` and
+      the sensor tiers (the full observation, the action map and the defaults are unchanged).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -515,16 +516,16 @@ class MDRDriveEnv(gym.Env):
         return self._with_friction(full) if self.observation == "privileged" else full
 
     def _with_friction(self, full: np.ndarray) -> np.ndarray:
-        """``full`` with the episode's mu and mu1 appended (``PrivilegedLayout``)."""
+        """``full`` with the episode's friction ratio mu1 / mu appended (``PrivilegedLayout``)."""
         c = self.params.contact
-        friction = [min(max(c.friction_coefficient, 0.0), 2.0), min(max(c.base_friction_coefficient, 0.0), 2.0)]
-        return np.concatenate([full, np.array(friction, dtype=np.float32)])
+        ratio = PrivilegedLayout.ratio([c.friction_coefficient, c.base_friction_coefficient])
+        return np.concatenate([full, np.array([ratio], dtype=np.float32)])
 
     def privileged_observation(self, friction: bool = False) -> np.ndarray:
         """The full observation (``ObservationLayout``: k and the load included) of the current state,
         whatever ``observation`` is, with the load of the coming period (the new one when a load step
         falls on it): what a privileged teacher is told while a sensor policy learns (float32). With
-        ``friction``, the ``PrivilegedLayout`` (mu and mu1 appended)."""
+        ``friction``, the ``PrivilegedLayout`` (mu1 / mu appended)."""
         if self.sim is None:
             raise RuntimeError("call reset() before privileged_observation()")
         params = self.params

@@ -285,20 +285,30 @@ class ObservationLayout:
 
 
 class PrivilegedLayout(ObservationLayout):
-    """The full observation and the episode's friction coefficients, mu (indenter-slider) and mu1
-    (slider-base), bounds [0, 2]: what a teacher is told when friction is drawn per episode (the full
-    observation holds the load over mu F_ref, but not the ratio mu1 / mu, which moves the best drive)."""
+    """The full observation and the episode's friction ratio mu1 / mu (slider-base over
+    indenter-slider), bounds [0, 10]: what a teacher is told when friction is drawn per episode. The
+    full observation holds the load over mu F_ref, on which a drive depends at a given ratio, but not
+    the ratio, which moves the best drive much; mu itself follows from the load entries and k, and
+    the slider's motion does not tell mu and mu1 apart beyond their ratio (docs/adaptation.md)."""
 
-    NAMES = ObservationLayout.NAMES + ("friction_coefficient", "base_friction_coefficient")
-    low = np.concatenate([ObservationLayout.low, np.zeros(2, dtype=np.float32)])
-    high = np.concatenate([ObservationLayout.high, np.full(2, 2.0, dtype=np.float32)])
-    structure = {**ObservationLayout.structure, "friction": slice(14, 16)}
+    NAMES = ObservationLayout.NAMES + ("friction_ratio",)
+    low = np.concatenate([ObservationLayout.low, np.zeros(1, dtype=np.float32)])
+    high = np.concatenate([ObservationLayout.high, np.full(1, 10.0, dtype=np.float32)])
+    structure = {**ObservationLayout.structure, "friction_ratio": slice(14, 15)}
+
+    @staticmethod
+    def ratio(friction) -> np.ndarray:
+        """mu1 / mu of ``friction`` (..., 2) (mu, mu1), clipped to the entry's bounds [0, 10]."""
+        friction = np.asarray(friction, dtype=np.float64)
+        mu, mu1 = friction[..., 0], friction[..., 1]
+        return np.clip(mu1 / np.maximum(mu, 1e-12), 0.0, 10.0)
 
     @classmethod
     def build(cls, dynamics, prev_action, k, load, friction_ref, episode_fraction, friction=None) -> np.ndarray:
-        """:meth:`ObservationLayout.build`, then ``friction`` (n, 2): mu and mu1 of each drive (-)."""
+        """:meth:`ObservationLayout.build`, then the ratio mu1 / mu of ``friction`` (n, 2): mu and mu1
+        of each drive (-)."""
         full = ObservationLayout.build(dynamics, prev_action, k, load, friction_ref, episode_fraction)
-        return np.concatenate([full, np.clip(friction, 0.0, 2.0).astype(np.float32)], axis=1)
+        return np.concatenate([full, cls.ratio(friction)[:, None].astype(np.float32)], axis=1)
 
 
 class SensorLayout:

@@ -1,4 +1,5 @@
-"""MDRDrive-v0's privileged observation: the full observation and the episode's friction (for teachers)."""
+"""MDRDrive-v0's privileged observation: the full observation and the episode's friction ratio mu1 / mu (for
+teachers)."""
 
 import gymnasium as gym
 import numpy as np
@@ -12,7 +13,7 @@ RANGES = {"k": (0.0, 0.6), "load_ratio": (0.0, 0.4), "friction_coefficient": (0.
 
 
 
-def test_the_privileged_observation_is_the_full_one_and_the_episodes_friction():
+def test_the_privileged_observation_is_the_full_one_and_the_episodes_friction_ratio():
     from gymnasium.utils.env_checker import check_env
     from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
@@ -21,8 +22,9 @@ def test_the_privileged_observation_is_the_full_one_and_the_episodes_friction():
     check_env(env.unwrapped)
     sb3_check_env(env.unwrapped)
     obs, info = env.reset(seed=7)
-    assert env.observation_space.shape == (16,) and env.unwrapped.observation_structure["friction"] == slice(14, 16)
-    assert obs[14:] == pytest.approx([info["friction_coefficient"], info["base_friction_coefficient"]], rel=1e-6)
+    assert env.observation_space.shape == (15,) and env.unwrapped.observation_structure["friction_ratio"] == slice(14, 15)
+    assert obs[14] == pytest.approx(info["base_friction_coefficient"] / info["friction_coefficient"], rel=1e-6)
+    assert 0.07 / 0.4 <= obs[14] <= 0.13 / 0.2
     assert np.array_equal(obs[:14], full.reset(seed=7)[0])
     action = np.full(5, 0.4, dtype=np.float32)
     obs, *_ = env.step(action)
@@ -31,7 +33,8 @@ def test_the_privileged_observation_is_the_full_one_and_the_episodes_friction():
     assert env.unwrapped.privileged_observation().shape == (14,)  # the full layout, as before
     sensor = gym.make("MDRDriveSensor-v0")
     _, info = sensor.reset(seed=2)
-    assert sensor.unwrapped.privileged_observation(friction=True)[14] == pytest.approx(info["friction_coefficient"])
+    assert sensor.unwrapped.privileged_observation(friction=True)[14] == pytest.approx(
+        info["base_friction_coefficient"] / info["friction_coefficient"], rel=1e-6)
     with pytest.raises(ValueError, match="observation"):
         gym.make("MDRDrive-v0", observation="oracle")
 

@@ -57,12 +57,12 @@ def test_a_sensor_policy_learns_friction_too_from_a_privileged_teacher(teacher_r
 
     out, _ = teacher_run
     teacher = load_policy(out / "policy")
-    assert teacher_layout(teacher) is PrivilegedLayout and hidden_entries(PrivilegedLayout) == [10, 11, 12, 14, 15]
+    assert teacher_layout(teacher) is PrivilegedLayout and hidden_entries(PrivilegedLayout) == [10, 11, 12, 14]
     config = AdaptConfig(teacher=str(out / "policy"), history=2, episodes=4, periods=6, load_step_periods=(1, 4),
                          estimator_arch=(8, 8))
     sensed, privileged, _ = collect(*sensor_envs(config, 4, seed=2), lambda s, p: teacher.act(p), friction=True)
-    assert privileged.shape[1] == 16
-    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0, n_out=5)
+    assert privileged.shape[1] == 15
+    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0, n_out=4)
     estimator.fit(sensed, privileged[:, hidden_entries(PrivilegedLayout)], 5, 16, 1e-3, 0, False)
     composed = SensorTeacher(teacher, estimator, SensorLayout(2).structure)
     merged = merged_policy(composed, sensor_env_kwargs(config), config.log_std)
