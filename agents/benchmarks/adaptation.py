@@ -5,8 +5,8 @@
 Two experiments on draws of ``MDRDriveSensor-v0``'s hidden parameters (k in [0, 0.6], the load
 from 0 to 0.4 of mu F_ref, mu in [0.2, 0.4], mu1 in [0.07, 0.13]) from ``--seed``:
 
-1. **blind points** (``--blind N``): the steady velocity (mean of periods 21-30) of the sensor
-   policy, and of its baselines at the same hidden values: the trapezoid; the *tuned-once* fixed
+1. **blind points** (``--blind N``): the steady velocity (mean of periods 21-30) of each sensor
+   policy (one per sensor tier, each in its own tier), and of their baselines at the same hidden values: the trapezoid; the *tuned-once* fixed
    waveform (CMA-ES at the middle of the ranges: k = 0.3, load 0.2 of mu F_ref, mu = 0.3,
    mu1 = 0.1; what an engineer would tune once); the full-observation policy (told k, the load and
    friction: an upper bound); and the best drive found at the point: the search's
@@ -54,7 +54,24 @@ RECOVERY_PERIODS = 5
 RECOVERY_FRACTION = 0.9
 #: The issue's floor on a sensor drive's fraction of the per-point best drive ("under 0.75" in the tables).
 FRACTION_FLOOR = 0.75
+#: The drives of a report with one sensor policy; a report's own are ``res["drives"]`` (``drive_labels``).
 DRIVES = ("sensor policy", "full-observation policy", "trapezoid", "tuned once")
+BASELINES = DRIVES[1:]
+
+
+def drive_labels(sensor_policies: list) -> list[str]:
+    """The report's drives: one label per sensor policy (``"sensor policy"`` alone; with several,
+    ``"sensor policy (TIER)"`` by the tier its run.json names, then by folder where tiers repeat), then
+    ``BASELINES``."""
+    if len(sensor_policies) == 1:
+        return list(DRIVES)
+    tiers = [p.play_kwargs.get("sensor_tier", "encoder") for p in sensor_policies]
+    labels = [f"sensor policy ({t})" if tiers.count(t) == 1 else f"sensor policy ({t}, {Path(p.folder).name})"
+              for t, p in zip(tiers, sensor_policies)]
+    if len(set(labels)) < len(labels):
+        raise ValueError(f"the sensor policies {[str(p.folder) for p in sensor_policies]} are not told apart by "
+                         "tier and folder name")
+    return [*labels, *BASELINES]
 
 
 def draw_hidden(n: int, seed: int, load_step: bool = False) -> list[dict]:
@@ -133,15 +150,19 @@ def reusable_search(path: str | Path, seed: int, n: int, search: dict) -> list[d
     return previous["best_search"]
 
 
-def run(sensor_policy: str, full_policy: str, n: int, n_steps: int, seed: int, out: str | Path, quick: bool = False,
+def run(sensor_policy, full_policy: str, n: int, n_steps: int, seed: int, out: str | Path, quick: bool = False,
         executor: Executor | None = None, resume: bool = False, reuse: str | Path | None = None) -> dict:
     """Both experiments (module docstring) into ``out``; returns what ``adaptation.json`` holds.
-    ``reuse``: an earlier ``adaptation.json`` whose per-point searches are taken (``reusable_search``)."""
+    ``sensor_policy``: a policy folder or a list of them (one per tier, ``drive_labels``). ``reuse``:
+    an earlier ``adaptation.json`` whose per-point searches are taken (``reusable_search``)."""
     out = Path(out)
     executor = executor or Executor()
     fixed_budget = QUICK["fixed_budget"] if quick else CMA_BUDGET
     cycle_budget = QUICK["cycle_budget"] if quick else CYCLE_SEARCH["budget"]
-    policies = {"sensor policy": load_policy(sensor_policy), "full-observation policy": load_policy(full_policy),
+    folders = [sensor_policy] if isinstance(sensor_policy, (str, Path)) else list(sensor_policy)
+    sensors = [load_policy(f) for f in folders]
+    drives = drive_labels(sensors)
+    policies = {**dict(zip(drives, sensors)), "full-observation policy": load_policy(full_policy),
                 "trapezoid": None, "tuned once": FixedAction(tuned_once_action(fixed_budget))}
     search = {"fixed_budget": fixed_budget, "cycle_budget": cycle_budget}
     points = draw_hidden(n, seed)
@@ -153,18 +174,18 @@ def run(sensor_policy: str, full_policy: str, n: int, n_steps: int, seed: int, o
     else:
         best_runs = executor.map(best_drive, tasks, "adaptation: best drive per point", store=store)
     steady, actions = {}, {}
-    for drive in DRIVES:
+    for drive in drives:
         runs = [play(drive, policies, d, EVAL_PERIODS) for d in points]
         steady[drive] = steady_velocity_of(np.array([r[0] for r in runs]).T * ACTION_MAP.period,
                                            runaway=[r[2] for r in runs])
         actions[drive] = np.array([r[1][-AVERAGE_PERIODS:] for r in runs])
     # the best drive found at each point: the search's, or any drive's that beat it
     best = np.nanmax(np.array([[r["velocity"] for r in best_runs], *steady.values()]), axis=0)
-    stats = {drive: velocity_statistics(steady["trapezoid"], best, steady[drive]) for drive in DRIVES}
+    stats = {drive: velocity_statistics(steady["trapezoid"], best, steady[drive]) for drive in drives}
 
     steps = draw_hidden(n_steps, seed + 1, load_step=True)
     series, step_actions, recovered = {}, {}, {}
-    for drive in DRIVES:
+    for drive in drives:
         runs = [play(drive, policies, d, STEP_EPISODE_PERIODS, (STEP_PERIOD, d["step_cargo_mass"])) for d in steps]
         series[drive] = np.array([r[0] for r in runs])
         step_actions[drive] = np.array([r[1] for r in runs])
@@ -180,23 +201,31 @@ def run(sensor_policy: str, full_policy: str, n: int, n_steps: int, seed: int, o
             "median_periods_to_recover": float(np.median([r[1] for r in scored])) if scored else None,
             "stalled_after_step": int(sum(r[0] <= 0.0 for r in rec)),
         }
-    res = {"seed": seed, "n": n, "load_steps": n_steps, "quick": quick, "sensor_policy": str(sensor_policy),
+    res = {"seed": seed, "n": n, "load_steps": n_steps, "quick": quick, "drives": drives,
+           "sensor_policy": str(folders[0]) if len(folders) == 1 else [str(f) for f in folders],
+           "sensor_tiers": {d: p.play_kwargs.get("sensor_tier", "encoder") for d, p in zip(drives, sensors)},
            "full_policy": str(full_policy), "tuned_once_point": TUNED_ONCE_POINT,
            "tuned_once_action": policies["tuned once"].action.tolist(),
            "search": search, "search_reused_from": None if reuse is None else str(reuse),
            "protocol": f"steady velocity: mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}; "
                        f"load steps before period {STEP_PERIOD} of {STEP_EPISODE_PERIODS}, recovery within "
                        f"{RECOVERY_PERIODS} periods to {RECOVERY_FRACTION} of the steady velocity at the new load",
-           "points": points, "best_search": best_runs, "best_velocity_m_s": best, "steady_velocity_m_s": {d: steady[d] for d in DRIVES},
+           "points": points, "best_search": best_runs, "best_velocity_m_s": best, "steady_velocity_m_s": {d: steady[d] for d in drives},
            "statistics": stats, "load_step_episodes": steps,
-           "load_step_velocity_m_s": {d: series[d] for d in DRIVES}, "load_step_recovery": recovered,
-           "steady_actions": {d: actions[d] for d in DRIVES}, "load_step_actions": {d: step_actions[d] for d in DRIVES}}
+           "load_step_velocity_m_s": {d: series[d] for d in drives}, "load_step_recovery": recovered,
+           "steady_actions": {d: actions[d] for d in drives}, "load_step_actions": {d: step_actions[d] for d in drives}}
     write_outputs(res, out)
     store.clear()
     return res
 
 
+def drives_of(res: dict) -> list[str]:
+    """The drives of a report (``res["drives"]``; ``DRIVES`` in a report written before it had them)."""
+    return list(res.get("drives", DRIVES))
+
+
 def markdown(res: dict) -> str:
+    drives = drives_of(res)
     lines = [f"# Adaptation: seed {res['seed']}{' (quick)' if res['quick'] else ''}", "",
              f"{res['n']} blind points and {res['load_steps']} load-step episodes of MDRDriveSensor-v0's hidden "
              f"parameters; {res['protocol']}.", "",
@@ -213,10 +242,10 @@ def markdown(res: dict) -> str:
                      f"{r['upward_recovered_within']} of {r['upward_steps_scored']} | "
                      f"{_f(r['median_periods_to_recover'])} | {r['stalled_after_step']} of {res['load_steps']} |")
     lines += ["", "Steady velocities (mm/s); best: the best drive found (the search's, or a drive's that beat it).", "",
-              "| k | load ratio | mu | mu1 | best | " + " | ".join(DRIVES) + " |",
-              "|---|---|---|---|---|" + "---|" * len(DRIVES)]
+              "| k | load ratio | mu | mu1 | best | " + " | ".join(drives) + " |",
+              "|---|---|---|---|---|" + "---|" * len(drives)]
     for i, d in enumerate(res["points"]):
-        cells = [format_velocity(res["steady_velocity_m_s"][drive][i], digits=2) for drive in DRIVES]
+        cells = [format_velocity(res["steady_velocity_m_s"][drive][i], digits=2) for drive in drives]
         lines.append(f"| {d['k']:.3f} | {d['load_ratio']:.3f} | {d['friction_coefficient']:.3f} | "
                      f"{d['base_friction_coefficient']:.3f} | {format_velocity(res['best_velocity_m_s'][i], digits=2)} | "
                      + " | ".join(cells) + " |")
@@ -229,18 +258,24 @@ def _f(x) -> str:
 
 def write_outputs(res: dict, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
+    drives = drives_of(res)
     write_text(out / "adaptation.json", json.dumps(json_safe(res), indent=1))
     write_text(out / "adaptation.md", markdown(res))
     header = ["k", "cargo_mass_kg", "friction_coefficient", "base_friction_coefficient", "load_ratio",
-              "best_m_s", *[f"{d.replace(' ', '_').replace('-', '_')}_m_s" for d in DRIVES]]
+              "best_m_s", *[f"{column_name(d)}_m_s" for d in drives]]
     write_csv(out / "points.csv", header, [
         [d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"], d["load_ratio"],
-         res["best_velocity_m_s"][i], *[res["steady_velocity_m_s"][drive][i] for drive in DRIVES]]
+         res["best_velocity_m_s"][i], *[res["steady_velocity_m_s"][drive][i] for drive in drives]]
         for i, d in enumerate(res["points"])])
     write_csv(out / "load_steps.csv", ["episode", "drive", "period", "velocity_m_s"], [
-        [e, drive, t, v] for drive in DRIVES for e, row in enumerate(res["load_step_velocity_m_s"][drive])
+        [e, drive, t, v] for drive in drives for e, row in enumerate(res["load_step_velocity_m_s"][drive])
         for t, v in enumerate(row)])
     plot(res, out)
+
+
+def column_name(drive: str) -> str:
+    """``drive`` as a CSV column name (``sensor policy (trace)`` -> ``sensor_policy_trace``)."""
+    return "_".join("".join(c if c.isalnum() else " " for c in drive).split())
 
 
 def plot(res: dict, out: Path) -> None:
@@ -253,11 +288,13 @@ def plot(res: dict, out: Path) -> None:
     change = np.array([d["step_cargo_mass"] - d["cargo_mass"] for d in steps])
     picks = [("load stepped up", int(np.argmax(change))), ("load stepped down", int(np.argmin(change)))]
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
-    colors = dict(zip(DRIVES, ("C0", "C1", "0.4", "C3")))
+    drives = drives_of(res)
+    sensors = drives[:-len(BASELINES)]
+    colors = {**dict(zip(sensors, ("C0", "C2", "C4", "C5", "C6"))), **dict(zip(BASELINES, ("C1", "0.4", "C3")))}
     for col, (title, e) in enumerate(picks):
         d = steps[e]
         t = np.arange(1, STEP_EPISODE_PERIODS + 1)
-        for drive in DRIVES:
+        for drive in drives:
             axes[0, col].plot(t, np.asarray(res["load_step_velocity_m_s"][drive][e]) * 1e3, color=colors[drive],
                               label=drive, lw=1.5 if "policy" in drive else 1.0)
             if "policy" in drive:
@@ -282,7 +319,8 @@ def plot(res: dict, out: Path) -> None:
                "smallest x amplitude, periods 21-30 (um)"),
               (lambda ep: ACTION_MAP.to_params(ep[-1]).z_phase, "z phase of period 30 (-)"))
     for ax, (value_of, label) in zip(axes, panels):
-        for drive, marker, alpha in (("full-observation policy", "o", 0.35), ("sensor policy", "x", 1.0)):
+        for drive, marker, alpha in (("full-observation policy", "o", 0.35), *((s, m, 1.0) for s, m in
+                                                                          zip(sensors, "x+1234"))):
             values = [value_of(ep) for ep in np.asarray(res["steady_actions"][drive])]
             sc = ax.scatter(ratio, values, c=ks, cmap="viridis", vmin=0, vmax=0.6, marker=marker, label=drive,
                             alpha=alpha)
@@ -294,4 +332,4 @@ def plot(res: dict, out: Path) -> None:
     plt.close(fig)
 
 
-__all__ = ["DRIVES", "FixedAction", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]
+__all__ = ["BASELINES", "DRIVES", "FixedAction", "column_name", "drive_labels", "drives_of", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]

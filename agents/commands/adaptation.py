@@ -13,7 +13,7 @@ from pathlib import Path
 from .evaluate import policy_path
 
 HELP = "a sensor policy on hidden-parameter draws and load steps"
-DESCRIPTION = ("The sensor policy (k, the load and friction hidden) against the trapezoid, a waveform tuned once, its "
+DESCRIPTION = ("Sensor policies (k, the load and friction hidden; one per sensor tier) against the trapezoid, a waveform tuned once, its "
                "full-observation teacher and the best drive a CMA-ES search finds at each of N draws of the hidden "
                "parameters, and through M load steps (recovery within 5 periods). Writes adaptation.json, "
                "adaptation.md, CSVs and plots; the per-point searches are kept as they finish (--resume).")
@@ -25,7 +25,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     from ..benchmarks.adaptation import FULL_POLICY, SENSOR_POLICY
 
-    p.add_argument("--sensor-policy", default=SENSOR_POLICY, type=policy_path, help="the sensor policy's folder")
+    p.add_argument("--sensor-policy", action="append", default=None, type=policy_path, metavar="FOLDER",
+                   help=f"a sensor policy's folder, each played in its own sensor tier; give it once per tier to "
+                        f"compare tiers side by side (default: {SENSOR_POLICY})")
     p.add_argument("--full-policy", default=FULL_POLICY, type=policy_path,
                    help="the full-observation policy's folder, the upper bound")
     p.add_argument("--blind", type=positive_int, default=48, metavar="N", help="draws of the hidden parameters (-)")
@@ -47,7 +49,7 @@ def main(args: argparse.Namespace) -> int:
     from mdr_drive_env.files import write_text
     from mdr_drive_env.sweep import executor_from
 
-    from ..benchmarks.adaptation import markdown, plot, run
+    from ..benchmarks.adaptation import SENSOR_POLICY, markdown, plot, run
     from ..blas import pin_command
 
     out = Path(args.out or f"runs/adaptation/seed{args.seed}")
@@ -62,7 +64,7 @@ def main(args: argparse.Namespace) -> int:
     pin_command()
 
     def work():
-        res = run(args.sensor_policy, args.full_policy, args.blind, args.load_steps, args.seed, out, quick=args.quick,
+        res = run(args.sensor_policy or [SENSOR_POLICY], args.full_policy, args.blind, args.load_steps, args.seed, out, quick=args.quick,
                   executor=executor_from(args), resume=args.resume, reuse=args.reuse_search)
         print(markdown(res).split("\n| k |")[0])
 

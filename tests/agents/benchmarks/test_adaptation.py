@@ -35,9 +35,13 @@ def test_the_adaptation_report_runs_in_quick_mode(tmp_path):
         assert (tmp_path / name).stat().st_size > 0
     assert res["points"] == adaptation.draw_hidden(2, 5)  # the draws follow the seed
 
-    again = adaptation.run(adaptation.SENSOR_POLICY, adaptation.FULL_POLICY, 2, 1, seed=5, out=tmp_path / "again", quick=True,
-                           reuse=tmp_path / "adaptation.json")  # another policy judged on the same searches
+    again = adaptation.run([adaptation.SENSOR_POLICY, adaptation.FULL_POLICY], adaptation.FULL_POLICY, 2, 1, seed=5,
+                           out=tmp_path / "again", quick=True,
+                           reuse=tmp_path / "adaptation.json")  # other policies judged on the same searches
     assert again["best_search"] == json.loads((tmp_path / "adaptation.json").read_text())["best_search"]
+    assert again["drives"][:2] == ["sensor policy (encoder, ppo_sensor)", "sensor policy (encoder, teacher)"]
+    assert set(again["statistics"]) == set(again["drives"]) and again["drives"][2:] == list(adaptation.BASELINES)
+    assert "sensor_policy_encoder_ppo_sensor_m_s" in (tmp_path / "again" / "points.csv").read_text().splitlines()[0]
     assert again["search_reused_from"] == str(tmp_path / "adaptation.json")
     with pytest.raises(ValueError, match="--reuse-search .* seed"):
         adaptation.run(adaptation.SENSOR_POLICY, adaptation.FULL_POLICY, 2, 1, seed=6, out=tmp_path / "other", quick=True,
