@@ -169,25 +169,42 @@ def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.ran
 class Validation:
     """A driver's steady velocity (mean of the last 10 of 30 periods, no load step) as a fraction of
     the teacher's on the same ``n`` hidden draws of ``seed``, where the teacher moves >= 2 mm/s (the
-    teacher's velocities are computed once)."""
+    teacher's velocities are computed once); for a ``SensorTeacher``, also its estimator's error on
+    each hidden entry over the periods after the first ``history`` (root mean square over the
+    entry's standard deviation on the draws: 0 exact, 1 no better than the mean)."""
 
     def __init__(self, teacher: Policy, config: AdaptConfig, seed: int, n: int = 64):
         self.config = AdaptConfig(**{**asdict(config), "periods": 30, "load_step_share": 0.0,
                                      "load_step_periods": (1, 1)})
         self.seed, self.n = seed, n
         self.friction = teacher_layout(teacher) is PrivilegedLayout
-        self.v_teacher = self.steady(lambda s, p: teacher.act(p))
+        self.v_teacher = self.steady(lambda s, p: teacher.act(p))[0]
 
-    def steady(self, driver) -> np.ndarray:
-        """``driver``'s steady velocities (m/s) on the draws."""
-        return steady_velocity_of(collect(*sensor_envs(self.config, self.n, self.seed), driver,
-                                          friction=self.friction)[2])
+    def steady(self, driver) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``driver``'s steady velocities (m/s) on the draws, and its episodes' sensor and privileged
+        observations from period ``history`` on."""
+        sensed, privileged, disp = collect(*sensor_envs(self.config, self.n, self.seed), driver, friction=self.friction)
+        settled = slice(self.config.history * self.n, None)  # rows are period-major
+        return steady_velocity_of(disp), sensed[settled], privileged[settled]
 
     def __call__(self, driver) -> dict:
+        v, sensed, privileged = self.steady(driver)
         keep = self.v_teacher >= 2e-3
-        frac = self.steady(driver)[keep] / self.v_teacher[keep]
-        return {"val_mean_fraction_of_teacher": float(frac.mean()), "val_min_fraction_of_teacher": float(frac.min()),
-                "val_points_scored": int(keep.sum())}
+        frac = v[keep] / self.v_teacher[keep]
+        record = {"val_mean_fraction_of_teacher": float(frac.mean()), "val_min_fraction_of_teacher": float(frac.min()),
+                  "val_points_scored": int(keep.sum())}
+        if isinstance(driver, SensorTeacher):
+            record.update(estimate_errors(driver, sensed, privileged))
+        return record
+
+
+def estimate_errors(sensor_teacher: SensorTeacher, sensed: np.ndarray, privileged: np.ndarray) -> dict:
+    """The estimator's standardised error on each hidden entry (``val_error_<name>``: root mean
+    square error over the entry's standard deviation in ``privileged``)."""
+    names = teacher_layout(sensor_teacher.teacher).NAMES
+    truth = privileged[:, sensor_teacher.hidden]
+    err = np.sqrt(np.mean((sensor_teacher.estimator(sensed) - truth) ** 2, axis=0)) / (truth.std(axis=0) + 1e-12)
+    return {f"val_error_{names[i]}": float(e) for i, e in zip(sensor_teacher.hidden, err)}
 
 
 def _log(record: dict) -> None:
@@ -349,4 +366,4 @@ def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig
     return summary
 
 
-__all__ = ["AdaptConfig", "DEFAULT_CONFIG", "SensorRecipeConfig", "Validation", "collect", "load_config", "merge_check", "run", "sensor_env_kwargs", "sensor_envs", "sensor_structure_of", "train"]
+__all__ = ["AdaptConfig", "DEFAULT_CONFIG", "SensorRecipeConfig", "Validation", "collect", "estimate_errors", "load_config", "merge_check", "run", "sensor_env_kwargs", "sensor_envs", "sensor_structure_of", "train"]

@@ -59,6 +59,9 @@ def test_the_sensor_student_is_a_plain_sb3_policy_on_the_sensor_observation(sens
     assert [r["round"] for r in summary["rounds"]] == [0, 1]
     assert summary["rounds"][1]["samples"] == 2 * 8 * 12
     assert "val_mean_fraction_of_teacher" in summary["rounds"][0]
+    errors = {key: v for key, v in summary["rounds"][-1].items() if key.startswith("val_error_")}
+    assert set(errors) == {"val_error_k", "val_error_load_over_friction", "val_error_load_over_10N"}
+    assert all(0.0 < v < 10.0 for v in errors.values())
     assert "action_fit" not in summary["rounds"][0] and summary["rounds"][1]["action_fit"] == 10  # action_rounds: 1
     assert summary["merged"]["merge_max_action_difference"] < 1e-4  # one MlpPolicy = estimator + teacher
     run = json.loads((out / "policy" / "run.json").read_text())
