@@ -141,6 +141,52 @@ def recipe_commit_note(run: dict) -> str:
     return f" at commit {commit} (`git checkout {commit}` first: the recipe has changed since)" if commit else ""
 
 
+def tier_arguments(run: dict) -> str:
+    """The sensor tier's keywords of a sensor policy's env (``sensor_tier=..., trace_samples=...,
+    encoder_noise=..., ``), or "" for the default ``encoder`` tier."""
+    kw = run["env_kwargs"]
+    if kw.get("sensor_tier", "encoder") == "encoder":
+        return ""
+    return (f'sensor_tier="{kw["sensor_tier"]}", trace_samples={kw["trace_samples"]}, '
+            f'encoder_noise={kw["encoder_noise"]:g}, ')
+
+
+#: What each sensor tier measures, as a sensor policy's model card says it.
+TIER_TEXT = {
+    "encoder": "what a position encoder reports per period: the slider's displacement, mean and end velocity",
+    "trace": "the slider's position at {n} evenly spaced times of each period, each with {noise:g} nm of Gaussian noise "
+             "(a laboratory interferometer or capacitive sensor at about {rate:g} kHz), and the per-period displacement, "
+             "mean and end velocity",
+    "self-sensing": "the position trace of the `trace` tier ({n} samples a period, {noise:g} nm noise) and the peak "
+                    "contact forces the piezo senses from its own charge ({force:g} % noise)",
+}
+
+
+def tier_text(run: dict) -> str:
+    """What the sensor policy of ``run`` measures (``TIER_TEXT``), with its tier's numbers."""
+    kw = run["env_kwargs"]
+    tier = kw.get("sensor_tier", "encoder")
+    n = kw.get("trace_samples", 40)
+    period = kw.get("period", 2e-3)
+    return TIER_TEXT[tier].format(n=n, noise=kw.get("encoder_noise", 2e-9) * 1e9, rate=n / period / 1e3,
+                                  force=kw.get("force_noise", 0.02) * 100)
+
+
+def _periods(x) -> str:
+    return "-" if x is None else f"{x:g}"
+
+
+def sensor_drive_label(res: dict, src: str | Path) -> str:
+    """The drive of an adaptation report ``res`` that is the sensor policy in ``src`` (its folder
+    among the report's sensor policies; the only one where the report has one)."""
+    folders = res["sensor_policy"] if isinstance(res["sensor_policy"], list) else [res["sensor_policy"]]
+    drives = res.get("drives", ["sensor policy"])
+    for folder, drive in zip(folders, drives):
+        if Path(folder).resolve() == Path(src).resolve() or len(folders) == 1:
+            return drive
+    raise ValueError(f"{src} is none of the sensor policies the adaptation report played: {folders}")
+
+
 def load_snippet(dst: Path, run: dict) -> str:
     """The card's tested ``load_policy`` snippet for the policy in ``dst``."""
     overrides = "k=0.2, cargo_mass=0.1"
@@ -182,7 +228,7 @@ def snippet(dst: Path, run: dict) -> str:
                               comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
                                       "here to try one drive\n",
                               make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, '
-                                        "max_periods=30, "
+                                        f"{tier_arguments(run)}max_periods=30, "
                                         "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
                                         "base_friction_coefficient=0.1")
     # its actions mean what they mean in an env with its seam of the z phase and its time quantum
@@ -320,10 +366,11 @@ fresh drive, computed by `mdr-drive model-card {Path(src).as_posix()} {dst.as_po
 def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -> Path:
     """Copy the sensor policy in ``src`` to ``dst`` (as :func:`ship`) and write its card, which
     quotes its results from ``adaptation_json`` (``mdr-drive adaptation``)."""
-    dst, run = copy_policy(src, dst)
     res = json.loads(Path(adaptation_json).read_text())
+    label = sensor_drive_label(res, src)
+    dst, run = copy_policy(src, dst)
     adapted = run["adapted_from"]
-    s_sensor = res["statistics"]["sensor policy"]
+    s_sensor = res["statistics"][label]
     size_kb = sum((dst / n).stat().st_size for n in policy_files(dst)) / 1024
     lines = ["| drive | below trapezoid | fraction of best: mean | min | load steps recovered within 5 periods "
              "(upward steps) |", "|---|---|---|---|---|"]
@@ -332,11 +379,14 @@ def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -
         lines.append(f"| {drive} | {st['points_below_trapezoid']} | {st['fraction_of_best_mean']:.3f} | "
                      f"{st['fraction_of_best_min']:.3f} | {rec['recovered_within']} of {rec['episodes_scored']} "
                      f"({rec['upward_recovered_within']} of {rec['upward_steps_scored']}) |")
-    card = f"""# {dst.name}: a waveform policy that does not know its load (MDRDriveSensor-v0)
+    tier = run["env_kwargs"].get("sensor_tier", "encoder")
+    recovery = res["load_step_recovery"][label]
+    card = f"""# {dst.name}: a waveform policy that does not know its load (MDRDriveSensor-v0, `{tier}` tier)
 
-One plain Stable-Baselines3 PPO policy that drives the slider from what a position encoder measures:
-the last {run['env_kwargs']['history']} periods of slider displacement, mean and end velocity, and the actions that
-produced them. It is not told k, the load or the friction coefficients (docs/adaptation.md).
+One plain Stable-Baselines3 PPO policy that drives the slider from what its sensors measure
+(the `{tier}` sensor tier: {tier_text(run)}) over the last {run['env_kwargs']['history']} periods,
+and the actions that produced them. It is not told k, the load or the friction coefficients
+(docs/adaptation.md).
 
 ## Load it
 
@@ -347,14 +397,15 @@ With Stable-Baselines3 alone (paths from the repository's root):
 {snippet(dst, run)}
 
 (`tests/agents/test_pretrained.py` runs both snippets.) Or: `mdr-drive evaluate --policy {dst.as_posix()}
---k 0.2 --cargo-mass 0.1 --friction-coefficient 0.25 --load-step 15:0.05 --json`.
+--k 0.2 --cargo-mass 0.1 --friction-coefficient 0.25 --load-step 15:0.05 --json` (it plays in its own tier).
 
 ## How it was made
 
 * Command: `{run['command']}` (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s)
-* Teacher: the full-observation policy `{adapted['teacher']}`. An estimator of what the sensor hides
-  (k, the load over mu F_ref, the load) was fitted to the sensor history on episodes the teacher drove
-  (told the true values), then, round by round, on episodes the teacher drove on the estimator's guesses
+* Teacher: the full-observation policy `{adapted['teacher']}`, told what the slider's motion can
+  tell: k, the load over mu F_ref, the load, and the friction ratio mu1 / mu (never mu and mu1 apart).
+  An estimator of those entries was fitted to the sensor history on episodes the teacher drove (told
+  the true values), then, round by round, on episodes the teacher drove on the estimator's guesses
   (RMA's adaptation module, trained on its own state distribution). This network is that composition,
   estimator then teacher, written exactly as one MlpPolicy (`mdr_drive_agents.student.estimator.merged_policy`; largest
   action difference {adapted['merged']['merge_max_action_difference']:.1e}). Settings: `{json.dumps(adapted['adapt'])}`
@@ -368,18 +419,20 @@ With Stable-Baselines3 alone (paths from the repository's root):
 ## Results on blind draws (`mdr-drive adaptation --seed {res['seed']}`)
 
 {res['n']} hidden-parameter draws and {res['load_steps']} load-step episodes of a seed not used to build or
-select the policy; fraction of the per-point best drive where it moves >= 2 mm/s.
+select the policy; fraction of the per-point best drive where it moves >= 2 mm/s. This policy is the
+row "{label}".
 
 {chr(10).join(lines)}
 
 ## Limits
 
-* Its drives are its teacher's, told the estimated k and load, and the teacher was trained at the
-  paper's friction only (mu = 0.3, mu1 = 0.1): at other friction coefficients both can be slower than
-  the trapezoid (this policy at {s_sensor['points_below_trapezoid']} of {res['n']} blind points, by up to
-  {-s_sensor['worst_difference_to_trapezoid_mm_s']:.1f} mm/s). Check a working point with `mdr-drive evaluate` first.
+* It needs its tier's sensor: played on another sensor, or with more noise than it was trained
+  with, it is untested.
+* Its drives are its teacher's on the estimated values; where the estimate is off it can be slower
+  than the trapezoid (this policy at {s_sensor['points_below_trapezoid']} of {res['n']} blind points, by up to
+  {-min(s_sensor['worst_difference_to_trapezoid_mm_s'], 0.0):.1f} mm/s). Check a working point with `mdr-drive evaluate` first.
 * Before it has seen a few periods it plays an average drive: the first periods after a reset or a load
-  step are slower than a drive told the load (median {res['load_step_recovery']['sensor policy']['median_periods_to_recover']:g}
+  step are slower than a drive told the load (median {_periods(recovery['median_periods_to_recover'])}
   periods to 0.9 of its new steady velocity after a load step).
 * Outside the training ranges above it is untested.
 """

@@ -46,3 +46,12 @@ def test_the_adaptation_report_runs_in_quick_mode(tmp_path):
     with pytest.raises(ValueError, match="--reuse-search .* seed"):
         adaptation.run(adaptation.SENSOR_POLICY, adaptation.FULL_POLICY, 2, 1, seed=6, out=tmp_path / "other", quick=True,
                        reuse=tmp_path / "adaptation.json")
+
+    from mdr_drive_agents.benchmarks.model_card import ship_sensor
+
+    card = ship_sensor(adaptation.SENSOR_POLICY, tmp_path / "shipped", tmp_path / "again" / "adaptation.json").read_text()
+    assert 'This policy is the\nrow "sensor policy (encoder, ppo_sensor)"' in card and "`encoder` tier" in card
+    assert "| sensor policy (encoder, teacher) |" in card  # the report's other drives beside it
+    with pytest.raises(ValueError, match="none of the sensor policies"):
+        ship_sensor("agents/pretrained/ppo_generalist", tmp_path / "other", tmp_path / "again" / "adaptation.json")
+    assert not (tmp_path / "other").exists()  # refused before anything is copied
