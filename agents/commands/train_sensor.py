@@ -18,8 +18,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from ..train.sensor import DEFAULT_CONFIG
     from . import add_recipe_arguments
 
+    from mdr_drive_env.gym_envs.sensor import SENSOR_TIERS
+
     add_recipe_arguments(p, DEFAULT_CONFIG, "YAML with seed, validation_seed and the AdaptConfig fields (default: "
                          "agents/configs/sensor.yaml)", "runs/sensor")
+    p.add_argument("--sensor-tier", choices=SENSOR_TIERS, default=None,
+                   help="the sensor tier the policy drives with (default: the config's sensor_tier): encoder "
+                        "(per-period summaries), trace (positions through each period), self-sensing (and the "
+                        "piezo-sensed forces); docs/adaptation.md")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -28,5 +34,6 @@ def main(args: argparse.Namespace) -> int:
     from ..train.sensor import run
 
     return run_command("mdr-drive train-sensor",
-                       lambda: run(args.config, args.out, force=args.force, progress=not args.no_progress),
+                       lambda: run(args.config, args.out, force=args.force, progress=not args.no_progress,
+                                   sensor_tier=args.sensor_tier),
                        "nothing was saved")

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import gymnasium as gym
@@ -325,9 +325,13 @@ def load_config(path: str | Path) -> tuple[int, int | None, AdaptConfig]:
     return config.seed, config.validation_seed, config.adapt
 
 
-def run(config_path: str | Path, out: str | Path, force: bool = False, progress: bool = True) -> dict:
-    """Train the sensor student from ``config_path`` into ``out``; returns what ``adapt.json`` holds."""
+def run(config_path: str | Path, out: str | Path, force: bool = False, progress: bool = True,
+        sensor_tier: str | None = None) -> dict:
+    """Train the sensor student from ``config_path`` (its ``sensor_tier`` replaced by
+    ``sensor_tier`` if given) into ``out``; returns what ``adapt.json`` holds."""
     seed, validation_seed, config = load_config(config_path)
+    if sensor_tier is not None:
+        config = replace(config, sensor_tier=sensor_tier)
     out = Path(out)
     if out.exists() and any(out.iterdir()) and not force:
         raise ValueError(f"{out} is not empty: overwrite with --force")

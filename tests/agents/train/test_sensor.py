@@ -9,6 +9,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+import yaml
 
 import mdr_drive_env  # noqa: F401
 from mdr_drive_agents.train import sensor as adapt
@@ -21,9 +22,10 @@ TINY = DATA / "sensor_tiny.yaml"
 
 @pytest.fixture(scope="module")
 def sensor_run(tmp_path_factory):
+    """The tiny recipe in the trace tier (the shipped sensor policy's; the config says encoder), by the CLI."""
     out = tmp_path_factory.mktemp("sensor")
-    summary = adapt.run(TINY, out, force=True, progress=False)
-    return out, summary
+    assert main(["train-sensor", str(TINY), "--out", str(out), "--force", "--no-progress", "--sensor-tier", "trace"]) == 0
+    return out, json.loads((out / "adapt.json").read_text())
 
 
 @pytest.mark.parametrize("tier, width", [("encoder", 17), ("trace", 17 + 2 * 3), ("self-sensing", 17 + 2 * 5)])
@@ -59,15 +61,23 @@ def test_the_sensor_student_is_a_plain_sb3_policy_on_the_sensor_observation(sens
     assert [r["round"] for r in summary["rounds"]] == [0, 1]
     assert summary["rounds"][1]["samples"] == 2 * 8 * 12
     assert "val_mean_fraction_of_teacher" in summary["rounds"][0]
+    from mdr_drive_agents.policy import load_policy
+    from mdr_drive_agents.student.estimator import hidden_entries, teacher_layout
+
     errors = {key: v for key, v in summary["rounds"][-1].items() if key.startswith("val_error_")}
-    assert set(errors) == {"val_error_k", "val_error_load_over_friction", "val_error_load_over_10N"}
+    layout = teacher_layout(load_policy(yaml.safe_load(TINY.read_text())["adapt"]["teacher"]))
+    assert set(errors) == {f"val_error_{layout.NAMES[i]}" for i in hidden_entries(layout)}  # the identifiable entries
+    assert set(errors) >= {"val_error_k", "val_error_load_over_friction", "val_error_load_over_10N"}
     assert all(0.0 < v < 10.0 for v in errors.values())
     assert "action_fit" not in summary["rounds"][0] and summary["rounds"][1]["action_fit"] == 10  # action_rounds: 1
     assert summary["merged"]["merge_max_action_difference"] < 1e-4  # one MlpPolicy = estimator + teacher
     run = json.loads((out / "policy" / "run.json").read_text())
     assert run["env_id"] == "MDRDriveSensor-v0" and run["env_kwargs"]["history"] == 3
+    tier = {key: run["env_kwargs"][key] for key in ("sensor_tier", "trace_samples", "encoder_noise")}
+    assert tier == {"sensor_tier": "trace", "trace_samples": 4, "encoder_noise": 2e-9}
+    assert run["adapted_from"]["adapt"]["sensor_tier"] == "trace"
     venv = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"),
-                             DummyVecEnv([lambda: gym.make("MDRDriveSensor-v0", history=3)]))
+                             DummyVecEnv([lambda: gym.make("MDRDriveSensor-v0", history=3, **tier)]))
     venv.training, venv.norm_reward = False, False
     model = PPO.load(out / "policy" / "model.zip", device="cpu")
     obs = venv.reset()
@@ -159,3 +169,17 @@ def test_fitting_the_estimator_through_the_teacher_brings_its_actions_to_the_tol
     composed.fit_actions(sensed, labels, 300, 16, 1e-3, 0, progress=False)
     assert loss() < 0.85 * before
     assert all(p.requires_grad for p in teacher.model.policy.parameters())  # the teacher is left as it was
+
+
+def test_mdr_drive_evaluate_plays_a_sensor_policy_in_its_own_tier(sensor_run, capsys):
+    out, _ = sensor_run
+    code = main(["evaluate", "--policy", str(out / "policy"), "--k", "0.3", "--cargo-mass", "0.02", "--periods", "12",
+                 "--load-step", "6:0.05", "--json"])
+    record = json.loads(capsys.readouterr().out)
+    assert code == 0 and len(record["learned_period_velocity"]) == 12 and record["load_step"] == [6, 0.05]
+    assert all(np.isfinite(record["learned_period_velocity"]))
+    from mdr_drive_agents.policy import load_policy
+
+    policy = load_policy(out / "policy")
+    env = policy.make_env(k=0.3, cargo_mass=0.02)
+    assert env.unwrapped.sensor.tier.name == "trace" and env.observation_space.shape == policy.model.observation_space.shape
