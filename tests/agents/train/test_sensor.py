@@ -12,7 +12,6 @@ import pytest
 import yaml
 
 import mdr_drive_env  # noqa: F401
-from mdr_drive_agents.train import sensor as adapt
 from mdr_drive_env.cli import main
 from mdr_drive_agents.train.sensor import AdaptConfig
 from tests import DATA
