@@ -87,6 +87,10 @@ class AdaptConfig:
         action_rounds: 0: that fit once after the rounds; N: instead, the last N rounds fit the
             estimator on the actions only (warm), so the rounds after the first of them drive with an
             estimator fitted on actions (DAgger for that fit) (-).
+        probe_periods: periods at the start of every episode in which the drive plays the deliberate
+            probe (``probe_actions``, in turn) instead of the teacher, so the estimator reads the drive
+            from answers to varied waveforms (0: no probe). A measurement: the merged network does not
+            play the probe (``ProbeFirst`` does, in Python) (-).
         sensor_tier: what the drive measures, ``MDRDriveSensor-v0(sensor_tier=...)``: ``"encoder"``
             (per-period summaries), ``"trace"`` (also positions through each period) or
             ``"self-sensing"`` (also the piezo-sensed peak forces).
@@ -111,6 +115,7 @@ class AdaptConfig:
     action_steps: int = 0
     action_learning_rate: float = 3e-4
     action_rounds: int = 0
+    probe_periods: int = 0
     sensor_tier: str = "encoder"
     trace_samples: int = DEFAULT_TRACE_SAMPLES
     encoder_noise: float = DEFAULT_ENCODER_NOISE
@@ -121,6 +126,7 @@ class AdaptConfig:
         check_int("rounds", self.rounds, 0)
         check_int("action_steps", self.action_steps, 0)
         check_int("action_rounds", self.action_rounds, 0)
+        check_int("probe_periods", self.probe_periods, 0)
         if self.action_rounds > self.rounds:
             raise ValueError(f"action_rounds={self.action_rounds!r} is outside the allowed range [0, rounds = {self.rounds}]")
         check_range("action_learning_rate", self.action_learning_rate, 0.0, 1.0, low_open=True)
@@ -144,6 +150,44 @@ def sensor_envs(config: AdaptConfig, n: int, seed: int) -> tuple[list, np.ndarra
     envs = [gym.make(SENSOR_ID, **kwargs, load_step_period=config.load_step_periods if i < n_step else None)
             for i in range(n)]
     return envs, np.array([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)])
+
+
+def probe_actions(env) -> np.ndarray:
+    """The deliberate probe of ``env``'s drive, (6, 5) actions: the trapezoid; reversed (its z phase
+    half a period on); out of contact (no z stroke: the slider coasts under the load alone); at half
+    the trapezoid's z stroke; symmetric (both rise fractions 1/2); a clamp (no x stroke)."""
+    amap = env.unwrapped.action_map
+    trapezoid = env.unwrapped.trapezoid_action().astype(np.float64)
+    rows = np.tile(trapezoid, (6, 1))
+    rows[1, 4] = 2.0 * (((trapezoid[4] + 1.0) / 2.0 + 0.5) % 1.0) - 1.0
+    rows[2, 2] = -1.0
+    rows[3, 2] = (trapezoid[2] + 1.0) / 2.0 - 1.0
+    rows[4, [1, 3]] = 2.0 * (0.5 - amap.min_rise_fraction) / (amap.max_rise_fraction - amap.min_rise_fraction) - 1.0
+    rows[5, 0] = -1.0
+    return rows.astype(np.float32)
+
+
+class ProbeFirst:
+    """A driver (``collect``'s ``driver(sensor_obs, privileged_obs)``) that plays ``actions`` in turn
+    in the first ``periods`` periods of every episode (read from the sensor observation's elapsed
+    fraction of ``max_periods``), then ``driver``."""
+
+    def __init__(self, driver, actions: np.ndarray, periods: int, max_periods: int):
+        self.driver, self.actions, self.periods, self.max_periods = driver, actions, periods, max_periods
+
+    def __call__(self, sensed: np.ndarray, privileged: np.ndarray | None = None) -> np.ndarray:
+        action = np.array(self.driver(sensed, privileged), dtype=np.float32).reshape(len(sensed), -1)
+        index = np.rint(sensed[:, -1] * self.max_periods).astype(int)
+        probing = index < self.periods
+        action[probing] = self.actions[index[probing] % len(self.actions)]
+        return action
+
+
+def with_probe(driver, config: AdaptConfig, envs: list):
+    """``driver`` after ``config.probe_periods`` periods of the probe (``ProbeFirst``), or itself."""
+    if not config.probe_periods:
+        return driver
+    return ProbeFirst(driver, probe_actions(envs[0]), config.probe_periods, envs[0].unwrapped.max_periods)
 
 
 def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.random.Generator | None = None,
@@ -183,7 +227,8 @@ class Validation:
     def steady(self, driver) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``driver``'s steady velocities (m/s) on the draws, and its episodes' sensor and privileged
         observations from period ``history`` on."""
-        sensed, privileged, disp = collect(*sensor_envs(self.config, self.n, self.seed), driver, friction=self.friction)
+        envs, first = sensor_envs(self.config, self.n, self.seed)
+        sensed, privileged, disp = collect(envs, first, with_probe(driver, self.config, envs), friction=self.friction)
         settled = slice(self.config.history * self.n, None)  # rows are period-major
         return steady_velocity_of(disp), sensed[settled], privileged[settled]
 
@@ -241,7 +286,7 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
     for r in range(config.rounds + 1):
         t0 = time.perf_counter()
         envs, first = sensor_envs(config, config.episodes, seed + 1_000_003 * (r + 1))
-        driver = (lambda s, p: teacher.act(p)) if r == 0 else sensor_teacher
+        driver = with_probe((lambda s, p: teacher.act(p)) if r == 0 else sensor_teacher, config, envs)
         s, p, _ = collect(envs, first, driver, config.action_noise, rng, friction=layout is PrivilegedLayout)
         sensed.append(s)
         privileged.append(p)
@@ -370,4 +415,4 @@ def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig
     return summary
 
 
-__all__ = ["AdaptConfig", "DEFAULT_CONFIG", "SensorRecipeConfig", "Validation", "collect", "estimate_errors", "load_config", "merge_check", "run", "sensor_env_kwargs", "sensor_envs", "sensor_structure_of", "train"]
+__all__ = ["AdaptConfig", "DEFAULT_CONFIG", "SensorRecipeConfig", "Validation", "collect", "estimate_errors", "load_config", "merge_check", "probe_actions", "ProbeFirst", "run", "sensor_env_kwargs", "with_probe", "sensor_envs", "sensor_structure_of", "train"]

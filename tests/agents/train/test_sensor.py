@@ -182,3 +182,25 @@ def test_mdr_drive_evaluate_plays_a_sensor_policy_in_its_own_tier(sensor_run, ca
     policy = load_policy(out / "policy")
     env = policy.make_env(k=0.3, cargo_mass=0.02)
     assert env.unwrapped.sensor.tier.name == "trace" and env.observation_space.shape == policy.model.observation_space.shape
+
+
+def test_the_probe_plays_its_varied_waveforms_first_then_the_driver():
+    from mdr_drive_agents.train.sensor import ProbeFirst, probe_actions
+
+    env = gym.make("MDRDriveSensor-v0", history=2)
+    amap = env.unwrapped.action_map
+    probe = probe_actions(env)
+    trapezoid, reversed_, lifted, half, symmetric, clamp = (amap.to_params(a) for a in probe)
+    assert trapezoid == amap.to_params(env.unwrapped.trapezoid_action())
+    assert (reversed_.z_phase - trapezoid.z_phase) % 1.0 == pytest.approx(0.5, abs=0.01)
+    assert lifted.z_amplitude == 0.0 and lifted.x_amplitude == trapezoid.x_amplitude
+    assert half.z_amplitude == pytest.approx(trapezoid.z_amplitude / 2)
+    assert symmetric.x_rise_time == pytest.approx(symmetric.period / 2, abs=amap.time_quantum)
+    assert clamp.x_amplitude == 0.0 and clamp.z_amplitude == trapezoid.z_amplitude
+    driver = ProbeFirst(lambda s, p: np.full((len(s), 5), 0.5), probe, periods=8, max_periods=40)
+    sensed = np.zeros((10, 4), dtype=np.float32)
+    sensed[:, -1] = np.arange(10) / 40  # the elapsed fraction: periods 0 ... 9
+    played = driver(sensed)
+    np.testing.assert_array_equal(played[:6], probe)
+    np.testing.assert_array_equal(played[6:8], probe[:2])  # in turn
+    assert np.all(played[8:] == 0.5)
