@@ -45,6 +45,8 @@ SENSOR_PRETRAINED = Path(__file__).parent / "pretrained" / "ppo_sensor"
 #: The files every policy folder holds; a codebook policy's table too (``CODEBOOK_FILE``).
 FILES = ("model.zip", NORMALIZATION_FILE, "vecnormalize.pkl", "run.json")
 CODEBOOK_FILE = "action_codebook.npy"
+#: A sensor policy's estimator of the hidden entries (``student.estimator.Estimator.save``), for plots.
+ESTIMATOR_FILE = "estimator.npz"
 #: Keys of a policy's env keywords (run.json) that shape its observation, and that set what its
 #: Box actions mean: the closed-loop protocol builds its envs with them.
 OBSERVATION_KEYS = ("observation", "history", "sensor_forces", "sensor_tier", "trace_samples", "encoder_noise",
@@ -328,8 +330,10 @@ def policy_label(path: str | Path) -> str:
 
 
 def policy_files(folder: str | Path) -> tuple[str, ...]:
-    """The files a policy in ``folder`` is: ``FILES``, and its action table if its run.json names one."""
-    return FILES + ((CODEBOOK_FILE,) if read_run(folder).get("env_kwargs", {}).get("action_codebook") else ())
+    """The files a policy in ``folder`` is: ``FILES``, its action table if its run.json names one, and
+    a sensor policy's estimator if it has one (``student.estimator.ESTIMATOR_FILE``)."""
+    return (FILES + ((CODEBOOK_FILE,) if read_run(folder).get("env_kwargs", {}).get("action_codebook") else ())
+            + ((ESTIMATOR_FILE,) if (Path(folder) / ESTIMATOR_FILE).is_file() else ()))
 
 
 def save_normalization(venv, folder: str | Path) -> None:
@@ -388,6 +392,6 @@ def same_weights(a: str | Path, b: str | Path) -> bool:
     return True
 
 
-__all__ = ["ACTION_KEYS", "CODEBOOK_FILE", "FILES", "OBSERVATION_KEYS", "ObsNormalization", "PLAY_KEYS", "PRETRAINED", "Policy", "package_path",
+__all__ = ["ACTION_KEYS", "CODEBOOK_FILE", "ESTIMATOR_FILE", "FILES", "OBSERVATION_KEYS", "ObsNormalization", "PLAY_KEYS", "PRETRAINED", "Policy", "package_path",
            "SENSOR_PRETRAINED", "load_policy", "policy_files", "policy_label", "read_run", "run_env_kwargs",
            "cycle_space", "policy_name", "same_weights", "save_normalization", "save_policy", "sb3_class"]

@@ -35,6 +35,7 @@ import gymnasium as gym
 import numpy as np
 
 from mdr_drive_env.files import json_safe, save_figure, write_csv, write_text
+from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from ..policy import load_policy
@@ -139,6 +140,30 @@ def recovery(v: np.ndarray) -> tuple[float, float | None, bool | None]:
     return steady, periods, bool(window >= RECOVERY_FRACTION * steady)
 
 
+def estimates_through(policy, d: dict, periods: int, load_step=None) -> dict | None:
+    """A sensor policy's own estimates of the hidden entries (its ``estimator.npz``) through one run
+    at the hidden values ``d``, beside the truth: ``{"names", "estimate", "truth"}`` ((periods, n)
+    each, in the privileged observation's units), or None for a policy without an estimator."""
+    from ..policy import ESTIMATOR_FILE
+    from ..student.estimator import Estimator
+
+    if policy.folder is None or not (Path(policy.folder) / ESTIMATOR_FILE).is_file():
+        return None
+    est = Estimator.load(Path(policy.folder) / ESTIMATOR_FILE)
+    env = policy.make_env(k=d["k"], cargo_mass=d["cargo_mass"], friction_coefficient=d["friction_coefficient"],
+                          base_friction_coefficient=d["base_friction_coefficient"], max_periods=periods)
+    obs, _ = env.reset(seed=0, options={"load_step": load_step} if load_step else None)
+    names = [str(n) for n in est.names]
+    index = [PrivilegedLayout.NAMES.index(n) for n in names]
+    policy.reset()
+    estimate, truth = [], []
+    for _ in range(periods):
+        truth.append(env.unwrapped.privileged_observation(friction=True)[index])
+        estimate.append(est(obs[None])[0])
+        obs, *_ = env.step(policy.predict(obs))
+    return {"names": names, "estimate": np.array(estimate), "truth": np.array(truth)}
+
+
 def reusable_search(path: str | Path, seed: int, n: int, search: dict) -> list[dict]:
     """The per-point searches of the earlier ``adaptation.json`` at ``path`` if it drew and searched
     as this run asks (``seed``, ``n`` blind points, ``search`` budgets), else ``ValueError`` saying
@@ -201,7 +226,12 @@ def run(sensor_policy, full_policy: str, n: int, n_steps: int, seed: int, out: s
             "median_periods_to_recover": float(np.median([r[1] for r in scored])) if scored else None,
             "stalled_after_step": int(sum(r[0] <= 0.0 for r in rec)),
         }
+    tracked = [estimates_through(policies[drives[0]], d, STEP_EPISODE_PERIODS, (STEP_PERIOD, d["step_cargo_mass"]))
+               for d in steps]  # the first sensor policy's own estimates, where it has an estimator
     res = {"seed": seed, "n": n, "load_steps": n_steps, "quick": quick, "drives": drives,
+           "load_step_estimates": None if any(t is None for t in tracked) else {
+               "drive": drives[0], "names": tracked[0]["names"] if tracked else [],
+               "estimate": [t["estimate"] for t in tracked], "truth": [t["truth"] for t in tracked]},
            "sensor_policy": str(folders[0]) if len(folders) == 1 else [str(f) for f in folders],
            "sensor_tiers": {d: p.play_kwargs.get("sensor_tier", "encoder") for d, p in zip(drives, sensors)},
            "full_policy": str(full_policy), "tuned_once_point": TUNED_ONCE_POINT,
@@ -312,6 +342,9 @@ def plot(res: dict, out: Path) -> None:
     save_figure(fig, out / "adaptation_load_steps.png")
     plt.close(fig)
 
+    if res.get("load_step_estimates"):
+        plot_estimates(res, picks, out)
+
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
     ratio = np.array([d["load_ratio"] for d in res["points"]])
     ks = np.array([d["k"] for d in res["points"]])
@@ -332,4 +365,34 @@ def plot(res: dict, out: Path) -> None:
     plt.close(fig)
 
 
-__all__ = ["BASELINES", "DRIVES", "FixedAction", "column_name", "drive_labels", "drives_of", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]
+#: How the estimate plot labels each hidden entry (the privileged observation's names and units).
+ESTIMATE_LABELS = {"k": "k (-)", "load_over_friction": "load / (mu F_ref) (-)", "load_over_10N": "load / 10 N (-)",
+                   "friction_ratio": "mu1 / mu (-)"}
+
+
+def plot_estimates(res: dict, picks: list[tuple[str, int]], out: Path) -> None:
+    """``adaptation_estimates.png``: the first sensor policy's estimate of each hidden entry per
+    period (solid) against the truth (dashed) through the load-step episodes ``picks``."""
+    import matplotlib.pyplot as plt
+
+    tracked = res["load_step_estimates"]
+    names = tracked["names"]
+    fig, axes = plt.subplots(len(names), 1, figsize=(8, 1.9 * len(names) + 0.6), sharex=True, squeeze=False)
+    t = np.arange(1, STEP_EPISODE_PERIODS + 1)
+    for (title, e), color in zip(picks, ("C0", "C3")):
+        estimate, truth = np.asarray(tracked["estimate"][e]), np.asarray(tracked["truth"][e])
+        for j, name in enumerate(names):
+            ax = axes[j, 0]
+            ax.plot(t, estimate[:, j], color=color, lw=1.5, label=f"{title}: estimate")
+            ax.plot(t, truth[:, j], color=color, lw=1.0, ls="--", label=f"{title}: hidden value")
+            ax.axvline(STEP_PERIOD + 0.5, color="k", ls=":", lw=0.8)
+            ax.set_ylabel(ESTIMATE_LABELS.get(name, name), fontsize=8)
+    axes[0, 0].set_title(f"{tracked['drive']}: what it reads from its sensor, through a load step", fontsize=9)
+    axes[0, 0].legend(fontsize=7, ncol=2)
+    axes[-1, 0].set_xlabel("period")
+    fig.tight_layout()
+    save_figure(fig, out / "adaptation_estimates.png")
+    plt.close(fig)
+
+
+__all__ = ["BASELINES", "DRIVES", "ESTIMATE_LABELS", "FixedAction", "estimates_through", "plot_estimates", "column_name", "drive_labels", "drives_of", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]

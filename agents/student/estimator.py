@@ -6,6 +6,8 @@ Used by ``mdr_drive_agents.train.sensor``, which trains the estimator and ships 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 
@@ -42,9 +44,11 @@ def hidden_entries(layout) -> list[int]:
 
 class Estimator:
     """An MLP from the sensor observation to the entries the sensor hides (``hidden_entries``), both
-    standardised with the statistics of the first data it is fitted on."""
+    standardised with the statistics of the first data it is fitted on; ``names``: those entries'
+    names in the teacher's observation layout."""
 
-    def __init__(self, obs_dim: int, arch: tuple[int, ...], seed: int, n_out: int = len(HIDDEN)):
+    def __init__(self, obs_dim: int, arch: tuple[int, ...], seed: int, n_out: int = len(HIDDEN),
+                 names: tuple[str, ...] = ()):
         import torch
 
         torch.manual_seed(seed)
@@ -54,6 +58,36 @@ class Estimator:
             width = n
         self.net = torch.nn.Sequential(*layers, torch.nn.Linear(width, n_out))
         self.scales = None  # (x mean, x std, y mean, y std)
+        self.names = tuple(names)
+
+    def save(self, path: str | Path) -> None:
+        """Weights, standardisation and entry names as numbers (``.npz``, written atomically)."""
+        from mdr_drive_env.files import atomic_path
+
+        linear = [m for m in self.net if hasattr(m, "weight")]
+        arrays = {f"weight{i}": m.weight.detach().numpy() for i, m in enumerate(linear)}
+        arrays.update({f"bias{i}": m.bias.detach().numpy() for i, m in enumerate(linear)})
+        arrays.update(dict(zip(("x_mean", "x_std", "y_mean", "y_std"), self.scales)), names=np.array(self.names))
+        with atomic_path(path) as tmp:
+            np.savez(tmp, **arrays)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Estimator":
+        """The estimator :meth:`save` wrote (read without unpickling anything)."""
+        import torch
+
+        with np.load(path, allow_pickle=False) as f:
+            n = sum(1 for key in f.files if key.startswith("weight"))
+            weights = [f[f"weight{i}"] for i in range(n)]
+            est = cls(weights[0].shape[1], tuple(w.shape[0] for w in weights[:-1]), seed=0, n_out=weights[-1].shape[0],
+                      names=tuple(str(x) for x in f["names"]))
+            linear = [m for m in est.net if hasattr(m, "weight")]
+            with torch.no_grad():
+                for i, m in enumerate(linear):
+                    m.weight.copy_(torch.as_tensor(weights[i]))
+                    m.bias.copy_(torch.as_tensor(f[f"bias{i}"]))
+            est.scales = tuple(f[key] for key in ("x_mean", "x_std", "y_mean", "y_std"))
+        return est
 
     def fit(self, x: np.ndarray, y: np.ndarray, steps: int, batch: int, learning_rate: float, seed: int,
             progress: bool = True) -> float:

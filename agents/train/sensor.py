@@ -49,7 +49,7 @@ from mdr_drive_env.files import write_text
 from mdr_drive_env.gym_envs.sensor import DEFAULT_ENCODER_NOISE, DEFAULT_TRACE_SAMPLES, SensorTier
 from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 
-from ..policy import CODEBOOK_FILE, Policy, load_policy, package_path
+from ..policy import CODEBOOK_FILE, ESTIMATOR_FILE, Policy, load_policy, package_path
 from ..protocol import steady_velocity_of
 from ..run_record import RunLock, command_line, versions
 from ..student.estimator import (FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy,
@@ -292,7 +292,8 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
         privileged.append(p)
         x, full = np.concatenate(sensed), np.concatenate(privileged)
         if estimator is None:
-            estimator = Estimator(x.shape[1], config.estimator_arch, seed, n_out=len(hidden))
+            estimator = Estimator(x.shape[1], config.estimator_arch, seed, n_out=len(hidden),
+                                  names=tuple(layout.NAMES[i] for i in hidden))
             sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
         if config.action_steps and config.action_rounds and r > config.rounds - config.action_rounds:
             record = {"round": r, "samples": len(x), "action_fit": config.action_steps,  # on the actions only
@@ -408,6 +409,7 @@ def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig
         "interrupted": False,
     }
     save_student(student, out / "policy", record)
+    sensor_teacher.estimator.save(out / "policy" / ESTIMATOR_FILE)  # what the report plots the estimates with
     summary = {"config": str(config_path), "command": command, "seed": seed, "wall_time_s": wall,
                "rounds": history, "merged": check}
     write_text(out / "adapt.json", json.dumps(summary, indent=2))

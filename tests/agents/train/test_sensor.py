@@ -204,3 +204,25 @@ def test_the_probe_plays_its_varied_waveforms_first_then_the_driver():
     np.testing.assert_array_equal(played[:6], probe)
     np.testing.assert_array_equal(played[6:8], probe[:2])  # in turn
     assert np.all(played[8:] == 0.5)
+
+
+def test_the_policy_keeps_its_estimator_and_the_report_plots_its_estimates(sensor_run, tmp_path):
+    from mdr_drive_agents.benchmarks import adaptation
+    from mdr_drive_agents.policy import ESTIMATOR_FILE, policy_files
+    from mdr_drive_agents.student.estimator import Estimator
+    from mdr_drive_env.sweep import Executor
+
+    out, _ = sensor_run
+    assert ESTIMATOR_FILE in policy_files(out / "policy")  # shipped with the policy
+    est = Estimator.load(out / "policy" / ESTIMATOR_FILE)
+    assert est.names[:3] == ("k", "load_over_friction", "load_over_10N")
+    x = np.random.default_rng(0).normal(size=(5, len(est.scales[0]))).astype(np.float32)
+    again = tmp_path / "again.npz"
+    est.save(again)
+    np.testing.assert_array_equal(Estimator.load(again)(x), est(x))
+    res = adaptation.run([str(out / "policy")], adaptation.FULL_POLICY, 1, 2, seed=5, out=tmp_path / "report",
+                         quick=True, executor=Executor(workers=1, progress=False))
+    tracked = res["load_step_estimates"]
+    assert tracked["names"] == list(est.names) and len(tracked["estimate"]) == 2
+    assert np.shape(tracked["truth"][0]) == (adaptation.STEP_EPISODE_PERIODS, len(est.names))
+    assert (tmp_path / "report" / "adaptation_estimates.png").stat().st_size > 0
