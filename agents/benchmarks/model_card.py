@@ -125,7 +125,7 @@ import mdr_drive_env  # registers {env_id}
 venv = VecNormalize.load("{dir}/vecnormalize.pkl", DummyVecEnv([make]))
 venv.training, venv.norm_reward = False, False      # play: statistics frozen, raw rewards
 model = {cls}.load("{dir}/model.zip", device="cpu")
-obs, velocities = venv.reset(), []
+{seed}obs, velocities = venv.reset(), []
 {memory}for period in range(30):
     {predict}
     obs, reward, done, info = venv.step(action)
@@ -225,6 +225,8 @@ def snippet(dst: Path, run: dict) -> str:
     play = dict(module=module, cls=cls, memory=memory, predict=predict)
     if run["env_id"] == "MDRDriveSensor-v0":
         return SNIPPET.format(**play, env_id="MDRDriveSensor-v0", dir=dst.as_posix(),
+                              seed="venv.seed(0)                                        # the sensor noise's stream, "
+                                   "as reset(seed=0) seeds it\n",
                               comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
                                       "here to try one drive\n",
                               make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, '
@@ -245,7 +247,7 @@ def snippet(dst: Path, run: dict) -> str:
         args.append(f'action_codebook="{dst.as_posix()}/{run["env_kwargs"]["action_codebook"]}"')
         notes.append("its table of actions (Discrete: action i plays row i)")
     comment = f"# {' and '.join(notes)}: the env it was trained in, as in its run.json\n" if notes else ""
-    return SNIPPET.format(**play, env_id="MDRDrive-v0", dir=dst.as_posix(), comment=comment,
+    return SNIPPET.format(**play, env_id="MDRDrive-v0", dir=dst.as_posix(), comment=comment, seed="",
                           make_args=", ".join(['"MDRDrive-v0", k=0.2, cargo_mass=0.1, max_periods=30', *args]))
 
 
@@ -380,6 +382,9 @@ def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -
                      f"{st['fraction_of_best_min']:.3f} | {rec['recovered_within']} of {rec['episodes_scored']} "
                      f"({rec['upward_recovered_within']} of {rec['upward_steps_scored']}) |")
     tier = run["env_kwargs"].get("sensor_tier", "encoder")
+    told = ("k, the load over mu F_ref, the load, and the friction ratio mu1 / mu (never mu and mu1 apart)"
+            if any(key.endswith("friction_ratio") for key in adapted["history"][-1]) or "recipe_commit" not in run
+            else "k, the load over mu F_ref and the load (not friction: a teacher trained at the paper's friction)")
     recovery = res["load_step_recovery"][label]
     card = f"""# {dst.name}: a waveform policy that does not know its load (MDRDriveSensor-v0, `{tier}` tier)
 
@@ -401,9 +406,9 @@ With Stable-Baselines3 alone (paths from the repository's root):
 
 ## How it was made
 
-* Command: `{run['command']}` (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s)
+* Command: `{run['command']}`{recipe_commit_note(run)} (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s)
 * Teacher: the full-observation policy `{adapted['teacher']}`, told what the slider's motion can
-  tell: k, the load over mu F_ref, the load, and the friction ratio mu1 / mu (never mu and mu1 apart).
+  tell: {told}.
   An estimator of those entries was fitted to the sensor history on episodes the teacher drove (told
   the true values), then, round by round, on episodes the teacher drove on the estimator's guesses
   (RMA's adaptation module, trained on its own state distribution). This network is that composition,

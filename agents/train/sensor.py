@@ -6,17 +6,21 @@ friction.
 Teacher-student training, as controllers that must act without privileged information are trained
 (Lee et al. 2020; Kumar et al. 2021), with DAgger (Ross et al. 2011):
 
-* the **teacher** is a full-observation Box policy (default: ``agents/pretrained/ppo_sensor/teacher``;
-  the shipped ``ppo_generalist`` picks from an action table and cannot teach it), told k,
-  the load and the friction coefficient through the env's ``privileged_observation()``;
-* the **student** sees only ``MDRDriveSensor-v0``'s observation: the last ``history`` periods of
-  slider motion (displacement, mean and end velocity) and the actions that produced them. With
+* the **teacher** is a full-observation Box policy (default: ``agents/pretrained/ppo_sensor_self_sensing/teacher``,
+  ``mdr-drive friction-teacher``; the shipped ``ppo_generalist`` picks from an action table and cannot
+  teach it), told k, the load and the friction ratio mu1 / mu through the env's
+  ``privileged_observation(friction=True)``;
+* the **student** sees only ``MDRDriveSensor-v0``'s observation in its sensor tier: the last
+  ``history`` periods of slider motion (displacement, mean and end velocity; with ``trace``, positions
+  through each period; with ``self-sensing``, also the piezo-sensed forces) and the actions that
+  produced them. With
   that history as its input, a plain MLP is the recurrent memory's frame-stacked equivalent, and it
   loads with plain ``PPO.load`` + ``VecNormalize.load``;
 * round 0: the teacher drives random episodes (hidden k, load, mu, mu1 drawn per episode; a share
   with a load step; in every round the actions played are perturbed by ``action_noise``); an
   **estimator** (``mdr_drive_agents.student.estimator``) is fitted from every sensor observation to the hidden entries
-  of the full observation (k and the load; squared error). Rounds 1 ... R: the teacher acting on
+  of the teacher's observation, what the slider's motion can tell (k, the load over mu F_ref, the
+  load and, for a teacher told friction, mu1 / mu; squared error). Rounds 1 ... R: the teacher acting on
   the estimator's guesses
   (``SensorTeacher``) drives, so the estimator meets the states its own errors lead to, and it is
   refitted on every episode so far (DAgger);
@@ -98,7 +102,7 @@ class AdaptConfig:
         encoder_noise: standard deviation of each position sample (m).
     """
 
-    teacher: str = "agents/pretrained/ppo_sensor/teacher"
+    teacher: str = "agents/pretrained/ppo_sensor_self_sensing/teacher"
     history: int = 6
     episodes: int = 512
     periods: int = 40

@@ -17,8 +17,9 @@ pytest.importorskip("stable_baselines3")
 
 #: The shipped policies: the generalist, the sensor policy and the best plain-RL run (make rl-baselines).
 PLAIN = sorted(PRETRAINED.parent.glob("*_plain"))
-SHIPPED = [PRETRAINED, SENSOR_PRETRAINED, *PLAIN]
-IDS = ["full", "sensor", *[p.name for p in PLAIN]]
+SELF_SENSING = SENSOR_PRETRAINED.parent / "ppo_sensor_self_sensing"
+SHIPPED = [PRETRAINED, SENSOR_PRETRAINED, SELF_SENSING, *PLAIN]
+IDS = ["full", "sensor", "self-sensing", *[p.name for p in PLAIN]]
 
 
 def snippets(folder) -> list[str]:
@@ -78,11 +79,19 @@ def test_an_env_without_the_policys_action_table_is_refused_naming_the_fix():
         policy.play(gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1))
 
 
-def test_the_sensor_policy_is_rebuilt_from_its_pinned_teacher():
+def test_the_sensor_recipe_reads_the_shipped_teacher_told_friction():
     import yaml
 
+    from mdr_drive_agents.student.estimator import teacher_layout
+    from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
+
     config = yaml.safe_load((ROOT / "agents" / "configs" / "sensor.yaml").read_text())
-    assert (ROOT / config["adapt"]["teacher"]).resolve() == (SENSOR_PRETRAINED / "teacher").resolve()
+    assert (ROOT / config["adapt"]["teacher"]).resolve() == (SELF_SENSING / "teacher").resolve()
+    assert teacher_layout(load_policy(SELF_SENSING / "teacher")) is PrivilegedLayout
+    run = json.loads((SELF_SENSING / "run.json").read_text())
+    built = run["adapted_from"]["adapt"]  # the config's settings, in the self-sensing tier (--sensor-tier)
+    assert {**built, **config["adapt"], "sensor_tier": "self-sensing"} == built
+    assert run["env_kwargs"]["sensor_tier"] == "self-sensing"
 
 
 def test_each_policy_sees_the_observation_it_was_trained_on():

@@ -30,7 +30,8 @@ def sensor_run(tmp_path_factory):
 @pytest.mark.parametrize("tier, width", [("encoder", 17), ("trace", 17 + 2 * 3), ("self-sensing", 17 + 2 * 5)])
 def test_the_merged_network_is_the_estimator_informed_teacher(tier, width):
     from mdr_drive_agents.train.sensor import sensor_env_kwargs, sensor_envs, sensor_structure_of
-    from mdr_drive_agents.student.estimator import Estimator, SensorTeacher, merged_policy
+    from mdr_drive_agents.student.estimator import (Estimator, SensorTeacher, hidden_entries, merged_policy,
+                                                    teacher_layout)
     from mdr_drive_agents.policy import load_policy
 
     config = AdaptConfig(history=2, episodes=4, periods=6, load_step_periods=(1, 4), estimator_arch=(8, 8, 8),
@@ -40,9 +41,12 @@ def test_the_merged_network_is_the_estimator_informed_teacher(tier, width):
     assert sensor_env_kwargs(config).get("sensor_tier", "encoder") == tier  # what evaluation plays it in
     assert envs[0].unwrapped.sensor.tier.name == tier
     sensed = np.vstack([first, np.random.default_rng(0).normal(size=(50, first.shape[1])).astype(np.float32)])
-    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0)
-    estimator.fit(sensed, np.random.default_rng(1).uniform(size=(len(sensed), 3)), 5, 16, 1e-3, 0, False)
-    composed = SensorTeacher(load_policy(config.teacher), estimator, sensor_structure_of(config))
+    teacher = load_policy(config.teacher)  # the default: the shipped teacher told mu1 / mu too
+    n_hidden = len(hidden_entries(teacher_layout(teacher)))
+    assert n_hidden == 4
+    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0, n_out=n_hidden)
+    estimator.fit(sensed, np.random.default_rng(1).uniform(size=(len(sensed), n_hidden)), 5, 16, 1e-3, 0, False)
+    composed = SensorTeacher(teacher, estimator, sensor_structure_of(config))
     merged = merged_policy(composed, sensor_env_kwargs(config), config.log_std)
     assert merged.model.observation_space.shape == first.shape[1:]
     stats = composed.teacher.normalize  # exact where the teacher's normalised inputs stay inside its clip
