@@ -140,16 +140,20 @@ def recovery(v: np.ndarray) -> tuple[float, float | None, bool | None]:
     return steady, periods, bool(window >= RECOVERY_FRACTION * steady)
 
 
-def estimates_through(policy, d: dict, periods: int, load_step=None) -> dict | None:
-    """A sensor policy's own estimates of the hidden entries (its ``estimator.npz``) through one run
-    at the hidden values ``d``, beside the truth: ``{"names", "estimate", "truth"}`` ((periods, n)
-    each, in the privileged observation's units), or None for a policy without an estimator."""
+def estimator_of(policy):
+    """A sensor policy's own estimator (its ``estimator.npz``), or None for a policy without one."""
     from ..policy import ESTIMATOR_FILE
     from ..student.estimator import Estimator
 
-    if policy.folder is None or not (Path(policy.folder) / ESTIMATOR_FILE).is_file():
+    if policy is None or policy.folder is None or not (Path(policy.folder) / ESTIMATOR_FILE).is_file():
         return None
-    est = Estimator.load(Path(policy.folder) / ESTIMATOR_FILE)
+    return Estimator.load(Path(policy.folder) / ESTIMATOR_FILE)
+
+
+def estimates_through(policy, est, d: dict, periods: int, load_step=None) -> dict:
+    """The estimates of a sensor policy's estimator ``est`` (``estimator_of``) of the hidden entries
+    through one run of the policy at the hidden values ``d``, beside the truth: ``{"names",
+    "estimate", "truth"}`` ((periods, n) each, in the privileged observation's units)."""
     env = policy.make_env(k=d["k"], cargo_mass=d["cargo_mass"], friction_coefficient=d["friction_coefficient"],
                           base_friction_coefficient=d["base_friction_coefficient"], max_periods=periods)
     obs, _ = env.reset(seed=0, options={"load_step": load_step} if load_step else None)
@@ -226,10 +230,11 @@ def run(sensor_policy, full_policy: str, n: int, n_steps: int, seed: int, out: s
             "median_periods_to_recover": float(np.median([r[1] for r in scored])) if scored else None,
             "stalled_after_step": int(sum(r[0] <= 0.0 for r in rec)),
         }
-    tracked = [estimates_through(policies[drives[0]], d, STEP_EPISODE_PERIODS, (STEP_PERIOD, d["step_cargo_mass"]))
-               for d in steps]  # the first sensor policy's own estimates, where it has an estimator
+    est = estimator_of(sensors[0])  # the first sensor policy's own estimates, where it has an estimator
+    tracked = [] if est is None else [
+        estimates_through(sensors[0], est, d, STEP_EPISODE_PERIODS, (STEP_PERIOD, d["step_cargo_mass"])) for d in steps]
     res = {"seed": seed, "n": n, "load_steps": n_steps, "quick": quick, "drives": drives,
-           "load_step_estimates": None if any(t is None for t in tracked) else {
+           "load_step_estimates": None if est is None else {
                "drive": drives[0], "names": tracked[0]["names"] if tracked else [],
                "estimate": [t["estimate"] for t in tracked], "truth": [t["truth"] for t in tracked]},
            "sensor_policy": str(folders[0]) if len(folders) == 1 else [str(f) for f in folders],
@@ -395,4 +400,4 @@ def plot_estimates(res: dict, picks: list[tuple[str, int]], out: Path) -> None:
     plt.close(fig)
 
 
-__all__ = ["BASELINES", "DRIVES", "ESTIMATE_LABELS", "FixedAction", "estimates_through", "plot_estimates", "column_name", "drive_labels", "drives_of", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]
+__all__ = ["BASELINES", "DRIVES", "ESTIMATE_LABELS", "FixedAction", "estimates_through", "estimator_of", "plot_estimates", "column_name", "drive_labels", "drives_of", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]

@@ -16,7 +16,7 @@ import numpy as np
 
 from mdr_drive_env.files import write_text
 
-from ..policy import load_policy, policy_files, same_weights
+from ..policy import load_policy, package_path, policy_files, read_run, same_weights
 from ..protocol import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -382,9 +382,10 @@ def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -
                      f"{st['fraction_of_best_min']:.3f} | {rec['recovered_within']} of {rec['episodes_scored']} "
                      f"({rec['upward_recovered_within']} of {rec['upward_steps_scored']}) |")
     tier = run["env_kwargs"].get("sensor_tier", "encoder")
+    told_friction = read_run(package_path(adapted["teacher"])).get("env_kwargs", {}).get("observation") == "privileged"
     told = ("k, the load over mu F_ref, the load, and the friction ratio mu1 / mu (never mu and mu1 apart)"
-            if any(key.endswith("friction_ratio") for key in adapted["history"][-1]) or "recipe_commit" not in run
-            else "k, the load over mu F_ref and the load (not friction: a teacher trained at the paper's friction)")
+            if told_friction else "k, the load over mu F_ref and the load (not friction: a teacher trained at the "
+                                  "paper's friction)")
     recovery = res["load_step_recovery"][label]
     card = f"""# {dst.name}: a waveform policy that does not know its load (MDRDriveSensor-v0, `{tier}` tier)
 

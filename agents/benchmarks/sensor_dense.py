@@ -28,7 +28,7 @@ from mdr_drive_env import SENSOR_DEFAULTS
 from mdr_drive_env.files import json_safe, write_csv, write_text
 
 from ..policy import load_policy
-from ..protocol import AVERAGE_PERIODS, EVAL_PERIODS, open_loop_displacements, trapezoid_action
+from ..protocol import AVERAGE_PERIODS, EVAL_PERIODS, open_loop_displacements, steady_velocity_of, trapezoid_action
 from .targets import below_trapezoid
 
 #: The friction coefficients of the grid: the corners and the middle of the sensor env's ranges.
@@ -52,16 +52,20 @@ def grid(n_k: int, n_loads: int) -> list[dict]:
             for k in ks for r in ratios for mu, mu1 in FRICTIONS]
 
 
-def rollouts(policy, points: list[dict], periods: int = EVAL_PERIODS, progress: bool = True) -> np.ndarray:
+def rollouts(policy, points: list[dict], periods: int = EVAL_PERIODS,
+             progress: bool = True) -> tuple[np.ndarray, list[float]]:
     """The policy's period velocities (periods, n) m/s at ``points``, closed loop in its own env, the
-    envs of a chunk stepped together (one batched ``act`` per period)."""
+    envs of a chunk stepped together (one batched ``act`` per period), and each point's cargo mass
+    (kg: its load over mu F_ref as the env sets it)."""
     from tqdm import tqdm
 
-    out = []
+    out, masses = [], []
     for start in tqdm(range(0, len(points), CHUNK), desc="sensor dense check", unit="chunk", disable=not progress):
         chunk = points[start:start + CHUNK]
         envs = [policy.make_env(max_periods=periods, **p) for p in chunk]
-        obs = np.array([env.reset(seed=0)[0] for env in envs])
+        first = [env.reset(seed=0) for env in envs]
+        obs = np.array([o for o, _ in first])
+        masses += [float(info["cargo_mass"]) for _, info in first]
         policy.reset()
         v = []
         for _ in range(periods):
@@ -70,17 +74,7 @@ def rollouts(policy, points: list[dict], periods: int = EVAL_PERIODS, progress: 
             obs = np.array([s[0] for s in steps])
             v.append([s[4]["mean_velocity"] for s in steps])
         out.append(np.array(v))
-    return np.concatenate(out, axis=1)
-
-
-def cargo_masses(policy, points: list[dict]) -> list[float]:
-    """Each point's cargo mass (kg): its load over mu F_ref as the policy's env sets it."""
-    masses = []
-    for p in points:
-        env = policy.make_env(max_periods=1, **p)
-        _, info = env.reset(seed=0)
-        masses.append(float(info["cargo_mass"]))
-    return masses
+    return np.concatenate(out, axis=1), masses
 
 
 def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str, progress: bool = True) -> str:
@@ -91,11 +85,10 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
         raise ValueError(f"{policy_path} is not a sensor policy (its env is {policy.run.get('env_id')!r}); "
                          "mdr-drive dense checks it on the blind benchmark's grid instead")
     points = grid(n_k, n_loads)
-    v = rollouts(policy, points, progress=progress)
-    masses = cargo_masses(policy, points)
+    v, masses = rollouts(policy, points, progress=progress)
     hidden = [(p["k"], m, p["friction_coefficient"], p["base_friction_coefficient"]) for p, m in zip(points, masses)]
     disp, _ = open_loop_displacements(hidden, trapezoid_action())
-    trap = disp[-AVERAGE_PERIODS:].mean(axis=0) / policy.make_env(max_periods=1).unwrapped.action_map.period
+    trap = steady_velocity_of(disp)
     learned = v[-AVERAGE_PERIODS:].mean(axis=0)
     below, gap, _ = below_trapezoid(trap, learned)
     swing = (v[-AVERAGE_PERIODS:].max(axis=0) - v[-AVERAGE_PERIODS:].min(axis=0)) * 1e3
@@ -129,4 +122,4 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     return text
 
 
-__all__ = ["CHUNK", "FRICTIONS", "SWING_MM_S", "cargo_masses", "grid", "is_sensor_policy", "rollouts", "run"]
+__all__ = ["CHUNK", "FRICTIONS", "SWING_MM_S", "grid", "is_sensor_policy", "rollouts", "run"]
