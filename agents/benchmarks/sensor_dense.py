@@ -29,6 +29,7 @@ from mdr_drive_env.files import json_safe, write_csv, write_text
 
 from ..policy import load_policy
 from ..protocol import AVERAGE_PERIODS, EVAL_PERIODS, open_loop_displacements, steady_velocity_of, trapezoid_action
+from ..student.estimator import SENSOR_ID
 from .targets import below_trapezoid
 
 #: The friction coefficients of the grid: the corners and the middle of the sensor env's ranges.
@@ -39,9 +40,9 @@ SWING_MM_S = 10.0
 CHUNK = 512
 
 
-def is_sensor_policy(policy) -> bool:
-    """Whether ``policy`` drives ``MDRDriveSensor-v0`` (its run.json's env)."""
-    return policy.run.get("env_id") == "MDRDriveSensor-v0"
+def is_sensor_run(run: dict) -> bool:
+    """Whether the policy of run record ``run`` (its run.json) drives ``MDRDriveSensor-v0``."""
+    return run.get("env_id") == SENSOR_ID
 
 
 def grid(n_k: int, n_loads: int) -> list[dict]:
@@ -81,7 +82,7 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     """The check (module docstring) into ``out``; returns ``sensor_dense.md``'s text."""
     out = Path(out)
     policy = load_policy(policy_path)
-    if not is_sensor_policy(policy):
+    if not is_sensor_run(policy.run):
         raise ValueError(f"{policy_path} is not a sensor policy (its env is {policy.run.get('env_id')!r}); "
                          "mdr-drive dense checks it on the blind benchmark's grid instead")
     points = grid(n_k, n_loads)
@@ -122,4 +123,4 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     return text
 
 
-__all__ = ["CHUNK", "FRICTIONS", "SWING_MM_S", "grid", "is_sensor_policy", "rollouts", "run"]
+__all__ = ["CHUNK", "FRICTIONS", "SWING_MM_S", "grid", "is_sensor_run", "rollouts", "run"]

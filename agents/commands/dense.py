@@ -39,7 +39,7 @@ def main(args: argparse.Namespace) -> int:
     from ..policy import read_run
     from ..run_record import command_line
 
-    sensor = read_run(args.policy).get("env_id") == "MDRDriveSensor-v0"
+    sensor = sensor_dense.is_sensor_run(read_run(args.policy))
     check = sensor_dense if sensor else dense
     name = "sensor_dense.json" if sensor else "dense.json"
     if (Path(args.out) / name).exists() and not args.force:
