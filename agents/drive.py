@@ -153,6 +153,12 @@ class DriveDescription:
         return _action_map(self.settings, None if time_quantum is None else float(time_quantum))
 
     @property
+    def numerics(self):
+        """The env's fast-solver numerics on this drive (``Numerics``): the preset, its longest time step
+        shortened on periods under 1 ms so the waveform's shortest edge spans 10 steps."""
+        return template(self.settings).numerics
+
+    @property
     def indenter_min_velocity(self) -> float:
         """The fastest backward x stroke any action can make (m/s): full stroke over the shortest fall."""
         amap = self.action_map()

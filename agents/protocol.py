@@ -163,7 +163,7 @@ def open_loop_displacements(points, actions, periods: int = EVAL_PERIODS, drive:
             drive_of[key] = len(unique)
             unique.append(i)
         inverse[i] = drive_of[key]
-    sim = BatchedDriveSimulator(len(unique), max_depth=drive.z_amplitude_max)
+    sim = BatchedDriveSimulator(len(unique), drive.numerics, max_depth=drive.z_amplitude_max)
     params, first_of = [], {}  # the model is built once per distinct point (searches play many drives at one)
     for row, i in enumerate(unique):
         key = point_keys[i]

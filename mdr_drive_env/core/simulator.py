@@ -51,6 +51,17 @@ class PeriodResult:
     trace: np.ndarray | None = field(default=None, repr=False)
 
 
+def step_resolving_edge(time_step: float, edge: float) -> float:
+    """The longest time step (s) of at most ``time_step`` that resolves an edge of ``edge`` (s) with
+    ``MIN_STEPS_PER_EDGE`` steps: ``time_step`` itself where it does, else ``time_step / n`` for the
+    smallest whole ``n`` that does. Dividing by a whole number keeps every time that was a multiple
+    of ``time_step`` (a waveform's time quantum) a multiple of the shorter step. Non-positive or
+    non-finite values are returned as is, for the caller's validation to refuse."""
+    if not (time_step > 0 and edge > 0 and math.isfinite(edge)) or edge >= MIN_STEPS_PER_EDGE * time_step * (1 - 1e-9):
+        return time_step
+    return time_step / math.ceil(MIN_STEPS_PER_EDGE * time_step / edge - 1e-9)
+
+
 def check_numerics(numerics: Numerics, waveform: Waveform) -> int:
     """Validate dt against the waveform and return the number of steps per period.
 

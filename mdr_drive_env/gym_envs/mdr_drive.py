@@ -13,11 +13,12 @@ from gymnasium import spaces
 from ..core import Contact, Drive, DriveParams, DriveSimulator, Material, numerics_preset
 from ..core.materials import normal_force_analytic
 from ..core.params import VARIANTS, is_real_number
+from ..core.simulator import step_resolving_edge
 from ..core.waveform import Waveform
 from .sensor import (DEFAULT_ENCODER_NOISE, DEFAULT_FORCE_NOISE, DEFAULT_TRACE_SAMPLES, SensorHistory, SensorTier,
                      sample_positions)
-from .spaces import (ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, codebook_rows, load_action_codebook,
-                     sample_range)
+from .spaces import (ActionMap, ObservationLayout, PrivilegedLayout, SensorLayout, codebook_rows,
+                     load_action_codebook, sample_range, shortest_edge)
 
 
 #: The observation modes (``observation=``) and their layouts; the sensor layout depends on ``history``.
@@ -224,7 +225,9 @@ class MDRDriveEnv(gym.Env):
     ``friction_coefficient``, ``base_friction_coefficient``, ``slider_mass`` (kg), ``gravity``
     (m/s^2), ``cargo_inertia`` (bool), ``variant`` (``"as-specified"``, the default, or
     ``"as-published"``: h_N doubled, the hypothesis about the paper's code), ``numerics`` (preset name: ``"fast"``, the default node
-    solver, see docs/performance.md; ``"default"`` or ``"paper"`` for the reference solver), ``period`` (s), ``max_periods``,
+    solver, see docs/performance.md; ``"default"`` or ``"paper"`` for the reference solver; on a period whose
+    shortest edge is under 10 of the preset's time steps, such as the fast solver's 5 µs on periods under 1 ms,
+    the step is divided by the smallest whole number that makes it 10: ``env.unwrapped.numerics``), ``period`` (s), ``max_periods``,
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
     ``max_rise_fraction``, ``z_phase_origin`` (fraction of T, in [0, 1)), ``time_quantum`` (s), ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
     (``"full"``, the default, ``"sensor"`` or ``"privileged"``), ``history`` (periods in the sensor observation),
@@ -297,7 +300,7 @@ class MDRDriveEnv(gym.Env):
         if variant not in VARIANTS:
             raise ValueError(f"variant={variant!r} is not one of {list(VARIANTS)}")
         self.variant = variant
-        self.numerics = numerics_preset(numerics)
+        preset = numerics_preset(numerics)
         if isinstance(max_periods, bool) or not (isinstance(max_periods, (int, np.integer)) and max_periods >= 1):
             raise ValueError(f"max_periods={max_periods!r} is outside the allowed range [1, inf)")
         for name, value in (("reward_scale", reward_scale), ("period", period)):
@@ -311,6 +314,10 @@ class MDRDriveEnv(gym.Env):
         if reward_floor is not None and not (isinstance(reward_floor, (int, float)) and math.isfinite(reward_floor)):
             raise ValueError(f"reward_floor={reward_floor!r} is outside the allowed range (-inf, inf) or None")
         self.reward_floor = None if reward_floor is None else float(reward_floor)
+        # periods under 1 ms: the preset's longest step shortened so the shortest edge spans 10 steps
+        rises = (min_rise_fraction, max_rise_fraction)
+        self.numerics = preset if not all(is_real_number(v) for v in rises) else dataclasses.replace(
+            preset, time_step=step_resolving_edge(preset.time_step, shortest_edge(float(period), *map(float, rises))))
         self.max_periods = int(max_periods)
         self.reward_scale = float(reward_scale)
         self.actuation_penalty = float(actuation_penalty)

@@ -9,6 +9,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..core.params import check_range
+from ..core.simulator import MIN_STEPS_PER_EDGE
 from ..core.waveform import AxisWaveform, Waveform
 
 
@@ -67,6 +68,11 @@ def codebook_rows(table: np.ndarray, indices) -> np.ndarray:
     return table[idx].astype(np.float32)
 
 
+def shortest_edge(period: float, min_rise_fraction: float, max_rise_fraction: float) -> float:
+    """The shortest rise or fall (s) an action box with these rise fractions allows on ``period`` (s)."""
+    return min(min_rise_fraction, 1.0 - max_rise_fraction) * period
+
+
 @dataclass(frozen=True)
 class ActionMap:
     """Affine map of an action in [-1, 1]^5 to the next period's waveform (SI units).
@@ -106,10 +112,10 @@ class ActionMap:
                              f"{self.time_step!r} s")
         if not _divides(self.time_quantum, self.period):
             raise ValueError(f"period={self.period!r} must be a multiple of time_quantum={self.time_quantum!r} s")
-        edge = min(self.min_rise_fraction, 1.0 - self.max_rise_fraction) * self.period
-        if edge < 10 * self.time_step:
+        edge = shortest_edge(self.period, self.min_rise_fraction, self.max_rise_fraction)
+        if edge < MIN_STEPS_PER_EDGE * self.time_step * (1 - 1e-9):
             raise ValueError(f"min_rise_fraction/max_rise_fraction allow an edge of {edge!r} s, "
-                             f"shorter than 10 time steps of {self.time_step!r} s")
+                             f"shorter than {MIN_STEPS_PER_EDGE} time steps of {self.time_step!r} s")
         n = self.quanta
         rise = [round(i * self.time_quantum, 12) for i in range(n + 1)]
         # derived constants of the map, computed once (to_params runs every env step)

@@ -28,7 +28,7 @@ def test_a_description_reads_yaml_numbers_validates_keys_and_values(tmp_path):
     drive = DriveDescription.load(TINY_DRIVE)
     assert drive.name == "drive_tiny" and drive.k_range == (0.1, 0.3) and drive.load_ratio_range == (0.0, 0.5)
     assert drive.env_kwargs["youngs_modulus"] == 1.2e11  # written 1.2e11: YAML 1.1 reads a string, the loader a float
-    assert not drive.is_paper and drive.period == 1e-3
+    assert not drive.is_paper and drive.period == 5e-4
     bad = tmp_path / "bad.yaml"
     bad.write_text("slider_mas: 0.02\n")
     with pytest.raises(ValueError, match="bad.yaml: drive key 'slider_mas' is not one of"):
@@ -61,7 +61,7 @@ def test_the_protocol_on_a_drive_plays_what_the_env_on_that_drive_plays():
     env = gym.make("MDRDrive-v0", k=k, cargo_mass=m, max_periods=30, **drive.env_kwargs)
     env.reset(seed=0)
     displacements = [env.step(env.unwrapped.trapezoid_action())[4]["displacement"] for _ in range(30)]
-    assert v == pytest.approx(np.mean(displacements[-10:]) / 1e-3, rel=1e-9)
+    assert v == pytest.approx(np.mean(displacements[-10:]) / 5e-4, rel=1e-9)
     assert v != pytest.approx(open_loop_velocity([(k, m)], trapezoid_action())[0], rel=1e-3)  # not the paper drive
 
 
@@ -80,7 +80,7 @@ def test_the_recipe_builds_a_policy_for_the_drive_that_loads_and_plays_on_it(dri
     from mdr_drive_agents.teacher import DriveField
 
     run = json.loads((drive_recipe / "policy" / "run.json").read_text())
-    assert run["env_kwargs"]["period"] == 1e-3 and run["env_kwargs"]["k"] == [0.1, 0.3]
+    assert run["env_kwargs"]["period"] == 5e-4 and run["env_kwargs"]["k"] == [0.1, 0.3]
     assert run["drive"]["name"] == "drive_tiny"
     field = DriveField.load(drive_recipe / "teacher_field.npz")
     assert field.drive.settings == DriveDescription.load(TINY_DRIVE).settings
@@ -89,7 +89,7 @@ def test_the_recipe_builds_a_policy_for_the_drive_that_loads_and_plays_on_it(dri
     assert recipe["drive"]["name"] == "drive_tiny"
     policy = load_policy(drive_recipe / "policy")
     drive = drive_of(policy)
-    assert drive.name == "drive_tiny" and drive.k_range == (0.1, 0.3) and drive.period == 1e-3
+    assert drive.name == "drive_tiny" and drive.k_range == (0.1, 0.3) and drive.period == 5e-4
 
 
 def test_evaluate_plays_the_policy_and_the_trapezoid_on_the_policys_drive(drive_recipe, capsys):
@@ -100,7 +100,7 @@ def test_evaluate_plays_the_policy_and_the_trapezoid_on_the_policys_drive(drive_
     trapezoid = open_loop_velocity([(0.2, 0.002)], trapezoid_action(drive), drive=drive, mark_runaway=True)[0]
     assert record["trapezoid_mean_velocity"] == pytest.approx(trapezoid, rel=1e-12)
     waveform = record["learned_waveform_last_period"]
-    assert waveform["x_amplitude"] <= 20e-6 + 1e-12 and waveform["x_rise_time"] < 1e-3  # the drive's strokes and period
+    assert waveform["x_amplitude"] <= 10e-6 + 1e-12 and waveform["x_rise_time"] < 5e-4  # the drive's strokes and period
     assert main(["evaluate", "--policy", str(drive_recipe / "policy"), "--k", "0.2", "--cargo-mass", "0.002",
                  "--drive", str(ROOT / "agents" / "configs" / "drives" / "heavy_stage.yaml")]) == 2
     assert "built for another drive" in capsys.readouterr().err
@@ -129,7 +129,7 @@ def test_a_reference_scores_a_policy_only_on_the_drive_it_was_run_on(drive_recip
     assert main(["benchmark", "--blind", "2", "--seed", "6", "--quick", "--policies", str(drive_recipe / "policy"),
                  "--out", str(tmp_path / "blind"), "--workers", "1"]) == 0
     reference = Reference.load(tmp_path / "blind" / "blind.json")
-    assert reference.drive.name == "drive_tiny" and reference.drive.period == 1e-3
+    assert reference.drive.name == "drive_tiny" and reference.drive.period == 5e-4
     found = reference.score_policy(load_policy(drive_recipe / "policy"))
     res = json.loads((tmp_path / "blind" / "blind.json").read_text())
     np.testing.assert_allclose(found["velocity"], np.array(list(res["learned"].values())[0], dtype=float), rtol=1e-12)

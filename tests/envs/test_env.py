@@ -144,6 +144,40 @@ def test_the_trapezoid_of_another_drive_is_the_papers_shape_at_its_period_and_fu
     assert env.step(a)[4]["mean_velocity"] > 0.0
 
 
+@pytest.mark.parametrize("period", [5e-4, 7e-4])
+def test_a_period_under_1_ms_shortens_the_fast_solvers_step_so_its_edges_span_ten_steps(period):
+    from mdr_drive_env.core import Numerics
+
+    kw = dict(period=period, x_amplitude_max=10e-6, z_amplitude_max=2e-6, slider_mass=0.03, k=0.3, load_ratio=0.1)
+    env = gym.make("MDRDrive-v0", time_quantum=5e-6, **kw).unwrapped
+    assert env.numerics.time_step == 2.5e-6  # 5 us / 2: the shortest edge, 5 % of the period, spans >= 10 steps
+    assert gym.make("MDRDrive-v0", **kw).unwrapped.numerics.time_step == 2.5e-6  # a 10 us quantum keeps it too
+    fast = env.numerics
+    fine = Numerics(time_step=fast.time_step / 10, method="nodes", nodes=fast.nodes, node_power=fast.node_power,
+                    max_x_step=fast.max_x_step / 10, max_z_step=fast.max_z_step / 10)
+    actions = np.vstack([env.trapezoid_action()[None], np.random.default_rng(3).uniform(-1, 1, (4, 5))])
+    stroke_speed = 10e-6 / period
+
+    def steady_velocities(numerics):
+        e = gym.make("MDRDrive-v0", time_quantum=5e-6, numerics=numerics, **kw).unwrapped
+        out = []
+        for a in actions:
+            e.reset(seed=0)
+            out.append(np.mean([e.step(a)[4]["mean_velocity"] for _ in range(10)][-4:]))
+        return np.array(out)
+
+    coarse = steady_velocities(fast)
+    np.testing.assert_allclose(coarse, steady_velocities(fine), atol=0.005 * stroke_speed)  # 0.5 % of the stroke speed
+    assert coarse[0] > 0.0
+
+
+def test_periods_of_1_ms_and_more_keep_every_presets_step():
+    for period in (1e-3, 2e-3, 4e-3):
+        for name, step in (("fast", 5e-6), ("default", 1e-6), ("paper", 1e-7)):
+            env = gym.make("MDRDrive-v0", period=period, numerics=name).unwrapped
+            assert env.numerics.time_step == step
+
+
 def test_the_papers_waveform_at_its_own_period_and_strokes_is_the_paper_exactly():
     assert Waveform.paper(2e-3, 30e-6, 6e-6) == Waveform.paper() == Waveform()
 
