@@ -8,6 +8,8 @@ env's action box (the same actuator limits as the policies):
 * ``search_point``: the best drive at one (k, load) point, the better of a search over fixed actions
   and one over two-action cycles from several starts (the blind benchmark's reference, and each node
   of the teacher's grid);
+* ``pooled_cycle_search``: the best two-action cycle at a point from the fastest of a pool of drives
+  (other points' best drives, random cycles) there (the blind benchmark's ``strong`` reference);
 * ``cycle_critical_load`` and ``fixed_critical_load``: the largest load at which the best two-action
   cycle (or fixed action) found still moves, by bisection on the load with a new search at every
   trial load (``mdr_drive_env.core.analysis.bisect_critical_load``).
@@ -140,6 +142,29 @@ def search_point(k: float, load: float, fixed_budget: int = CMA_BUDGET, cycle_bu
     return PointSearch(fixed, cycle)
 
 
+def pooled_cycle_search(k: float, load: float, pool, starts: int, budget: int, random_cycles: int = 0, seed: int = 0,
+                        friction=None, time_quantum: float = TIME_QUANTUM,
+                        drive: DriveDescription = PAPER_DRIVE) -> CMAResult:
+    """The best two-action cycle at (k, load kg) found from a pool of drives: each of ``pool`` (n, 2, 5)
+    (drives found elsewhere, e.g. the best drives of other points) and ``random_cycles`` cycles drawn
+    uniformly from the action box with ``seed`` is played at the point, and CMA-ES runs from the
+    ``starts`` fastest (``budget`` evaluations each, step ``CYCLE_SEARCH``'s ``sigma0``). Returns the
+    best of the pool and the runs; ``evaluations`` counts both. ``friction`` and ``time_quantum`` as
+    :func:`cma_optimize`."""
+    rng = np.random.default_rng([seed, 2])
+    drawn = rng.uniform(-1.0, 1.0, (random_cycles, 2, 5))
+    candidates = np.concatenate([np.asarray(pool, dtype=np.float64).reshape(-1, 2, 5), drawn])
+    point = (k, load) if friction is None else (k, load, *friction)
+    v = open_loop_velocity([point] * len(candidates), candidates, time_quantum=time_quantum, drive=drive)
+    order = np.argsort(-v, kind="stable")
+    run = best_cycle(k, load, [candidates[i] for i in order[:starts]], budget, seed=seed, friction=friction,
+                     time_quantum=time_quantum, drive=drive)
+    evaluations = len(candidates) + run.evaluations
+    if v[order[0]] > run.velocity:
+        return CMAResult(candidates[order[0]].copy(), float(v[order[0]]), evaluations)
+    return CMAResult(run.action, run.velocity, evaluations)
+
+
 def cycle_critical_load(k: float, trapezoid_critical: float, iterations: int = CRITICAL_BISECTIONS,
                         budget: int = CYCLE_SEARCH["budget"], time_quantum: float = TIME_QUANTUM, drive: DriveDescription = PAPER_DRIVE) -> tuple[float, np.ndarray]:
     """Critical load (kg) of the best two-action cycle found, by bisection on the load from the
@@ -173,4 +198,4 @@ def fixed_critical_load(k: float, high: float, budget: int = CMA_BUDGET, iterati
 
 __all__ = ["CMAResult", "CMA_BUDGET", "CRITICAL_BISECTIONS", "CYCLE_SEARCH", "PUSH_CLAMP", "PointSearch",
            "best_cma_run", "best_cycle", "cma_optimize", "cycle_critical_load", "fixed_critical_load",
-           "search_point"]
+           "pooled_cycle_search", "search_point"]

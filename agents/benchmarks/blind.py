@@ -60,7 +60,8 @@ from ..protocol import (
     trapezoid_action,
     trapezoid_critical_load,
 )
-from ..search import CMA_BUDGET, CRITICAL_BISECTIONS, CYCLE_SEARCH, cycle_critical_load, search_point
+from ..search import (CMA_BUDGET, CRITICAL_BISECTIONS, CYCLE_SEARCH, cycle_critical_load, pooled_cycle_search,
+                      search_point)
 from .plots import plot_blind
 from .score import format_aggregate
 from .targets import (BELOW_TOLERANCE, CRITICAL_LOAD_TARGET, FRACTION_TARGET, MOVING_THRESHOLD, missed_targets,
@@ -71,6 +72,13 @@ K_RANGE = (0.0, 0.6)
 LOAD_FACTOR = 1.25
 #: Budgets of the quick mode (CI): tiny searches, a 3-value scan with 1 bisection step.
 QUICK = {"fixed_budget": 24, "cycle_budget": 32, "scan_ks": 3, "iterations": 1}
+#: The reference searches (``--reference``): ``standard``, ``search_point`` at every point; ``strong``,
+#: then ``passes`` rounds at every point of ``pooled_cycle_search`` from every point's best drive so far
+#: (and, in the first round, ``random_cycles`` random cycles): CMA-ES from the ``starts`` fastest of
+#: them there, ``budget`` evaluations each. Good drives are shared across the domain, and a search
+#: from the trapezoid and push/clamp alone misses many of them. ``QUICK_STRONG``: its CI size.
+REFERENCES = {"standard": None, "strong": {"passes": 3, "random_cycles": 1000, "starts": 2, "budget": 1000}}
+QUICK_STRONG = {"passes": 1, "random_cycles": 8, "starts": 1, "budget": 16}
 #: How a scan's k values were chosen (``blind.json``'s ``scan``; files without the key: evenly spaced).
 EVEN_SCAN, DRAWN_SCAN = "evenly spaced", "drawn with the seed, one per equal cell"
 #: The second entry of the seed sequence that draws a scan's k values (``scan_k_values``).
@@ -140,6 +148,47 @@ def best_drive(args) -> dict:
             "cycle_velocity": cyc.velocity, "evaluations": fixed.evaluations + cyc.evaluations}
 
 
+def pooled_drive(args) -> dict:
+    """One point's best drive after a round of the ``strong`` reference: ``pooled_cycle_search`` from
+    ``pool`` (every point's best drive so far) and ``random_cycles`` random cycles, kept where it beats
+    the point's drive ``own`` (a ``best_drive`` record), its velocity played again with runaways marked.
+    ``args``: (k, cargo mass, pool (n, 2, 5), starts, budget, random cycles, seed, time quantum (s),
+    own), then optionally the drive (``task_drive``)."""
+    k, m, pool, starts, budget, random_cycles, seed, time_quantum, own, *rest = args
+    drive = task_drive(rest)
+    found = pooled_cycle_search(k, m, pool, starts, budget, random_cycles, seed, time_quantum=time_quantum, drive=drive)
+    record = {**own, "evaluations": own.get("evaluations", 0) + found.evaluations}
+    if not found.velocity > (own["velocity"] if np.isfinite(own["velocity"]) else -np.inf):
+        return record
+    velocity = float(open_loop_velocity([(k, m)], np.asarray(found.action)[None], mark_runaway=True,
+                                        time_quantum=time_quantum, drive=drive)[0])
+    if not np.isfinite(velocity):
+        return record
+    return {**record, "velocity": velocity, "kind": "two-action cycle", "action": np.asarray(found.action).tolist(),
+            "cycle_velocity": max(found.velocity, own.get("cycle_velocity", -np.inf))}
+
+
+def as_cycle(action) -> np.ndarray:
+    """A found drive's action as a two-action cycle (2, 5): a fixed action played twice."""
+    a = np.asarray(action, dtype=np.float64)
+    return np.tile(a, (2, 1)) if a.ndim == 1 else a
+
+
+def strengthen(found: list[dict], points, settings: dict, time_quantum: float, on_drive: tuple, executor,
+               tasks: Path) -> list[dict]:
+    """The ``strong`` reference's rounds (``REFERENCES``) over every point's ``best_drive`` record:
+    ``settings["passes"]`` rounds of ``pooled_drive``, each round's pool the best drives after the last."""
+    for round_index in range(settings["passes"]):
+        pool = np.array([as_cycle(f["action"]) for f in found])
+        random_cycles = settings["random_cycles"] if round_index == 0 else 0
+        found = executor.map(pooled_drive, [(k, m, pool, settings["starts"], settings["budget"], random_cycles,
+                                             round_index * 100_003 + i, time_quantum, own, *on_drive)
+                                            for i, ((k, m), own) in enumerate(zip(points, found))],
+                             f"strong reference: round {round_index + 1} of {settings['passes']}",
+                             store=TaskStore(tasks / f"pooled_{round_index}"))
+    return found
+
+
 def reusable_search(path: str | Path, res: dict, scan_ks: int) -> dict:
     """The earlier ``blind.json`` at ``path`` if it was drawn and searched as ``res`` asks, else
     ``ValueError`` saying what differs."""
@@ -168,7 +217,8 @@ def cycle_scan_task(args) -> float:
 def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = False, scan_ks: int = 25,
         workers: int | None = None, fixed_budget: int = CMA_BUDGET, cycle_budget: int = CYCLE_SEARCH["budget"],
         iterations: int = CRITICAL_BISECTIONS, reuse: str | Path | None = None, executor: Executor | None = None,
-        resume: bool = False, scan_draw: bool = False, drive: DriveDescription | None = None) -> dict:
+        resume: bool = False, scan_draw: bool = False, drive: DriveDescription | None = None,
+        reference: str = "standard") -> dict:
     """The blind benchmark (module docstring); returns what ``blind.json`` holds.
 
     ``reuse``: a ``blind.json`` of the same seed, size, search budgets and scan, whose points,
@@ -178,7 +228,11 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     run into ``out`` finished; ``scan_draw`` draws the scan's k values with ``seed``
     (``scan_k_values``) instead of spacing them evenly. ``drive``: the drive judged on (default the
     paper's, or the one the policies were built for; ``protocol.play_drive``), its k range drawn from.
+    ``reference``: the search that finds each point's best drive, a key of ``REFERENCES``.
     """
+    if reference not in REFERENCES:
+        raise ValueError(f"reference={reference!r} is not one of {list(REFERENCES)}")
+    strong = REFERENCES[reference] if not quick or REFERENCES[reference] is None else QUICK_STRONG
     if quick:
         fixed_budget, cycle_budget, scan_ks, iterations = (QUICK[key] for key in
                                                            ("fixed_budget", "cycle_budget", "scan_ks", "iterations"))
@@ -194,6 +248,8 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
                             "cycle_critical_load_bisection_steps": iterations},
                  "protocol": f"fast numerics; mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}",
                  "scan": DRAWN_SCAN if scan_draw else EVEN_SCAN, "policies": list(policies)}
+    if strong:
+        res["search"]["pooled_rounds"] = dict(strong)  # files of the standard search stay reusable as before
     on_drive = () if drive.settings == () else (drive,)  # paper-drive tasks as before: stored searches stay valid
     if on_drive:
         res["drive"] = drive.to_record()
@@ -212,6 +268,8 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
         found = executor.map(best_drive, [(k, m, fixed_budget, cycle_budget, time_quantum, *on_drive)
                                           for k, m in points],
                              "best drive per point", store=TaskStore(tasks / "best_drive"))
+        if strong:
+            found = strengthen(found, points, strong, time_quantum, on_drive, executor, tasks)
     res["points"], res["trapezoid"], res["best"] = points, trap.tolist(), found
     best_v = nan_array([f["velocity"] for f in found])
     learned = {}
@@ -244,6 +302,16 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     return res
 
 
+def pooled_text(rounds: dict | None) -> str:
+    """How the ``strong`` reference's rounds (``blind.json``'s ``search.pooled_rounds``) went on, or ''."""
+    if not rounds:
+        return ""
+    return (f", then {rounds['passes']} round(s) at every point of CMA-ES ({rounds['budget']} evaluations from "
+            f"each of the {rounds['starts']} fastest there of every point's best drive so far"
+            + (f" and, in the first round, {rounds['random_cycles']:,} random cycles" if rounds["random_cycles"] else "")
+            + "; the strong reference)")
+
+
 def markdown(res: dict) -> str:
     drive = res.get("drive")
     settings = ", ".join(f"{k}={v}" for k, v in (drive or {}).items() if k not in ("name", "k", "load_ratio"))
@@ -252,7 +320,8 @@ def markdown(res: dict) -> str:
              f"load {res['domain']['load']}; {res['protocol']}.",
              f"Best drive: the better of CMA-ES over fixed actions ({res['search']['fixed_action_cma_evaluations']} "
              f"evaluations) and over two-action cycles ({res['search']['two_action_cycle_cma_evaluations_per_start']} "
-             "evaluations from each of 2 starts). Velocities in mm/s; 'runaway': the load runs away with the slider.",
+             "evaluations from each of 2 starts)" + pooled_text(res["search"].get("pooled_rounds")) +
+             ". Velocities in mm/s; 'runaway': the load runs away with the slider.",
              "", "| k | m (kg) | trapezoid | best drive (kind) | " + " | ".join(
                  f"policy {i + 1}" for i in range(len(res["policies"]))) + " |",
              "|---|---|---|---|" + "---|" * len(res["policies"])]

@@ -45,6 +45,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="draw the scan's k values with --seed, one uniform k in each of --scan-ks equal cells of "
                         "[0, 0.6], instead of spacing them evenly (the same for every seed): the critical-load "
                         "target judged on k values nobody tuned to")
+    b.add_argument("--reference", choices=("standard", "strong"), default="standard",
+                   help="the search that finds each point's best drive: 'standard', CMA-ES over fixed actions and "
+                        "over two-action cycles from the trapezoid and push/clamp; 'strong', then three rounds at "
+                        "every point of CMA-ES from the fastest there of every point's best drive so far (the first "
+                        "round also from 1,000 random cycles), which the recipe's policies do not beat on average "
+                        "(about 2.5x the standard search's time per point)")
     b.add_argument("--reuse-search", default=None, metavar="BLIND.json", type=input_file,
                    help="take the points, the trapezoid and the searches from an earlier blind.json of the same "
                         "seed, size and budgets; only the policies run")
@@ -68,7 +74,7 @@ def main(args: argparse.Namespace) -> int:
         budget = {"fixed_budget": args.cma_budget} if args.cma_budget else {}
         blind.run(args.policies, args.blind, args.seed, out, quick=args.quick, scan_ks=args.scan_ks,
                   scan_draw=args.scan_draw, reuse=args.reuse_search, executor=executor_from(args), resume=args.resume,
-                  drive=args.drive, **budget)
+                  drive=args.drive, reference=args.reference, **budget)
         print((Path(out) / "blind.md").read_text())
         print(f"tables and figures in {out}/")
         return 0

@@ -176,3 +176,19 @@ def test_velocities_read_back_from_json_keep_a_runaway_as_nan():
     assert stored == [1e-3, None, -2e-3]
     back = nan_array(stored)
     assert back.dtype == float and np.isnan(back[1]) and back[[0, 2]].tolist() == [1e-3, -2e-3]
+
+
+def test_the_strong_reference_keeps_every_points_drive_or_a_faster_one_and_says_so(tmp_path, monkeypatch):
+    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: 1.5 * args[1])  # the scan is not what is tested
+    standard = blind.run([str(PRETRAINED)], 3, seed=5, out=tmp_path / "standard", quick=True, workers=1)
+    strong = blind.run([str(PRETRAINED)], 3, seed=5, out=tmp_path / "strong", quick=True, workers=1, reference="strong")
+    assert "pooled_rounds" not in standard["search"] and strong["search"]["pooled_rounds"] == blind.QUICK_STRONG
+    assert strong["points"] == standard["points"]
+    for a, b in zip(standard["best"], strong["best"]):
+        assert b["velocity"] >= a["velocity"] - 1e-12 and b["evaluations"] > a["evaluations"]
+    assert "the strong reference" in (tmp_path / "strong" / "blind.md").read_text()
+    with pytest.raises(ValueError, match="--reuse-search .*its search"):  # another search: not reusable
+        blind.run([str(PRETRAINED)], 3, seed=5, out=tmp_path / "again", quick=True, workers=1,
+                  reuse=tmp_path / "standard" / "blind.json", reference="strong")
+    with pytest.raises(ValueError, match="reference='best' is not one of"):
+        blind.run([str(PRETRAINED)], 3, seed=5, out=tmp_path / "bad", quick=True, workers=1, reference="best")
