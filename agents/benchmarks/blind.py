@@ -12,6 +12,10 @@ the best two-action cycle (bisection with CMA-ES at every trial load, ``cycle_cr
 evenly spaced, the same for every seed, or with ``--scan-draw`` drawn with the seed, one uniform k
 in each of ``--scan-ks`` equal cells (``scan_k_values``), so that the critical-load target too is
 judged on k values nobody tuned to.
+``--reference strong`` then strengthens every point's best drive (``REFERENCES``): three rounds of
+CMA-ES from the fastest, played at the point, of every point's best drive so far (and of random
+cycles), which finds drives the standard search misses; the policies the recipe builds beat the
+standard search on average and not the strong one (docs/results.md).
 Every velocity follows the evaluation protocol (``mdr_drive_agents.protocol``: 30 periods, mean of
 the last 10, runaways marked). The searches quantise their drives to the time quantum the policies act
 at (their run.json's ``time_quantum``, default 10 us; policies with different quanta are refused),
