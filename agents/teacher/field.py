@@ -50,18 +50,13 @@ from .node_search import search_slice
 class DriveField:
     """Grid drives (n_k, n_s, 2, 5), their velocities (m/s) and the trapezoid's critical load (kg) per k."""
 
-    def __init__(self, ks, fractions, trapezoid_critical, drives, velocities, meta: dict | None = None,
-                 extra_points=None, extra_drives=None):
+    def __init__(self, ks, fractions, trapezoid_critical, drives, velocities, meta: dict | None = None):
         self.ks = np.asarray(ks, dtype=np.float64)
         self.fractions = np.asarray(fractions, dtype=np.float64)
         self.trapezoid_critical = np.asarray(trapezoid_critical, dtype=np.float64)
         self.drives = np.asarray(drives, dtype=np.float64)
         self.velocities = np.asarray(velocities, dtype=np.float64)
         self.meta = dict(meta or {})
-        #: Drives kept at points off the grid (``add_extras``: the audit's finds), (e, 2) (k, load kg) and (e, 2, 5).
-        self.extra_points = np.zeros((0, 2)) if extra_points is None else np.asarray(extra_points, dtype=np.float64)
-        self.extra_drives = (np.zeros((0, 2, 5)) if extra_drives is None
-                             else np.asarray(extra_drives, dtype=np.float64).reshape(-1, 2, 5))
         self.friction = tuple(float(f) for f in self.meta.get("config", {}).get("friction", PAPER_FRICTION))
         drive = self.meta.get("drive")
         #: The drive its drives were searched on (meta ``drive``; the paper's for a field without one).
@@ -247,29 +242,11 @@ class DriveField:
         ws = (s - self.fractions[j]) / (self.fractions[j + 1] - self.fractions[j])
         return i, j, wk, ws
 
-    def add_extras(self, points, drives) -> None:
-        """Keep ``drives`` (e, 2, 5) found at ``points`` (e, 2: k, load kg) as candidates of their own:
-        :meth:`candidates` offers each near its point, so a drive better than every node's there is
-        taught there even where no node keeps it."""
-        self.extra_points = np.concatenate([self.extra_points, np.asarray(points, dtype=np.float64).reshape(-1, 2)])
-        self.extra_drives = np.concatenate([self.extra_drives, np.asarray(drives, dtype=np.float64).reshape(-1, 2, 5)])
-
-    def _extras_near(self, i: int, j: int, radius: int, load_radius: int) -> list:
-        """The extra drives whose point lies in a cell within ``radius`` - 1 k cells and ``load_radius``
-        - 1 load cells of cell (i, j): the cells whose nodes the candidates' ring covers."""
-        near = []
-        for point, drive in zip(self.extra_points, self.extra_drives):
-            a, b, _, _ = self._cell(*point)
-            if abs(a - i) < radius and abs(b - j) < load_radius:
-                near.append(drive)
-        return near
-
     def candidates(self, k: float, load: float, radius: int = 1, load_radius: int | None = None) -> np.ndarray:
         """(c, 2, 5): the bilinear interpolation of the four surrounding grid drives (each aligned to
         the cell's first corner), then the grid drives of the (2 radius) x (2 radius) nodes around the
         cell (``radius`` 1: its four corners; with ``load_radius``, (2 radius) k lines by
-        (2 load_radius) load lines), each aligned to that corner, nodes past the grid's edge left out,
-        then the extra drives (``add_extras``) of the cells those nodes span."""
+        (2 load_radius) load lines), each aligned to that corner, nodes past the grid's edge left out."""
         load_radius = radius if load_radius is None else load_radius
         i, j, wk, ws = self._cell(k, load)
         first = self.drives[i, j]
@@ -282,8 +259,7 @@ class DriveField:
                 for a in range(max(i - radius + 1, 0), min(i + radius + 1, nk))
                 for b in range(max(j - load_radius + 1, 0), min(j + load_radius + 1, ns))
                 if not (i <= a <= i + 1 and j <= b <= j + 1)]
-        extras = [align_phase(d, first) for d in self._extras_near(i, j, radius, load_radius)]
-        return np.array([mixed, *corners, *ring, *extras])
+        return np.array([mixed, *corners, *ring])
 
     def with_friction(self, points) -> list[tuple[float, float, float, float]]:
         """``points`` as (k, load kg, mu, mu1): (k, load) points at the field's friction."""
@@ -317,19 +293,17 @@ class DriveField:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as f:
-                extras = {"extra_points": self.extra_points, "extra_drives": self.extra_drives} if len(self.extra_points) else {}
                 np.savez_compressed(f, ks=self.ks, fractions=self.fractions,
                                     trapezoid_critical=self.trapezoid_critical, drives=self.drives,
-                                    velocities=self.velocities, meta=np.array(json.dumps(self.meta)), **extras)
+                                    velocities=self.velocities, meta=np.array(json.dumps(self.meta)))
 
     @classmethod
     def load(cls, path: str | Path) -> "DriveField":
         import json
 
         with np.load(path) as f:
-            extras = (f["extra_points"], f["extra_drives"]) if "extra_points" in f.files else (None, None)
             return cls(f["ks"], f["fractions"], f["trapezoid_critical"], f["drives"], f["velocities"],
-                       json.loads(str(f["meta"])), *extras)
+                       json.loads(str(f["meta"])))
 
 
 def with_friction(points, friction) -> list[tuple[float, float, float, float]]:

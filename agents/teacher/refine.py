@@ -216,19 +216,6 @@ def polish_nodes(field, nodes, budget: int, sigma: float, executor=None, seed: i
     return changed
 
 
-def distinct(drives, reference) -> np.ndarray:
-    """``drives`` (each (2, 5)) aligned to ``reference``'s phase, each once, in their first order (so a
-    search's starts, the fastest few, are never the same drive twice)."""
-    out, seen = [], set()
-    for d in drives:
-        aligned = align_phase(np.asarray(d, dtype=np.float64), reference)
-        key = aligned.round(9).tobytes()
-        if key not in seen:
-            seen.add(key)
-            out.append(aligned)
-    return np.array(out)
-
-
 def audit(field, points: int, budget: int, sigma: float, band: tuple[float, float], polish_budget: int,
           gain: float = 0.03, floor: float = 0.01, starts: int = 2, executor=None, seed: int = 0) -> dict:
     """Check the teacher against a stronger search and mend it where it falls short (``config.Audit``).
@@ -236,26 +223,21 @@ def audit(field, points: int, budget: int, sigma: float, band: tuple[float, floa
     ``points`` points drawn from ``seed``: k uniform over the grid's k range, the load uniform in
     ``band`` (low, high) times the trapezoid's critical load at k. At each, the teacher's drive as
     the student is taught it (``field.best`` over the grid drives of the 4 x 4 nodes around the
-    point) is searched again: CMA-ES over two-action cycles from the ``starts`` fastest, played there,
-    of those drives, the trapezoid, the push/clamp cycle and every distinct drive of the field (each
-    once; ``budget`` evaluations each, step ``sigma``). Where the search beats the teacher by more
-    than ``gain`` (relative) and ``floor`` times the drive's stroke speed, the four nodes of the
-    point's cell play the drive found and are polished from it (``polish_nodes``, ``polish_budget``
-    evaluations per start); where the point is still short of it then (no node took a drive as good
-    there), the drive found is kept at the point (``DriveField.add_extras``), so the student is
-    taught it there. ``field.meta["audited"]`` keeps the counts: the points that fell short, their
-    mean shortfall, the size of the pool, the nodes searched and changed, and the points the nodes
-    left short (``still_short``), whose drives were kept as extras. Returns that record."""
+    point) is searched again: CMA-ES over two-action cycles from the ``starts`` fastest of those
+    drives, the trapezoid and the push/clamp cycle (``budget`` evaluations each, step ``sigma``).
+    Where the search beats the teacher by more than ``gain`` (relative) and ``floor`` times the
+    drive's stroke speed, the four nodes of the point's cell play the drive found and are polished
+    from it (``polish_nodes``, ``polish_budget`` evaluations per start). ``field.meta["audited"]``
+    keeps the counts: the points that fell short, their mean shortfall, the nodes searched and
+    changed, and how many of those points still fall short after the mending. Returns that record."""
     rng = np.random.default_rng(seed)
     ks = rng.uniform(field.ks[0], field.ks[-1], points)
     loads = rng.uniform(*band, points) * np.interp(ks, field.ks, field.trapezoid_critical)
     at = [(float(k), float(m)) for k, m in zip(ks, loads)]
     taught_d, taught_v = field.best(at, radius=2, interpolation=False)
     trapezoid = np.tile(trapezoid_action(field.drive), (2, 1))
-    pool = np.unique(np.concatenate([field.drives.reshape(-1, 10), field.extra_drives.reshape(-1, 10)]),
-                     axis=0).reshape(-1, 2, 5)  # every distinct drive of the field: good drives are shared
-    lines = [[(p, distinct([d, *field.candidates(*p, radius=2)[1:], trapezoid, PUSH_CLAMP, *pool], d))]
-             for p, d in zip(at, taught_d)]
+    lines = [[(p, np.array([d, *field.candidates(*p, radius=2)[1:], align_phase(trapezoid, d),
+                            align_phase(PUSH_CLAMP, d)]))] for p, d in zip(at, taught_d)]
     found_d, found_v = search_new_nodes(lines, budget, sigma, starts, seed, field.friction, "teacher: audit",
                                         executor, field.drive)
     found_d, found_v = np.array([d[0] for d in found_d]), np.array([v[0] for v in found_v])
@@ -267,15 +249,13 @@ def audit(field, points: int, budget: int, sigma: float, band: tuple[float, floa
         for node in ((i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)):
             offers.setdefault(node, []).append(found_d[n])
     record = {"points": points, "band": list(band), "gain": gain, "floor": floor, "starts": starts,
-              "polish_budget": polish_budget, "pool": int(len(pool)), "short": int(len(short)),
+              "polish_budget": polish_budget, "short": int(len(short)),
               "mean_shortfall_m_s": float(np.mean(found_v[short] - taught_v[short])) if len(short) else 0.0}
     polish_nodes(field, sorted(offers), polish_budget, sigma, executor, seed + 1, starts, "audit", record, offers)
     record["search_budget"] = budget
     if len(short):
-        _, polished_v = field.best([at[n] for n in short], radius=2, interpolation=False)
-        kept = [n for n, v in zip(short, polished_v) if found_v[n] - v > threshold[n]]
-        field.add_extras([at[n] for n in kept], found_d[kept])  # where no node took it, the drive found stays
-        record["still_short"] = len(kept)
+        _, mended_v = field.best([at[n] for n in short], radius=2, interpolation=False)
+        record["still_short"] = int(np.sum(found_v[short] - mended_v > threshold[short]))
     field.meta["audited"] = record
     return record
 
