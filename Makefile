@@ -109,12 +109,16 @@ adaptation: $(STAMP)
 #: The drive of docs/your_drive.md's worked example, and the seed of its blind benchmark (never used to choose anything).
 EXAMPLE_DRIVE := agents/configs/drives/small_stage.yaml
 EXAMPLE_DRIVE_SEED := 20261281
+#: The seed of its benchmark against the strong reference (never used to choose anything).
+EXAMPLE_STRONG_SEED := 20261305
 
-## make your-drive: docs/your_drive.md's example: the recipe on another drive, then its blind benchmark (results/your_drive; about 25 minutes)
+## make your-drive: docs/your_drive.md's example: the recipe on another drive, then its blind benchmarks against the standard and the strong reference (results/your_drive; about 35 minutes)
 your-drive: $(STAMP)
 	$(MDR) recipe agents/configs/recipe.yaml --drive $(EXAMPLE_DRIVE) --out runs/your_drive --force
 	$(MDR) benchmark --blind 120 --seed $(EXAMPLE_DRIVE_SEED) --scan-draw --policies runs/your_drive/policy \
 	    --out results/your_drive/seed$(EXAMPLE_DRIVE_SEED)
+	$(MDR) benchmark --blind 120 --seed $(EXAMPLE_STRONG_SEED) --scan-draw --reference strong --policies runs/your_drive/policy \
+	    --out results/your_drive/strong_seed$(EXAMPLE_STRONG_SEED)
 
 ## make rl-baselines: plain PPO, SAC, TD3 and RecurrentPPO searched, 5 seeds each, then what helps PPO; ships the best (results/rl_baselines; about 1.5 hours on 2 cores)
 rl-baselines: $(STAMP)

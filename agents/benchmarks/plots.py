@@ -111,6 +111,11 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
         plt.close(fig)
 
 
+def reference_label(res: dict) -> str:
+    """', strong reference' for a blind benchmark judged against the strong reference, else ''."""
+    return ", strong reference" if res.get("search", {}).get("pooled_rounds") else ""
+
+
 def plot_blind(res: dict, out: str | Path, moving_threshold: float) -> None:
     """The two PNG figures of a blind benchmark (``benchmarks.blind``) from its results (``blind.json``
     loaded, or ``blind.run``'s return value), fractions of the best drive where it moves at least
@@ -130,7 +135,7 @@ def plot_blind(res: dict, out: str | Path, moving_threshold: float) -> None:
     for i, p in enumerate(res["policies"]):
         ax.plot(crit["k"], crit[p], ":^", ms=4, color=f"C{i}", label=f"{names[i]}: {policy_label(p)}")
     ax.set(yscale="log", xlabel="k", ylabel="critical cargo mass (kg)",
-           title=f"critical load vs k (blind benchmark, seed {res['seed']}, fast numerics)")
+           title=f"critical load vs k (blind benchmark, seed {res['seed']}{reference_label(res)}, fast numerics)")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     fig.tight_layout()
@@ -150,7 +155,8 @@ def plot_blind(res: dict, out: str | Path, moving_threshold: float) -> None:
     ax.plot(ks[sel], np.nan_to_num(trap[sel], nan=0.0) / best[sel], "o", color="0.5", label="trapezoid")
     ax.axhline(1.0, color="k", lw=0.6)
     ax.set(xlabel="k", ylabel="velocity / best drive found",
-           title=f"fraction of the best drive at the blind points (seed {res['seed']}; best >= 2 mm/s)")
+           title=f"fraction of the best drive at the blind points (seed {res['seed']}{reference_label(res)}; "
+                 "best >= 2 mm/s)")
     ax.title.set_fontsize(9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
