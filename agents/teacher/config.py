@@ -212,8 +212,7 @@ class Audit:
     (``refine.audit``): at ``points`` random points of its domain (k over the grid's range, loads
     ``low``-``high`` times the trapezoid's critical load), CMA-ES over two-action cycles (``budget``
     evaluations from each of the ``starts`` fastest of the teacher's drives around the point, the
-    trapezoid and the push/clamp cycle; step ``sigma``) searches again, then ``rounds`` more times from
-    the fastest, played at the point, of every audit point's drive found so far. Where it beats the teacher's
+    trapezoid and the push/clamp cycle; step ``sigma``) searches again. Where it beats the teacher's
     drive (as the student is taught it) by more than ``gain`` (relative) and ``floor`` times the
     drive's stroke speed, the four nodes of the point's cell play the drive found and are searched
     again from it (``polish_budget`` evaluations per start). So the teacher searches more where a
@@ -229,7 +228,6 @@ class Audit:
     gain: float = 0.03
     floor: float = 0.01
     starts: int = 2
-    rounds: int = 0
     SEED_OFFSET = 995_000
 
     def __post_init__(self) -> None:
@@ -237,7 +235,6 @@ class Audit:
         check_search("audit", self.budget, self.sigma)
         check_int("audit polish_budget", self.polish_budget, 1)
         check_int("audit starts", self.starts, 1)
-        check_int("audit rounds", self.rounds, 0)
         check_range("audit gain", self.gain, 0.0, 1.0)
         check_range("audit floor", self.floor, 0.0, 1.0)
 
@@ -247,7 +244,7 @@ class Audit:
         before = field.drives.copy()
         audit(field, int(self.points), int(self.budget), float(self.sigma), (float(self.low), float(self.high)),
               int(self.polish_budget), gain=float(self.gain), floor=float(self.floor), starts=int(self.starts),
-              executor=executor, seed=seed, rounds=int(self.rounds))
+              executor=executor, seed=seed)
         field.settle(keep_phases_of=before)
 
 

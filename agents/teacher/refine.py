@@ -217,8 +217,7 @@ def polish_nodes(field, nodes, budget: int, sigma: float, executor=None, seed: i
 
 
 def audit(field, points: int, budget: int, sigma: float, band: tuple[float, float], polish_budget: int,
-          gain: float = 0.03, floor: float = 0.01, starts: int = 2, executor=None, seed: int = 0,
-          rounds: int = 0) -> dict:
+          gain: float = 0.03, floor: float = 0.01, starts: int = 2, executor=None, seed: int = 0) -> dict:
     """Check the teacher against a stronger search and mend it where it falls short (``config.Audit``).
 
     ``points`` points drawn from ``seed``: k uniform over the grid's k range, the load uniform in
@@ -226,13 +225,10 @@ def audit(field, points: int, budget: int, sigma: float, band: tuple[float, floa
     the student is taught it (``field.best`` over the grid drives of the 4 x 4 nodes around the
     point) is searched again: CMA-ES over two-action cycles from the ``starts`` fastest of those
     drives, the trapezoid and the push/clamp cycle (``budget`` evaluations each, step ``sigma``).
-    Then ``rounds`` pooled rounds: every point plays every point's drive found so far and CMA-ES runs
-    again from the ``starts`` fastest, so a drive found at one point seeds the search at all others
-    (as the blind benchmark's strong reference does). Where the search beats the teacher by more than ``gain`` (relative) and ``floor`` times the
+    Where the search beats the teacher by more than ``gain`` (relative) and ``floor`` times the
     drive's stroke speed, the four nodes of the point's cell play the drive found and are polished
     from it (``polish_nodes``, ``polish_budget`` evaluations per start). ``field.meta["audited"]``
-    keeps the counts: the points that fell short, their mean shortfall, the search's mean gain over the
-    teacher after each round, the nodes searched and
+    keeps the counts: the points that fell short, their mean shortfall, the nodes searched and
     changed, and how many of those points still fall short after the mending. Returns that record."""
     rng = np.random.default_rng(seed)
     ks = rng.uniform(field.ks[0], field.ks[-1], points)
@@ -245,15 +241,6 @@ def audit(field, points: int, budget: int, sigma: float, band: tuple[float, floa
     found_d, found_v = search_new_nodes(lines, budget, sigma, starts, seed, field.friction, "teacher: audit",
                                         executor, field.drive)
     found_d, found_v = np.array([d[0] for d in found_d]), np.array([v[0] for v in found_v])
-    gains = [float(np.mean(found_v - taught_v))]
-    for r in range(rounds):
-        lines = [[(p, np.array([own, *(align_phase(d, own) for d in found_d)]))] for p, own in zip(at, found_d)]
-        again_d, again_v = search_new_nodes(lines, budget, sigma, starts, seed + 1009 * (r + 1), field.friction,
-                                            f"teacher: audit, pooled round {r + 1} of {rounds}", executor, field.drive)
-        again_d, again_v = np.array([d[0] for d in again_d]), np.array([v[0] for v in again_v])
-        better = again_v > found_v
-        found_d[better], found_v[better] = again_d[better], again_v[better]
-        gains.append(float(np.mean(found_v - taught_v)))
     threshold = np.maximum(gain * np.abs(taught_v), floor * field.drive.stroke_speed)
     short = np.flatnonzero(found_v - taught_v > threshold)
     offers: dict = {}
@@ -261,10 +248,9 @@ def audit(field, points: int, budget: int, sigma: float, band: tuple[float, floa
         i, j, _, _ = field._cell(*at[n])
         for node in ((i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)):
             offers.setdefault(node, []).append(found_d[n])
-    record = {"points": points, "band": list(band), "rounds": rounds, "gain": gain, "floor": floor, "starts": starts,
+    record = {"points": points, "band": list(band), "gain": gain, "floor": floor, "starts": starts,
               "polish_budget": polish_budget, "short": int(len(short)),
-              "mean_shortfall_m_s": float(np.mean(found_v[short] - taught_v[short])) if len(short) else 0.0,
-              "mean_gain_by_round_m_s": gains}
+              "mean_shortfall_m_s": float(np.mean(found_v[short] - taught_v[short])) if len(short) else 0.0}
     polish_nodes(field, sorted(offers), polish_budget, sigma, executor, seed + 1, starts, "audit", record, offers)
     record["search_budget"] = budget
     if len(short):

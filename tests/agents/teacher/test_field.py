@@ -388,18 +388,8 @@ def test_audit_mends_the_cells_where_a_stronger_search_beats_the_teacher_and_rec
     again.velocities = before_v.copy()
     refine.audit(again, 6, 16, 0.3, (0.2, 1.0), 8, executor=ex, seed=5)
     assert np.array_equal(again.drives, field.drives)  # seeded: the same audit mends the same way
-    assert len(record["mean_gain_by_round_m_s"]) == 1 and record["rounds"] == 0
-    pooled = synthetic_field(nk=3, ns=4)
-    pooled.trapezoid_critical[:] = 0.02
-    pooled.drives[:] = 0.0
-    pooled.velocities = before_v.copy()
-    record = refine.audit(pooled, 6, 16, 0.3, (0.2, 1.0), 8, executor=ex, seed=5, rounds=2)
-    gains = record["mean_gain_by_round_m_s"]  # a pooled round keeps a point's drive unless it finds a faster one
-    assert len(gains) == 3 and gains[0] > 0.0 and gains[1] >= gains[0] and gains[2] >= gains[1]
-    assert np.all(pooled.velocities >= before_v)
     for bad, match in (((0, 10, 0.3, 0.2, 1.0, 10), "audit points"), ((5, 10, 0.0, 0.2, 1.0, 10), "audit sigma"),
                        ((5, 10, 0.3, 0.2, 9.0, 10), "audit high"), ((5, 10, 0.3, 0.2, 1.0, 0), "audit polish_budget"),
-                       ((5, 10, 0.3, 0.2, 1.0, 10, 2.0), "audit gain"), ((5, 10, 0.3), "audit"),
-                       ((5, 10, 0.3, 0.2, 1.0, 10, 0.03, 0.01, 2, -1), "audit rounds")):
+                       ((5, 10, 0.3, 0.2, 1.0, 10, 2.0), "audit gain"), ((5, 10, 0.3), "audit")):
         with pytest.raises(ValueError, match=match):
             stage_config("audit", bad)
