@@ -93,11 +93,11 @@ def teacher_sweep(n: int):
 
 
 def blind_sweep(n: int):
-    from mdr_drive_agents.benchmarks.blind import best_drive, draw_points
+    from mdr_drive_agents.benchmarks.blind import PointTask, best_drive, draw_points
     from mdr_drive_agents.search import CMA_BUDGET, CYCLE_SEARCH
 
     points, _ = draw_points(n, seed=1)
-    return best_drive, [(k, m, CMA_BUDGET, CYCLE_SEARCH["budget"]) for k, m in points], 24
+    return best_drive, [PointTask(k, m, CMA_BUDGET, CYCLE_SEARCH["budget"]) for k, m in points], 24
 
 
 #: sweep name: (its slice, tasks measured per --tasks 8)

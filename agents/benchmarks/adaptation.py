@@ -42,7 +42,7 @@ from ..policy import load_policy
 from ..protocol import ACTION_MAP, AVERAGE_PERIODS, EVAL_PERIODS, env_rollout, format_velocity, steady_velocity_of
 from ..search import CMA_BUDGET, CYCLE_SEARCH, cma_optimize
 from ..student.estimator import SENSOR_ID
-from .blind import QUICK, best_drive
+from .blind import QUICK, PointTask, best_drive
 from .targets import MOVING_THRESHOLD, velocity_statistics
 
 SENSOR_POLICY = "agents/pretrained/ppo_sensor"
@@ -195,8 +195,8 @@ def run(sensor_policy, full_policy: str, n: int, n_steps: int, seed: int, out: s
                 "trapezoid": None, "tuned once": FixedAction(tuned_once_action(fixed_budget))}
     search = {"fixed_budget": fixed_budget, "cycle_budget": cycle_budget}
     points = draw_hidden(n, seed)
-    tasks = [(d["k"], d["cargo_mass"], fixed_budget, cycle_budget, d["friction_coefficient"],
-              d["base_friction_coefficient"]) for d in points]
+    tasks = [PointTask(d["k"], d["cargo_mass"], fixed_budget, cycle_budget,
+                       (d["friction_coefficient"], d["base_friction_coefficient"])) for d in points]
     store = TaskStore(task_folder(out, resume) / "best")
     if reuse:
         best_runs = reusable_search(reuse, seed, n, search)

@@ -39,6 +39,7 @@ from __future__ import annotations
 import json
 import shutil
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -116,12 +117,6 @@ def scan_k_values(count: int, seed: int | None = None, k_range: tuple[float, flo
     return [float(k) for k in np.round(in_k_cells(offsets, k_range), 6)]
 
 
-def task_drive(rest: list) -> DriveDescription:
-    """The drive a search task names as its last entry (popped from ``rest``), or the paper's: tasks on
-    the paper drive carry none, so their stored results stay those of earlier runs."""
-    return rest.pop() if rest and isinstance(rest[-1], DriveDescription) else PAPER_DRIVE
-
-
 def in_k_cells(offsets, k_range: tuple[float, float] = K_RANGE) -> np.ndarray:
     """One k in each of ``len(offsets)`` equal cells of ``k_range`` (default ``K_RANGE``), at
     ``offsets`` (0 ... 1) of its cell (0.5: the cells' midpoints)."""
@@ -130,42 +125,88 @@ def in_k_cells(offsets, k_range: tuple[float, float] = K_RANGE) -> np.ndarray:
     return low + (np.arange(len(offsets)) + offsets) * (high - low) / len(offsets)
 
 
-def best_drive(args) -> dict:
+@dataclass(frozen=True)
+class PointTask:
+    """One point's search (``best_drive``): at k and ``cargo_mass`` (kg), CMA-ES over fixed actions
+    (``fixed_budget`` evaluations) and over two-action cycles (``cycle_budget`` per start), at
+    ``friction`` (mu, mu1; None: the drive's own), the drives quantised to ``time_quantum`` (s), on
+    ``drive``."""
+
+    k: float
+    cargo_mass: float
+    fixed_budget: int
+    cycle_budget: int
+    friction: tuple[float, float] | None = None
+    time_quantum: float = TIME_QUANTUM
+    drive: DriveDescription = PAPER_DRIVE
+
+    @property
+    def point(self) -> tuple:
+        """The point as the protocol takes it: (k, load) or (k, load, mu, mu1)."""
+        return (self.k, self.cargo_mass) if self.friction is None else (self.k, self.cargo_mass, *self.friction)
+
+
+@dataclass(frozen=True)
+class PooledTask:
+    """One point's round of the ``strong`` reference (``pooled_drive``): ``pooled_cycle_search`` at k
+    and ``cargo_mass`` (kg) from ``pool`` (n, 2, 5), its ``starts`` fastest and ``random_cycles``
+    random cycles drawn with ``seed``, ``budget`` evaluations per start; ``own`` is the point's drive
+    so far (a ``best_drive`` record)."""
+
+    k: float
+    cargo_mass: float
+    pool: np.ndarray
+    starts: int
+    budget: int
+    random_cycles: int
+    seed: int
+    own: dict
+    time_quantum: float = TIME_QUANTUM
+    drive: DriveDescription = PAPER_DRIVE
+
+
+@dataclass(frozen=True)
+class ScanTask:
+    """One k of the critical-load scan (``cycle_scan_task``): the best cycle's critical load by
+    ``iterations`` bisection steps from ``trapezoid_critical`` (kg), ``budget`` evaluations per
+    search."""
+
+    k: float
+    trapezoid_critical: float
+    iterations: int
+    budget: int
+    time_quantum: float = TIME_QUANTUM
+    drive: DriveDescription = PAPER_DRIVE
+
+
+def best_drive(task: PointTask) -> dict:
     """The best drive found at one point (``search_point``: CMA-ES over fixed actions and over
     two-action cycles, the blind benchmark's settings), its velocity played again with runaways
-    marked. ``args``: (k, cargo mass, fixed budget, cycle budget), then optionally (mu, mu1), then
-    optionally the time quantum (s) the drives are quantised to (default ``TIME_QUANTUM``), then
-    optionally the drive (``task_drive``)."""
-    k, m, fixed_budget, cycle_budget, *rest = args
-    drive = task_drive(rest)
-    friction = tuple(rest[:2]) if len(rest) >= 2 else None
-    time_quantum = float(rest[-1]) if len(rest) in (1, 3) else TIME_QUANTUM
-    found = search_point(k, m, fixed_budget, cycle_budget, friction=friction, time_quantum=time_quantum, drive=drive)
+    marked."""
+    t = task
+    found = search_point(t.k, t.cargo_mass, t.fixed_budget, t.cycle_budget, friction=t.friction,
+                         time_quantum=t.time_quantum, drive=t.drive)
     fixed, cyc = found.fixed, found.cycle
     best = cyc if found.cycle_wins else fixed
     actions = np.asarray(best.action).reshape(1, -1, 5)
-    point = (k, m) if friction is None else (k, m, *friction)
-    velocity = float(open_loop_velocity([point], actions, mark_runaway=True,  # NaN if the load runs away
-                                        time_quantum=time_quantum, drive=drive)[0])
+    velocity = float(open_loop_velocity([t.point], actions, mark_runaway=True,  # NaN if the load runs away
+                                        time_quantum=t.time_quantum, drive=t.drive)[0])
     return {"velocity": velocity, "kind": "two-action cycle" if best is cyc else "fixed action",
             "action": np.asarray(best.action).tolist(), "fixed_velocity": fixed.velocity,
             "cycle_velocity": cyc.velocity, "evaluations": fixed.evaluations + cyc.evaluations}
 
 
-def pooled_drive(args) -> dict:
-    """One point's best drive after a round of the ``strong`` reference: ``pooled_cycle_search`` from
-    ``pool`` (every point's best drive so far) and ``random_cycles`` random cycles, kept where it beats
-    the point's drive ``own`` (a ``best_drive`` record), its velocity played again with runaways marked.
-    ``args``: (k, cargo mass, pool (n, 2, 5), starts, budget, random cycles, seed, time quantum (s),
-    own), then optionally the drive (``task_drive``)."""
-    k, m, pool, starts, budget, random_cycles, seed, time_quantum, own, *rest = args
-    drive = task_drive(rest)
-    found = pooled_cycle_search(k, m, pool, starts, budget, random_cycles, seed, time_quantum=time_quantum, drive=drive)
+def pooled_drive(task: PooledTask) -> dict:
+    """One point's best drive after a round of the ``strong`` reference: the pooled search's drive
+    where it beats the point's own, its velocity played again with runaways marked."""
+    t, own = task, task.own
+    found = pooled_cycle_search(t.k, t.cargo_mass, t.pool, t.starts, t.budget, t.random_cycles, t.seed,
+                                time_quantum=t.time_quantum, drive=t.drive)
     record = {**own, "evaluations": own.get("evaluations", 0) + found.evaluations}
     if not found.velocity > (own["velocity"] if np.isfinite(own["velocity"]) else -np.inf):
         return record
-    velocity = float(open_loop_velocity([(k, m)], np.asarray(found.action)[None], mark_runaway=True,
-                                        time_quantum=time_quantum, drive=drive)[0])
+    velocity = float(open_loop_velocity([(t.k, t.cargo_mass)], np.asarray(found.action)[None], mark_runaway=True,
+                                        time_quantum=t.time_quantum, drive=t.drive)[0])
     if not np.isfinite(velocity):
         return record
     return {**record, "velocity": velocity, "kind": "two-action cycle", "action": np.asarray(found.action).tolist(),
@@ -178,15 +219,15 @@ def as_cycle(action) -> np.ndarray:
     return np.tile(a, (2, 1)) if a.ndim == 1 else a
 
 
-def strengthen(found: list[dict], points, settings: dict, time_quantum: float, on_drive: tuple, executor,
+def strengthen(found: list[dict], points, settings: dict, time_quantum: float, drive: DriveDescription, executor,
                tasks: Path) -> list[dict]:
     """The ``strong`` reference's rounds (``REFERENCES``) over every point's ``best_drive`` record:
     ``settings["passes"]`` rounds of ``pooled_drive``, each round's pool the best drives after the last."""
     for round_index in range(settings["passes"]):
         pool = np.array([as_cycle(f["action"]) for f in found])
         random_cycles = settings["random_cycles"] if round_index == 0 else 0
-        found = executor.map(pooled_drive, [(k, m, pool, settings["starts"], settings["budget"], random_cycles,
-                                             round_index * 100_003 + i, time_quantum, own, *on_drive)
+        found = executor.map(pooled_drive, [PooledTask(k, m, pool, settings["starts"], settings["budget"], random_cycles,
+                                                       round_index * 100_003 + i, own, time_quantum, drive)
                                             for i, ((k, m), own) in enumerate(zip(points, found))],
                              f"strong reference: round {round_index + 1} of {settings['passes']}",
                              store=TaskStore(tasks / f"pooled_{round_index}"))
@@ -209,13 +250,11 @@ def reusable_search(path: str | Path, res: dict, scan_ks: int) -> dict:
     return previous
 
 
-def cycle_scan_task(args) -> float:
-    """The best cycle's critical load (kg) at one k. ``args``: (k, the trapezoid's critical load kg,
-    bisection steps, cycle budget), optionally with the time quantum (s), then the drive (``task_drive``)."""
-    k, m_trap, iterations, budget, *rest = args
-    drive = task_drive(rest)
-    time_quantum = float(rest[0]) if rest else TIME_QUANTUM
-    return cycle_critical_load(k, m_trap, iterations, budget, time_quantum=time_quantum, drive=drive)[0]
+def cycle_scan_task(task: ScanTask) -> float:
+    """The best cycle's critical load (kg) at one k."""
+    t = task
+    return cycle_critical_load(t.k, t.trapezoid_critical, t.iterations, t.budget, time_quantum=t.time_quantum,
+                               drive=t.drive)[0]
 
 
 def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = False, scan_ks: int = 25,
@@ -254,8 +293,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
                  "scan": DRAWN_SCAN if scan_draw else EVEN_SCAN, "policies": list(policies)}
     if strong:
         res["search"]["pooled_rounds"] = dict(strong)  # files of the standard search stay reusable as before
-    on_drive = () if drive.settings == () else (drive,)  # paper-drive tasks as before: stored searches stay valid
-    if on_drive:
+    if drive.settings != ():
         res["drive"] = drive.to_record()
     time_quantum = play_time_quantum(loaded)  # the search runs in the action units the policies act in
     if time_quantum != TIME_QUANTUM:  # files of the default quantum stay reusable
@@ -269,11 +307,11 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     else:
         points, _ = draw_points(n, seed, drive)
         trap = open_loop_velocity(points, trapezoid_action(drive), mark_runaway=True, drive=drive)
-        found = executor.map(best_drive, [(k, m, fixed_budget, cycle_budget, time_quantum, *on_drive)
-                                          for k, m in points],
+        found = executor.map(best_drive, [PointTask(k, m, fixed_budget, cycle_budget, time_quantum=time_quantum,
+                                                    drive=drive) for k, m in points],
                              "best drive per point", store=TaskStore(tasks / "best_drive"))
         if strong:
-            found = strengthen(found, points, strong, time_quantum, on_drive, executor, tasks)
+            found = strengthen(found, points, strong, time_quantum, drive, executor, tasks)
     res["points"], res["trapezoid"], res["best"] = points, trap.tolist(), found
     best_v = nan_array([f["velocity"] for f in found])
     learned = {}
@@ -288,7 +326,7 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
         ks = scan_k_values(scan_ks, seed if scan_draw else None, drive.k_range)
         crit_trap = trapezoid_critical_load(ks, drive)
         crit_cycle = executor.map(cycle_scan_task,
-                                  [(k, m, iterations, cycle_budget, time_quantum, *on_drive)
+                                  [ScanTask(k, m, iterations, cycle_budget, time_quantum, drive)
                                    for k, m in zip(ks, crit_trap)],
                                   "critical load of the best cycle per k", store=TaskStore(tasks / "cycle_scan"))
     crit = {"k": ks, "trapezoid": crit_trap.tolist(), "best cycle": crit_cycle}

@@ -66,10 +66,10 @@ def test_the_search_runs_at_the_time_quantum_the_policies_act_at_and_mixed_quant
     assert load_policy(fine).play_kwargs["time_quantum"] == 5e-6  # evaluation plays it in that env
     searched, scanned = [], []
     monkeypatch.setattr(blind, "best_drive", lambda args: searched.append(args) or {"velocity": 1e-3, "kind": "fixed action"})
-    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: scanned.append(args) or 2.0 * args[1])
+    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: scanned.append(args) or 2.0 * args.trapezoid_critical)
     res = blind.run([str(fine)], 2, seed=5, out=tmp_path / "a", quick=True, workers=1)
     assert res["search"]["time_quantum_s"] == 5e-6
-    assert all(a[-1] == 5e-6 for a in searched + scanned) and len(searched) == 2
+    assert all(a.time_quantum == 5e-6 for a in searched + scanned) and len(searched) == 2
     with pytest.raises(ValueError, match="different time quanta"):
         blind.run([str(fine), str(coarse)], 2, seed=5, out=tmp_path / "b", quick=True, workers=1)
     # a drive between two 10 us quanta of its rise plays a waveform of its own at 5 us, one on them does not
@@ -179,7 +179,7 @@ def test_velocities_read_back_from_json_keep_a_runaway_as_nan():
 
 
 def test_the_strong_reference_keeps_every_points_drive_or_a_faster_one_and_says_so(tmp_path, monkeypatch):
-    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: 1.5 * args[1])  # the scan is not what is tested
+    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: 1.5 * args.trapezoid_critical)  # the scan is not what is tested
     standard = blind.run([str(PRETRAINED)], 3, seed=5, out=tmp_path / "standard", quick=True, workers=1)
     strong = blind.run([str(PRETRAINED)], 3, seed=5, out=tmp_path / "strong", quick=True, workers=1, reference="strong")
     assert "pooled_rounds" not in standard["search"] and strong["search"]["pooled_rounds"] == blind.QUICK_STRONG
