@@ -9,7 +9,7 @@ Three sweeps, each a representative slice of the real one, run first on 1 worker
 - the paper reproduction at paper numerics (``mdr-drive reproduce --quick``'s Fig. 5 cases);
 - the shipped recipe's teacher (``mdr_drive_agents.teacher.node_search.search_slice``: two of its 13 k
   slices);
-- the blind benchmark's per-point search (``mdr_drive_agents.benchmarks.blind.best_drive`` at the first
+- the blind benchmark's per-point search (``mdr_drive_agents.benchmarks.point_search.best_drive`` at the first
   points of a seed).
 
 Every task's own duration is measured in the worker, so the projection to P CPUs uses measured
@@ -93,7 +93,8 @@ def teacher_sweep(n: int):
 
 
 def blind_sweep(n: int):
-    from mdr_drive_agents.benchmarks.blind import PointTask, best_drive, draw_points
+    from mdr_drive_agents.benchmarks.blind import draw_points
+    from mdr_drive_agents.benchmarks.point_search import PointTask, best_drive
     from mdr_drive_agents.search import CMA_BUDGET, CYCLE_SEARCH
 
     points, _ = draw_points(n, seed=1)

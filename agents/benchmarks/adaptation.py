@@ -10,7 +10,7 @@ from 0 to 0.4 of mu F_ref, mu in [0.2, 0.4], mu1 in [0.07, 0.13]) from ``--seed`
    waveform (CMA-ES at the middle of the ranges: k = 0.3, load 0.2 of mu F_ref, mu = 0.3,
    mu1 = 0.1; what an engineer would tune once); the full-observation policy (told k, the load and
    friction: an upper bound); and the best drive found at the point: the search's
-   (``benchmarks.blind.best_drive``: CMA-ES over fixed actions and two-action cycles at that point's
+   (``benchmarks.point_search.best_drive``: CMA-ES over fixed actions and two-action cycles at that point's
    friction) or any of the drives above where one beats it. Statistics as the blind benchmark's
    (``benchmarks.targets.velocity_statistics``).
 2. **load steps** (``--load-steps M``): 40-period episodes whose cargo changes before period 20 to
@@ -42,7 +42,8 @@ from ..policy import load_policy
 from ..protocol import ACTION_MAP, AVERAGE_PERIODS, EVAL_PERIODS, env_rollout, format_velocity, steady_velocity_of
 from ..search import CMA_BUDGET, CYCLE_SEARCH, cma_optimize
 from ..student.estimator import SENSOR_ID
-from .blind import QUICK, PointTask, best_drive
+from .blind import QUICK
+from .point_search import PointTask, best_drive
 from .targets import MOVING_THRESHOLD, velocity_statistics
 
 SENSOR_POLICY = "agents/pretrained/ppo_sensor"
