@@ -74,10 +74,10 @@ class MDRDriveVectorEnv(VectorEnv):
         self._autoreset = np.zeros(n, dtype=bool)
         self._last_obs = np.zeros((n, self.single_observation_space.shape[0]), dtype=np.float32)
 
-    def _reset_one(self, i: int, options: dict[str, Any] | None) -> None:
+    def _reset_one(self, i: int, options: dict[str, Any] | None, per_env: frozenset = frozenset()) -> None:
         t = self.template
-        # an option given as a sequence of num_envs values sets sub-env i to its i-th value
-        own = {key: (v[i] if np.ndim(v) == 1 and len(v) == self.num_envs else v) for key, v in (options or {}).items()}
+        # an option in ``per_env`` (a sequence of num_envs values) sets sub-env i to its i-th value
+        own = {key: (v[i] if key in per_env else v) for key, v in (options or {}).items()}
         self.k[i], self.cargo_mass[i], params = t.sample_episode(self._rngs[i], own)
         self.sim.set_params(i, params)
         self.load[i] = params.drive.load
@@ -106,10 +106,12 @@ class MDRDriveVectorEnv(VectorEnv):
         seeds = [None if seed is None else seed + i for i in range(self.num_envs)] if not isinstance(seed, list) else seed
         if len(seeds) != self.num_envs:
             raise ValueError(f"seed list of length {len(seeds)} for {self.num_envs} envs")
+        # told apart once, not per sub-env: np.ndim converts a list, so per sub-env it cost O(num_envs^2)
+        per_env = frozenset(key for key, v in options.items() if np.ndim(v) == 1 and len(v) == self.num_envs)
         for i in np.flatnonzero(mask):
             if seeds[i] is not None:
                 self._rngs[i] = seeding.np_random(seeds[i])[0]
-            self._reset_one(i, options)
+            self._reset_one(i, options, per_env)
         self._autoreset[mask] = False
         obs = self._observe(np.zeros((self.num_envs, 5)))
         self._last_obs[mask] = obs[mask]
