@@ -68,7 +68,12 @@ class DriveDescription:
         object.__setattr__(self, "settings", tuple(sorted((k, _plain(v)) for k, v in settings.items())))
         object.__setattr__(self, "k_range", sample_range("k", self.k_range, 0.0, 1.0, high_open=True))
         object.__setattr__(self, "load_ratio_range", sample_range("load_ratio", self.load_ratio_range, 0.0, 10.0))
-        template(self.settings)  # the env validates every value and names a bad one
+        contact = template(self.settings).params_for(0.0, 0.0).contact  # the env validates every value
+        mu, mu1 = contact.friction_coefficient, contact.base_friction_coefficient
+        if mu <= mu1:  # M X'' = F_x - mu1 F_z - F_m with |F_x| <= mu F_z: never a forward push (docs/model.md)
+            raise ValueError(f"friction_coefficient={mu!r} must exceed base_friction_coefficient={mu1!r}: the base "
+                             "holds the slider with mu1 times the contact's normal force and the contact pulls it "
+                             "with at most mu times it, so no drive moves it forward")
 
     @classmethod
     def from_mapping(cls, mapping: dict, name: str = "drive") -> "DriveDescription":

@@ -41,6 +41,11 @@ def test_a_description_reads_yaml_numbers_validates_keys_and_values(tmp_path):
         DriveDescription.load(bad)
     with pytest.raises(ValueError, match="cannot be read"):
         DriveDescription.load(tmp_path / "missing.yaml")
+    bad.write_text("friction_coefficient: 0.15\nbase_friction_coefficient: 0.2\n")  # both in their env ranges
+    with pytest.raises(ValueError, match="friction_coefficient=0.15 must exceed base_friction_coefficient=0.2"):
+        DriveDescription.load(bad)
+    with pytest.raises(ValueError, match="must exceed"):  # the default mu = 0.3
+        PAPER_DRIVE.with_settings(base_friction_coefficient=0.3)
 
 
 def test_the_trapezoid_of_any_drive_is_the_papers_shape_at_its_strokes_and_period():
