@@ -34,6 +34,13 @@ FIXED_SIGMA = 0.5
 #: Start of the two-action search: a slow full forward stroke pressed to full depth at mid-period
 #: ("push"), then a period with almost no x stroke and a fast full-depth press ("clamp").
 PUSH_CLAMP = np.array([[1.0, 0.8, 1.0, 0.0, 1.0], [-0.87, -0.9, 1.0, -0.9, 0.8]])
+#: Another start of the two-action search: a full forward stroke on x's fastest edge (5 % of the
+#: period) at full depth, the contact let go right after it and pressed again slowly over the return
+#: ("throw"), then the same x out of contact ("coast"). The base's friction is mu1 times the contact's
+#: normal force, so out of contact the slider coasts against the load alone: at light loads such
+#: cycles throw it faster than the stroke speed, a family that searches from the trapezoid, the
+#: push/clamp cycle and the lighter point's drive do not reach.
+THROW_COAST = np.array([[1.0, -1.0, 1.0, 1.0, -0.8], [1.0, -1.0, -1.0, 1.0, -0.8]])
 #: CMA-ES evaluations of one two-action cycle search (per start), its population and step size.
 CYCLE_SEARCH = {"budget": 1500, "popsize": 16, "sigma0": 0.3}
 #: Bisection steps of a critical-load search.

@@ -11,6 +11,8 @@ import pytest
 
 import mdr_drive_env  # noqa: F401
 from mdr_drive_agents.cycles import align_phase
+from mdr_drive_agents.drive import PAPER_DRIVE
+from mdr_drive_agents.protocol import trapezoid_action
 from mdr_drive_agents.student.distill import DistillConfig
 from mdr_drive_agents.teacher import FieldConfig, refine
 from mdr_drive_agents.teacher.config import (Audit, PolishBand, PolishStall, RefineBand, RefineK, RefineLoad,
@@ -393,3 +395,34 @@ def test_audit_mends_the_cells_where_a_stronger_search_beats_the_teacher_and_rec
                        ((5, 10, 0.3, 0.2, 1.0, 10, 2.0), "audit gain"), ((5, 10, 0.3), "audit")):
         with pytest.raises(ValueError, match=match):
             stage_config("audit", bad)
+
+
+def test_the_grid_searches_each_node_from_its_lighter_neighbour_push_clamp_and_throw_coast(monkeypatch):
+    from mdr_drive_agents.search import PUSH_CLAMP, THROW_COAST
+    from mdr_drive_agents.teacher import node_search
+
+    seen = []
+
+    def fake_search_point(k, load, *args, cycle_starts, **kwargs):
+        seen.append([np.array(s) for s in cycle_starts])
+        return type("Found", (), {"drive": np.zeros((2, 5)), "velocity": 0.0})()
+
+    monkeypatch.setattr(node_search, "search_point", fake_search_point)
+    config = FieldConfig(k_values=2, load_fractions=2)
+    node_search.search_slice((0.1, np.array([0.0, 0.01]), config, 0, PAPER_DRIVE))
+    unloaded, loaded = seen
+    assert np.array_equal(unloaded[0], np.tile(trapezoid_action(PAPER_DRIVE), (2, 1)))  # no lighter point
+    assert np.array_equal(loaded[0], np.zeros((2, 5)))  # the lighter point's drive (continuation)
+    for starts in seen:
+        assert len(starts) == 3 and np.array_equal(starts[1], PUSH_CLAMP) and np.array_equal(starts[2], THROW_COAST)
+
+
+def test_throw_coast_throws_on_xs_fastest_edge_at_full_depth_then_lets_the_slider_coast_out_of_contact():
+    from mdr_drive_agents.search import THROW_COAST
+
+    amap = PAPER_DRIVE.action_map()
+    throw, coast = (amap.to_waveform(a) for a in THROW_COAST)
+    assert throw.x.amplitude == amap.x_amplitude_max and throw.z.amplitude == amap.z_amplitude_max
+    assert throw.x.rise_time == pytest.approx(amap.min_rise_fraction * amap.period)  # forward on the fastest edge
+    assert throw.z.fall_time == pytest.approx((1.0 - amap.max_rise_fraction) * amap.period)  # let go fast
+    assert coast.z.amplitude == 0.0 and coast.x.amplitude == amap.x_amplitude_max
