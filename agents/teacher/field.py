@@ -9,8 +9,8 @@ searched so that neighbours stay neighbours:
 - a grid of ``k`` values times load fractions ``s = load / trapezoid's critical load at k`` (the
   load range that matters scales by orders of magnitude over k, its fraction does not);
 - along each k, loads from light to heavy, every search starting from the lighter point's drive
-  (continuation, the unloaded point from the trapezoid) as well as from the push/clamp and the
-  throw/coast cycles (``PUSH_CLAMP``, ``THROW_COAST``), keeping the best;
+  (continuation) as well as from the trapezoid and the push/clamp and throw/coast cycles
+  (``PUSH_CLAMP``, ``THROW_COAST``), keeping the best;
 - then every point tries its grid neighbours' drives and keeps a better one (``exchange``), and
   every cycle is written in the phase (which of its two actions comes first) closest to its
   neighbour's, so interpolation does not mix a push period with a clamp period.

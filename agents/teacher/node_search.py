@@ -22,11 +22,10 @@ def search_node(k: float, load: float, previous: np.ndarray | None, config: Fiel
                 seed: int = 0, drive: DriveDescription = PAPER_DRIVE) -> tuple[np.ndarray, float]:
     """The best drive (2, 5) found at (k, load kg) and its steady velocity (m/s): ``search_point``
     with ``config``'s budgets and step size, over fixed actions from the lighter point's first action
-    (or the trapezoid) and over two-action cycles from the lighter point's drive, the push/clamp
-    cycle and the throw/coast cycle (``THROW_COAST``; the unloaded point, which has no lighter one,
-    from the trapezoid too); on ``drive``."""
-    starts = [np.tile(trapezoid_action(drive), (2, 1))] if previous is None else [previous]
-    starts += [PUSH_CLAMP, THROW_COAST]
+    (or the trapezoid) and over two-action cycles from the lighter point's drive, the trapezoid,
+    the push/clamp cycle and the throw/coast cycle (``THROW_COAST``); on ``drive``."""
+    starts = ([] if previous is None else [previous]) + [np.tile(trapezoid_action(drive), (2, 1)), PUSH_CLAMP,
+                                                          THROW_COAST]
     found = search_point(k, load, config.fixed_budget, config.cycle_budget, fixed_sigma=config.sigma0,
                          cycle_sigma=config.sigma0, fixed_start=None if previous is None else previous[0],
                          cycle_starts=starts, seed=seed, friction=tuple(config.friction), drive=drive)

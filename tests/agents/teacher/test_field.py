@@ -397,7 +397,7 @@ def test_audit_mends_the_cells_where_a_stronger_search_beats_the_teacher_and_rec
             stage_config("audit", bad)
 
 
-def test_the_grid_searches_each_node_from_its_lighter_neighbour_push_clamp_and_throw_coast(monkeypatch):
+def test_the_grid_searches_each_node_from_its_lighter_neighbour_the_trapezoid_push_clamp_and_throw_coast(monkeypatch):
     from mdr_drive_agents.search import PUSH_CLAMP, THROW_COAST
     from mdr_drive_agents.teacher import node_search
 
@@ -411,10 +411,11 @@ def test_the_grid_searches_each_node_from_its_lighter_neighbour_push_clamp_and_t
     config = FieldConfig(k_values=2, load_fractions=2)
     node_search.search_slice((0.1, np.array([0.0, 0.01]), config, 0, PAPER_DRIVE))
     unloaded, loaded = seen
-    assert np.array_equal(unloaded[0], np.tile(trapezoid_action(PAPER_DRIVE), (2, 1)))  # no lighter point
+    assert len(unloaded) == 3 and len(loaded) == 4  # the unloaded point has no lighter one
     assert np.array_equal(loaded[0], np.zeros((2, 5)))  # the lighter point's drive (continuation)
     for starts in seen:
-        assert len(starts) == 3 and np.array_equal(starts[1], PUSH_CLAMP) and np.array_equal(starts[2], THROW_COAST)
+        assert np.array_equal(starts[-3], np.tile(trapezoid_action(PAPER_DRIVE), (2, 1)))
+        assert np.array_equal(starts[-2], PUSH_CLAMP) and np.array_equal(starts[-1], THROW_COAST)
 
 
 def test_throw_coast_throws_on_xs_fastest_edge_at_full_depth_then_lets_the_slider_coast_out_of_contact():
