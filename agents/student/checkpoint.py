@@ -25,7 +25,8 @@ from mdr_drive_env.files import atomic_path
 
 #: DistillConfig fields that round 0 does not read: a checkpoint serves runs that differ in them.
 LATER_ROUND_KEYS = frozenset({"rounds", "round_steps", "hole_rounds", "hole_probes", "hole_shortfall", "hole_floor",
-                              "hole_neighbours", "hole_steps", "hole_learning_rate", "stall_probes", "stall_band"})
+                              "hole_neighbours", "hole_steps", "hole_learning_rate", "hole_dagger", "stall_probes",
+                              "stall_band"})
 
 
 def field_digest(field_) -> str:

@@ -12,7 +12,8 @@ network acts (``PPO.load`` + ``VecNormalize.load`` + ``model.predict``). Trainin
    the student is refitted on everything gathered so far;
 3. hole rounds 1 ... H: the student and the teacher each drive at fresh random points; where the
    student falls short of the teacher (``find_holes``), the teacher plays more episodes at and
-   around those points, they are added, and the fit continues. A network fitted to a teacher whose
+   around those points (with ``hole_dagger``, the student's own episodes there too, labelled by the
+   teacher), they are added, and the fit continues. A network fitted to a teacher whose
    drive jumps between optima is wrong in patches near the jumps, and where the patches fall
    changes from run to run with the fit's round-off: these rounds look for them and fill them.
 
@@ -94,6 +95,10 @@ class DistillConfig:
             hole itself (k +- 0.01, load +- 5 %) (-).
         hole_steps: gradient steps after each hole round (-).
         hole_learning_rate: Adam step size of those steps, decaying linearly to zero (-).
+        hole_dagger: each hole round also adds the student's own episodes at the same points,
+            every observation labelled with the teacher's next action there (DAgger at the holes):
+            the states a student meets when it alternates between two neighbouring drives are not
+            on the teacher's trajectories, so the teacher's episodes alone do not label them.
         stall_probes: besides, points per hole round at loads just around the teacher's stall
             (``stall_points``), where the critical load is judged; there a probe where the teacher
             moves and the student does not is a hole too, however slow the teacher (-).
@@ -160,6 +165,7 @@ class DistillConfig:
     hole_neighbours: int = 8
     hole_steps: int = 10_000
     hole_learning_rate: float = 3e-4
+    hole_dagger: bool = False
     stall_probes: int = 0
     stall_band: tuple[float, float] = (0.92, 1.02)
     huber_delta: float = 0.0
@@ -208,6 +214,8 @@ class DistillConfig:
             check_range(f"{name}[1]", band[1], band[0], 1.0, low_open=True)
         if not isinstance(self.quantum_centres, bool):
             raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
+        if not isinstance(self.hole_dagger, bool):
+            raise ValueError(f"hole_dagger={self.hole_dagger!r} must be true or false")
         if not isinstance(self.fused_adam, bool):
             raise ValueError(f"fused_adam={self.fused_adam!r} must be true or false")
         if not isinstance(self.action_codebook, bool):
@@ -371,17 +379,20 @@ def round_points(field_: DriveField, config: DistillConfig, rng: np.random.Gener
 def hole_round(student: Student, field_: DriveField, config: DistillConfig, h: int, rng: np.random.Generator,
                seed: int, obs_all: list, drive_all: list, friction=None, progress: bool = True) -> dict:
     """Hole round ``h`` (module docstring): :func:`find_holes`, the teacher's episodes at and around
-    the holes appended to ``obs_all`` and ``drive_all``, and the fit continued on all of them; returns
-    the round's record."""
+    the holes (and with ``config.hole_dagger`` the student's, labelled by the teacher) appended to
+    ``obs_all`` and ``drive_all``, and the fit continued on all of them; returns the round's record."""
     t0 = time.perf_counter()
     holes, probe = find_holes(student, field_, config, rng, friction)
     loss = None  # no hole found: no fit this round
     if holes:
         k_range = (float(field_.ks[0]), float(field_.ks[-1]))
-        obs, sample_drives = labelled_episodes(field_, around(holes, config.hole_neighbours, rng, k_range), None,
-                                               config, seed + 100 + h, student.z_phase_origin, student.time_quantum)
-        obs_all.append(obs)
-        drive_all.append(sample_drives)
+        points = around(holes, config.hole_neighbours, rng, k_range)
+        drives, _ = teacher_drives(field_, points, config)
+        for act in (None, student.act) if config.hole_dagger else (None,):
+            obs, sample_drives = labelled_episodes(field_, points, act, config, seed + 100 + h, student.z_phase_origin,
+                                                   student.time_quantum, drives=drives)
+            obs_all.append(obs)
+            drive_all.append(sample_drives)
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all), config.hole_steps, config,
                    seed + 100 + h, progress, learning_rate=config.hole_learning_rate)
     return {"hole_round": h, **probe, "samples": int(sum(len(o) for o in obs_all)),

@@ -112,3 +112,35 @@ def test_quantum_centres_must_be_a_boolean():
         DistillConfig(quantum_centres="yes")
     assert DistillConfig(quantum_centres=True).quantum_centres is True
 
+
+
+@pytest.mark.parametrize("hole_dagger", [False, True])
+def test_a_hole_round_adds_the_teachers_episodes_and_with_hole_dagger_the_students_labelled_by_the_teacher(
+        monkeypatch, hole_dagger):
+    from types import SimpleNamespace
+
+    from mdr_drive_agents.student import distill
+
+    field = synthetic_field()
+    drives = np.arange(3 * 10, dtype=float).reshape(3, 2, 5) / 100.0
+    calls = []
+    monkeypatch.setattr(distill, "find_holes", lambda *a, **k: ([(0.2, 0.01)], {"probes": 4, "holes": 1}))
+    monkeypatch.setattr(distill, "teacher_drives", lambda field_, points, config: (drives[:len(points)], None))
+
+    def episodes(field_, points, act, config, seed, z_phase_origin, time_quantum, drives=None):
+        calls.append((act, drives))
+        return np.full((len(points), 14), len(calls), dtype=np.float32), drives
+
+    monkeypatch.setattr(distill, "labelled_episodes", episodes)
+    monkeypatch.setattr(distill, "fit", lambda student, obs, drive, *a, **k: float(len(obs)))
+    student = SimpleNamespace(act=lambda obs: obs[:, :5], z_phase_origin=0.0, time_quantum=5e-6)
+    obs_all, drive_all = [np.zeros((5, 14), dtype=np.float32)], [np.zeros((5, 2, 5))]
+    config = DistillConfig(hole_neighbours=2, hole_dagger=hole_dagger)
+    record = distill.hole_round(student, field, config, 1, np.random.default_rng(0), 0, obs_all, drive_all)
+    assert [act for act, _ in calls] == ([None, student.act] if hole_dagger else [None])
+    for _, given in calls:  # the hole and its two neighbours, each labelled with its own teacher drive
+        assert given is not None and np.array_equal(given, drives)
+    assert len(obs_all) == len(drive_all) == (3 if hole_dagger else 2)
+    assert record["samples"] == 5 + 3 * len(calls) and record["loss"] == record["samples"]
+    with pytest.raises(ValueError, match=r"hole_dagger='yes' must be true or false"):
+        DistillConfig(hole_dagger="yes")
