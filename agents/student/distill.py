@@ -212,16 +212,9 @@ class DistillConfig:
                 raise ValueError(f"{name}={band!r} must be two values of k [low, high]")
             check_range(f"{name}[0]", band[0], 0.0, 1.0)
             check_range(f"{name}[1]", band[1], band[0], 1.0, low_open=True)
-        if not isinstance(self.quantum_centres, bool):
-            raise ValueError(f"quantum_centres={self.quantum_centres!r} must be true or false")
-        if not isinstance(self.hole_dagger, bool):
-            raise ValueError(f"hole_dagger={self.hole_dagger!r} must be true or false")
-        if not isinstance(self.fused_adam, bool):
-            raise ValueError(f"fused_adam={self.fused_adam!r} must be true or false")
-        if not isinstance(self.action_codebook, bool):
-            raise ValueError(f"action_codebook={self.action_codebook!r} must be true or false")
-        if not isinstance(self.raw_logits, bool):
-            raise ValueError(f"raw_logits={self.raw_logits!r} must be true or false")
+        for name in ("quantum_centres", "hole_dagger", "fused_adam", "action_codebook", "raw_logits"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"{name}={getattr(self, name)!r} must be true or false")
         if self.raw_logits and not self.action_codebook:
             raise ValueError("raw_logits=true needs action_codebook=true (a regression student has no logits)")
         if self.action_codebook and not self.quantum_centres:

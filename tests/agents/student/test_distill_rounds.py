@@ -113,7 +113,6 @@ def test_quantum_centres_must_be_a_boolean():
     assert DistillConfig(quantum_centres=True).quantum_centres is True
 
 
-
 @pytest.mark.parametrize("hole_dagger", [False, True])
 def test_a_hole_round_adds_the_teachers_episodes_and_with_hole_dagger_the_students_labelled_by_the_teacher(
         monkeypatch, hole_dagger):
