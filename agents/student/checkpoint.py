@@ -33,7 +33,7 @@ def field_digest(field_) -> str:
     """SHA-256 of a teacher's arrays (a ``DriveField``, or each field of a ``FrictionField``)."""
     digest = hashlib.sha256()
     for sub in getattr(field_, "fields", [field_]):
-        for name in ("ks", "fractions", "trapezoid_critical", "drives", "velocities"):
+        for name in ("ks", "fractions", "trapezoid_critical", "drives", "velocities", "point_at", "point_drives"):
             digest.update(np.ascontiguousarray(getattr(sub, name), dtype=np.float64).tobytes())
         digest.update(repr(sub.friction).encode())
     return digest.hexdigest()

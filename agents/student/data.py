@@ -143,9 +143,10 @@ def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
 
 
 def grid_actions(field_: DriveField) -> np.ndarray:
-    """The distinct actions of the field's grid drives at their time quanta's centres
+    """The distinct actions of the field's grid drives and point drives at their time quanta's centres
     (``ActionMap.quantum_centre``), sorted: (N, 5), the codebook a student picks from."""
-    return np.unique(field_.drive.action_map().quantum_centre(field_.drives.reshape(-1, 5)), axis=0)
+    actions = np.concatenate([field_.drives.reshape(-1, 5), field_.point_drives.reshape(-1, 5)])
+    return np.unique(field_.drive.action_map().quantum_centre(actions), axis=0)
 
 
 def labelled_episodes(field_: DriveField, points, act, config, seed: int, z_phase_origin: float = 0.0,

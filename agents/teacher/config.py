@@ -217,7 +217,8 @@ class Audit:
     drive's stroke speed, the four nodes of the point's cell play the drive found and are searched
     again from it (``polish_budget`` evaluations per start). So the teacher searches more where a
     search still finds more, wherever that is on the drive, instead of in bands of k and load set
-    by hand."""
+    by hand. With ``keep_found``, a drive found at a point the mended nodes still fall short at is
+    kept as a point drive there (``DriveField.add_point_drives``)."""
 
     points: int
     budget: int
@@ -228,6 +229,7 @@ class Audit:
     gain: float = 0.03
     floor: float = 0.01
     starts: int = 2
+    keep_found: bool = False
     SEED_OFFSET = 995_000
 
     def __post_init__(self) -> None:
@@ -237,6 +239,8 @@ class Audit:
         check_int("audit starts", self.starts, 1)
         check_range("audit gain", self.gain, 0.0, 1.0)
         check_range("audit floor", self.floor, 0.0, 1.0)
+        if not isinstance(self.keep_found, bool):
+            raise ValueError(f"audit keep_found={self.keep_found!r} must be true or false")
 
     def run(self, field, executor, seed: int) -> None:
         from .refine import audit
@@ -244,7 +248,7 @@ class Audit:
         before = field.drives.copy()
         audit(field, int(self.points), int(self.budget), float(self.sigma), (float(self.low), float(self.high)),
               int(self.polish_budget), gain=float(self.gain), floor=float(self.floor), starts=int(self.starts),
-              executor=executor, seed=seed)
+              executor=executor, seed=seed, keep_found=self.keep_found)
         field.settle(keep_phases_of=before)
 
 

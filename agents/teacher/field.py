@@ -48,14 +48,23 @@ from .node_search import search_slice
 
 
 class DriveField:
-    """Grid drives (n_k, n_s, 2, 5), their velocities (m/s) and the trapezoid's critical load (kg) per k."""
+    """Grid drives (n_k, n_s, 2, 5), their velocities (m/s) and the trapezoid's critical load (kg) per k,
+    and point drives: drives found at single points between the nodes (``point_at`` (n, 2): k and
+    load fraction of each; ``point_drives`` (n, 2, 5)), offered as candidates near where they were
+    found (``add_point_drives``)."""
 
-    def __init__(self, ks, fractions, trapezoid_critical, drives, velocities, meta: dict | None = None):
+    def __init__(self, ks, fractions, trapezoid_critical, drives, velocities, meta: dict | None = None,
+                 point_at=None, point_drives=None):
         self.ks = np.asarray(ks, dtype=np.float64)
         self.fractions = np.asarray(fractions, dtype=np.float64)
         self.trapezoid_critical = np.asarray(trapezoid_critical, dtype=np.float64)
         self.drives = np.asarray(drives, dtype=np.float64)
         self.velocities = np.asarray(velocities, dtype=np.float64)
+        self.point_at = np.zeros((0, 2)) if point_at is None else np.asarray(point_at, dtype=np.float64).reshape(-1, 2)
+        self.point_drives = (np.zeros((0, 2, 5)) if point_drives is None
+                             else np.asarray(point_drives, dtype=np.float64).reshape(-1, 2, 5))
+        if len(self.point_at) != len(self.point_drives):
+            raise ValueError(f"point_at has {len(self.point_at)} rows, point_drives {len(self.point_drives)}")
         self.meta = dict(meta or {})
         self.friction = tuple(float(f) for f in self.meta.get("config", {}).get("friction", PAPER_FRICTION))
         drive = self.meta.get("drive")
@@ -231,22 +240,53 @@ class DriveField:
         return [(i, j) for i, k in enumerate(self.ks) if k_band[0] - tol <= k <= k_band[1] + tol
                 for j, f in enumerate(self.fractions) if fraction_band[0] - tol <= f <= fraction_band[1] + tol]
 
-    def _cell(self, k: float, load: float):
-        """Indices and weights of the grid cell around (k, load): (i, j, wk, ws)."""
+    def _k_cell(self, k: float) -> tuple[int, float]:
+        """The k line below ``k`` (clipped to the grid) and the weight of the one above: (i, wk)."""
         k = float(np.clip(k, self.ks[0], self.ks[-1]))
         i = int(min(np.searchsorted(self.ks, k, side="right") - 1, len(self.ks) - 2))
-        wk = (k - self.ks[i]) / (self.ks[i + 1] - self.ks[i])
+        return i, (k - self.ks[i]) / (self.ks[i + 1] - self.ks[i])
+
+    def load_fraction(self, k: float, load: float) -> float:
+        """``load`` (kg) over the trapezoid's critical load at ``k`` (interpolated between k lines) (-)."""
+        i, wk = self._k_cell(k)
         crit = (1.0 - wk) * self.trapezoid_critical[i] + wk * self.trapezoid_critical[i + 1]
-        s = float(np.clip(load / crit if crit > 0.0 else 0.0, self.fractions[0], self.fractions[-1]))
+        return float(load / crit) if crit > 0.0 else 0.0
+
+    def _cell(self, k: float, load: float):
+        """Indices and weights of the grid cell around (k, load): (i, j, wk, ws)."""
+        i, wk = self._k_cell(k)
+        s = float(np.clip(self.load_fraction(k, load), self.fractions[0], self.fractions[-1]))
         j = int(min(np.searchsorted(self.fractions, s, side="right") - 1, len(self.fractions) - 2))
         ws = (s - self.fractions[j]) / (self.fractions[j + 1] - self.fractions[j])
         return i, j, wk, ws
+
+    def add_point_drives(self, points, drives) -> None:
+        """Keep ``drives`` (n, 2, 5), found at ``points`` (k, load kg), as point drives: each is offered
+        by :meth:`candidates` at every point whose cell is within ``radius - 1`` cells of the cell it
+        was found in. A grid node must serve its whole cell, and near the stall a drive that is best at
+        one point between nodes can lose at every node (the audit's mending then keeps the nodes'
+        own), so such a drive is kept where it was found."""
+        drives = np.asarray(drives, dtype=np.float64).reshape(-1, 2, 5)
+        at = np.array([(float(k), self.load_fraction(k, m)) for k, m in points]).reshape(-1, 2)
+        if len(at) != len(drives):
+            raise ValueError(f"add_point_drives: {len(at)} points but {len(drives)} drives")
+        self.point_at = np.concatenate([self.point_at, at])
+        self.point_drives = np.concatenate([self.point_drives, drives])
+
+    def _point_cells(self) -> np.ndarray:
+        """The grid cell (i, j) each point drive lies in (n, 2); the grid may have gained lines since."""
+        nk, ns = self.velocities.shape
+        i = np.clip(np.searchsorted(self.ks, self.point_at[:, 0], side="right") - 1, 0, nk - 2)
+        j = np.clip(np.searchsorted(self.fractions, self.point_at[:, 1], side="right") - 1, 0, ns - 2)
+        return np.stack([i, j], axis=1)
 
     def candidates(self, k: float, load: float, radius: int = 1, load_radius: int | None = None) -> np.ndarray:
         """(c, 2, 5): the bilinear interpolation of the four surrounding grid drives (each aligned to
         the cell's first corner), then the grid drives of the (2 radius) x (2 radius) nodes around the
         cell (``radius`` 1: its four corners; with ``load_radius``, (2 radius) k lines by
-        (2 load_radius) load lines), each aligned to that corner, nodes past the grid's edge left out."""
+        (2 load_radius) load lines), each aligned to that corner, nodes past the grid's edge left out;
+        then the point drives found in the cells within ``radius - 1`` (``load_radius - 1``) cells of
+        this one (``add_point_drives``), aligned alike."""
         load_radius = radius if load_radius is None else load_radius
         i, j, wk, ws = self._cell(k, load)
         first = self.drives[i, j]
@@ -259,6 +299,10 @@ class DriveField:
                 for a in range(max(i - radius + 1, 0), min(i + radius + 1, nk))
                 for b in range(max(j - load_radius + 1, 0), min(j + load_radius + 1, ns))
                 if not (i <= a <= i + 1 and j <= b <= j + 1)]
+        if len(self.point_drives):
+            cells = self._point_cells()
+            near = (np.abs(cells[:, 0] - i) <= radius - 1) & (np.abs(cells[:, 1] - j) <= load_radius - 1)
+            ring += [align_phase(d, first) for d in self.point_drives[near]]
         return np.array([mixed, *corners, *ring])
 
     def with_friction(self, points) -> list[tuple[float, float, float, float]]:
@@ -295,15 +339,17 @@ class DriveField:
             with open(tmp, "wb") as f:
                 np.savez_compressed(f, ks=self.ks, fractions=self.fractions,
                                     trapezoid_critical=self.trapezoid_critical, drives=self.drives,
-                                    velocities=self.velocities, meta=np.array(json.dumps(self.meta)))
+                                    velocities=self.velocities, point_at=self.point_at,
+                                    point_drives=self.point_drives, meta=np.array(json.dumps(self.meta)))
 
     @classmethod
     def load(cls, path: str | Path) -> "DriveField":
         import json
 
-        with np.load(path) as f:
+        with np.load(path) as f:  # fields saved before point drives existed have none
+            points = {name: f[name] for name in ("point_at", "point_drives") if name in f.files}
             return cls(f["ks"], f["fractions"], f["trapezoid_critical"], f["drives"], f["velocities"],
-                       json.loads(str(f["meta"])))
+                       json.loads(str(f["meta"])), **points)
 
 
 def with_friction(points, friction) -> list[tuple[float, float, float, float]]:

@@ -217,7 +217,8 @@ def polish_nodes(field, nodes, budget: int, sigma: float, executor=None, seed: i
 
 
 def audit(field, points: int, budget: int, sigma: float, band: tuple[float, float], polish_budget: int,
-          gain: float = 0.03, floor: float = 0.01, starts: int = 2, executor=None, seed: int = 0) -> dict:
+          gain: float = 0.03, floor: float = 0.01, starts: int = 2, executor=None, seed: int = 0,
+          keep_found: bool = False) -> dict:
     """Check the teacher against a stronger search and mend it where it falls short (``config.Audit``).
 
     ``points`` points drawn from ``seed``: k uniform over the grid's k range, the load uniform in
@@ -227,9 +228,12 @@ def audit(field, points: int, budget: int, sigma: float, band: tuple[float, floa
     drives, the trapezoid and the push/clamp cycle (``budget`` evaluations each, step ``sigma``).
     Where the search beats the teacher by more than ``gain`` (relative) and ``floor`` times the
     drive's stroke speed, the four nodes of the point's cell play the drive found and are polished
-    from it (``polish_nodes``, ``polish_budget`` evaluations per start). ``field.meta["audited"]``
-    keeps the counts: the points that fell short, their mean shortfall, the nodes searched and
-    changed, and how many of those points still fall short after the mending. Returns that record."""
+    from it (``polish_nodes``, ``polish_budget`` evaluations per start). With ``keep_found``, the drive
+    found at each point that still falls short after the mending is kept as a point drive
+    (``DriveField.add_point_drives``), offered to the student's labels around that point.
+    ``field.meta["audited"]`` keeps the counts: the points that fell short, their mean shortfall,
+    the nodes searched and changed, how many of those points still fall short after the mending
+    and, with ``keep_found``, the point drives kept. Returns that record."""
     rng = np.random.default_rng(seed)
     ks = rng.uniform(field.ks[0], field.ks[-1], points)
     loads = rng.uniform(*band, points) * np.interp(ks, field.ks, field.trapezoid_critical)
@@ -255,7 +259,12 @@ def audit(field, points: int, budget: int, sigma: float, band: tuple[float, floa
     record["search_budget"] = budget
     if len(short):
         _, mended_v = field.best([at[n] for n in short], radius=2, interpolation=False)
-        record["still_short"] = int(np.sum(found_v[short] - mended_v > threshold[short]))
+        still = short[found_v[short] - mended_v > threshold[short]]
+        record["still_short"] = int(len(still))
+        if keep_found and len(still):
+            field.add_point_drives([at[n] for n in still], found_d[still])
+    if keep_found:
+        record["point_drives"] = int(len(field.point_drives))
     field.meta["audited"] = record
     return record
 

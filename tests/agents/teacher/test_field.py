@@ -397,6 +397,46 @@ def test_audit_mends_the_cells_where_a_stronger_search_beats_the_teacher_and_rec
             stage_config("audit", bad)
 
 
+def test_a_point_drive_is_offered_near_where_it_was_found_and_survives_a_save(tmp_path):
+    from mdr_drive_agents.student.checkpoint import field_digest
+    from mdr_drive_agents.student.data import grid_actions
+    from mdr_drive_agents.teacher.field import DriveField
+
+    field = synthetic_field(nk=7)  # k 0, 0.1, ..., 0.6; fractions 0, 0.3, ..., 1.2 of a critical load of 0.05 kg
+    near, far = (0.35, 0.5 * 0.05), (0.05, 0.1 * 0.05)  # cells (3, 1) and (0, 0)
+    before_near, before_far = len(field.candidates(*near, radius=2)), len(field.candidates(*far, radius=2))
+    digest, actions = field_digest(field), grid_actions(field)
+    found = np.full((1, 2, 5), 0.123)
+    field.add_point_drives([near], found)
+    assert np.allclose(field.point_at, [[0.35, 0.5]])
+    assert len(field.candidates(*near, radius=2)) == before_near + 1  # in its own cell and the cells around
+    assert np.allclose(field.candidates(*near, radius=2)[-1], align_phase(found[0], field.candidates(*near)[1]))
+    assert len(field.candidates(*near)) == 6  # radius 1: the cell's corners and its own point drives
+    assert len(field.candidates(*far, radius=2)) == before_far  # not three cells away
+    assert field_digest(field) != digest and len(grid_actions(field)) == len(actions) + 1
+    field.save(tmp_path / "f.npz")
+    loaded = DriveField.load(tmp_path / "f.npz")
+    assert np.array_equal(loaded.point_drives, field.point_drives) and field_digest(loaded) == field_digest(field)
+    with pytest.raises(ValueError, match="point_at"):
+        DriveField(field.ks, field.fractions, field.trapezoid_critical, field.drives, field.velocities,
+                   point_at=np.zeros((2, 2)), point_drives=found)
+
+
+def test_an_audit_keeps_the_drive_it_found_where_the_mended_nodes_still_fall_short(monkeypatch):
+    from mdr_drive_env.sweep import Executor
+
+    field = synthetic_field(nk=3, ns=4)
+    field.trapezoid_critical[:] = 0.02
+    field.drives[:] = 0.0  # a poor teacher, as above
+    monkeypatch.setattr(refine, "polish_nodes", lambda *a, **k: 0)  # the mending changes nothing
+    record = refine.audit(field, 6, 16, 0.3, (0.2, 1.0), 8, executor=Executor(workers=1, progress=False), seed=5,
+                          keep_found=True)
+    assert record["still_short"] == record["short"] > 0 and record["point_drives"] == record["short"]
+    assert len(field.point_drives) == record["short"]
+    with pytest.raises(ValueError, match="keep_found"):
+        stage_config("audit", (5, 10, 0.3, 0.2, 1.0, 10, 0.03, 0.01, 2, "yes"))
+
+
 def test_the_grid_searches_each_node_from_its_lighter_neighbour_the_trapezoid_push_clamp_and_throw_coast(monkeypatch):
     from mdr_drive_agents.search import PUSH_CLAMP, THROW_COAST
     from mdr_drive_agents.teacher import node_search
