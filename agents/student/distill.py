@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mdr_drive_env.core.params import check_int, check_range
+from mdr_drive_env.core.params import check_bool, check_int, check_range
 from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
 
 from ..cycles import cycle_action
@@ -213,8 +213,7 @@ class DistillConfig:
             check_range(f"{name}[0]", band[0], 0.0, 1.0)
             check_range(f"{name}[1]", band[1], band[0], 1.0, low_open=True)
         for name in ("quantum_centres", "hole_dagger", "fused_adam", "action_codebook", "raw_logits"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"{name}={getattr(self, name)!r} must be true or false")
+            check_bool(name, getattr(self, name))
         if self.raw_logits and not self.action_codebook:
             raise ValueError("raw_logits=true needs action_codebook=true (a regression student has no logits)")
         if self.action_codebook and not self.quantum_centres:

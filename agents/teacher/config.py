@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mdr_drive_env.core.params import check_int, check_range
+from mdr_drive_env.core.params import check_bool, check_int, check_range
 
 #: The paper's friction coefficients (mu indenter-slider, mu1 slider-base), the env's defaults.
 PAPER_FRICTION = (0.3, 0.1)
@@ -239,8 +239,7 @@ class Audit:
         check_int("audit starts", self.starts, 1)
         check_range("audit gain", self.gain, 0.0, 1.0)
         check_range("audit floor", self.floor, 0.0, 1.0)
-        if not isinstance(self.keep_found, bool):
-            raise ValueError(f"audit keep_found={self.keep_found!r} must be true or false")
+        check_bool("audit keep_found", self.keep_found)
 
     def run(self, field, executor, seed: int) -> None:
         from .refine import audit

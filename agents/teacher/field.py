@@ -243,7 +243,7 @@ class DriveField:
     def _k_cell(self, k: float) -> tuple[int, float]:
         """The k line below ``k`` (clipped to the grid) and the weight of the one above: (i, wk)."""
         k = float(np.clip(k, self.ks[0], self.ks[-1]))
-        i = int(min(np.searchsorted(self.ks, k, side="right") - 1, len(self.ks) - 2))
+        i = int(first_line_of_cell(self.ks, k))
         return i, (k - self.ks[i]) / (self.ks[i + 1] - self.ks[i])
 
     def load_fraction(self, k: float, load: float) -> float:
@@ -256,7 +256,7 @@ class DriveField:
         """Indices and weights of the grid cell around (k, load): (i, j, wk, ws)."""
         i, wk = self._k_cell(k)
         s = float(np.clip(self.load_fraction(k, load), self.fractions[0], self.fractions[-1]))
-        j = int(min(np.searchsorted(self.fractions, s, side="right") - 1, len(self.fractions) - 2))
+        j = int(first_line_of_cell(self.fractions, s))
         ws = (s - self.fractions[j]) / (self.fractions[j + 1] - self.fractions[j])
         return i, j, wk, ws
 
@@ -275,10 +275,9 @@ class DriveField:
 
     def _point_cells(self) -> np.ndarray:
         """The grid cell (i, j) each point drive lies in (n, 2); the grid may have gained lines since."""
-        nk, ns = self.velocities.shape
-        i = np.clip(np.searchsorted(self.ks, self.point_at[:, 0], side="right") - 1, 0, nk - 2)
-        j = np.clip(np.searchsorted(self.fractions, self.point_at[:, 1], side="right") - 1, 0, ns - 2)
-        return np.stack([i, j], axis=1)
+        return np.stack([first_line_of_cell(self.ks, np.clip(self.point_at[:, 0], self.ks[0], self.ks[-1])),
+                         first_line_of_cell(self.fractions, np.clip(self.point_at[:, 1], self.fractions[0],
+                                                                    self.fractions[-1]))], axis=1)
 
     def candidates(self, k: float, load: float, radius: int = 1, load_radius: int | None = None) -> np.ndarray:
         """(c, 2, 5): the bilinear interpolation of the four surrounding grid drives (each aligned to
@@ -350,6 +349,12 @@ class DriveField:
             points = {name: f[name] for name in ("point_at", "point_drives") if name in f.files}
             return cls(f["ks"], f["fractions"], f["trapezoid_critical"], f["drives"], f["velocities"],
                        json.loads(str(f["meta"])), **points)
+
+
+def first_line_of_cell(lines: np.ndarray, x):
+    """The index of the grid line at or below ``x`` (a value or an array within ``lines``' range),
+    at most the last but one: the first line of the cell ``x`` lies in."""
+    return np.minimum(np.searchsorted(lines, x, side="right") - 1, len(lines) - 2)
 
 
 def with_friction(points, friction) -> list[tuple[float, float, float, float]]:

@@ -53,6 +53,12 @@ def check_int(name: str, value, low: int = 0) -> None:
         raise ValueError(f"{name}={value!r} is outside the allowed range [{low}, inf)")
 
 
+def check_bool(name: str, value) -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``value`` is ``True`` or ``False`` (a YAML true/false)."""
+    if not isinstance(value, bool):
+        raise ValueError(f"{name}={value!r} must be true or false")
+
+
 def is_real_number(value) -> bool:
     """True for a real number (Python or NumPy, int or float), False for bools and everything else."""
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
