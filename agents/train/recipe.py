@@ -46,7 +46,7 @@ from ..run_record import RunLock, command_line, start_run, versions
 from ..student.distill import DistillConfig, distill
 from ..student.network import save_student
 from ..teacher import DriveField, FieldConfig
-from ..yaml_config import from_yaml
+from ..yaml_config import build, from_yaml
 from .sb3 import ENV_ID, HELD_OUT_POINTS
 
 DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "recipe.yaml"
@@ -110,11 +110,16 @@ def student_record(seed: int, env_kwargs: dict, ppo: dict, config: DistillConfig
 
 def searched_with_another_config(field: DriveField, config: FieldConfig) -> bool:
     """Whether ``field`` was searched with settings other than ``config`` (keys its saved config
-    lacks, added to ``FieldConfig`` since, count at their defaults)."""
+    lacks, top-level or in a stage's mapping, added to ``FieldConfig`` and its stages since, count at
+    their defaults; a saved key ``FieldConfig`` no longer has makes it another)."""
     def as_json(c) -> dict:
         return json.loads(json.dumps(dataclasses.asdict(c)))
 
-    return {**as_json(FieldConfig()), **field.meta.get("config", {})} != as_json(config)
+    try:
+        saved = build(FieldConfig, field.meta.get("config", {}), "the field's saved config")
+    except ValueError:
+        return True
+    return as_json(saved) != as_json(config)
 
 
 def on_drive(recipe: RecipeConfig, drive: DriveDescription) -> RecipeConfig:

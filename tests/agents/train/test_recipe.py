@@ -179,6 +179,15 @@ def test_a_teacher_field_counts_as_searched_with_the_config_it_records_and_no_ot
                                    if key not in ("friction", "refine_k")}})  # saved before those keys existed
     assert not recipe.searched_with_another_config(older, dataclasses.replace(config, refine_k=None))  # defaults count
     assert recipe.searched_with_another_config(older, config)
+    audit = {key: value for key, value in saved["audit"].items() if key != "keep_found"}  # saved before it existed
+    no_keep = DriveField(field.ks, field.fractions, field.trapezoid_critical, field.drives, field.velocities,
+                         {"config": {**saved, "audit": audit}})
+    assert not recipe.searched_with_another_config(no_keep, dataclasses.replace(
+        config, audit=dataclasses.replace(config.audit, keep_found=False)))  # a stage's defaults count too
+    assert recipe.searched_with_another_config(no_keep, config)
+    gone = DriveField(field.ks, field.fractions, field.trapezoid_critical, field.drives, field.velocities,
+                      {"config": {**saved, "retired_option": 1}})
+    assert recipe.searched_with_another_config(gone, config)
 
 
 def test_the_student_seed_reaches_the_student_alone(recipe_run, tmp_path):
