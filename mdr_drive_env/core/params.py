@@ -188,8 +188,7 @@ class Drive:
             check_range("Drive.load_force", self.load_force, *BOUNDS["load_force"])
         if isinstance(self.cargo_inertia, np.bool_):
             object.__setattr__(self, "cargo_inertia", bool(self.cargo_inertia))
-        if not isinstance(self.cargo_inertia, bool):
-            raise ValueError(f"Drive.cargo_inertia={self.cargo_inertia!r} must be a bool")
+        check_bool("Drive.cargo_inertia", self.cargo_inertia)
 
     @property
     def load(self) -> float:

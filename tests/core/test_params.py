@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 
 from mdr_drive_env.core import AxisWaveform, Contact, Drive, DriveParams, Material, Numerics, Waveform, numerics_preset
@@ -78,6 +79,9 @@ def test_presets_and_derived_quantities():
     assert d.load == pytest.approx(0.981)
     assert d.moving_mass == 0.05
     assert Drive(cargo_mass=0.1, cargo_inertia=True).moving_mass == pytest.approx(0.15)
+    assert Drive(cargo_inertia=np.bool_(True)).cargo_inertia is True  # a NumPy bool is stored as Python's
+    with pytest.raises(ValueError, match=r"Drive.cargo_inertia=1 must be true or false"):
+        Drive(cargo_inertia=1)
     assert Drive(cargo_mass=0.1, load_force=2.0).load == 2.0
     p = DriveParams.paper(k=0.3, cargo_mass=0.2)
     assert p.with_k(0.5).k == 0.5 and p.with_k(0.5).drive.cargo_mass == 0.2
