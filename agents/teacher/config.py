@@ -252,7 +252,36 @@ class Audit:
 
 
 #: The refinement stages in the order the search runs them (after the polish passes).
-STAGES = ("refine_k", "refine_load", "refine_steep", "polish_stall", "polish_band", "refine_band", "audit")
+@dataclass(frozen=True)
+class Sweep:
+    """Every node plays every distinct drive of the field (its grid drives and point drives, in both
+    phases) and keeps the fastest if it beats its own (``refine.sweep``): each drive is screened over
+    ``screen_periods`` periods (steady velocity over the last ``screen_average``), and the node's
+    ``finalists`` fastest are played again over the full evaluation. The searches start from drives
+    near each node, and a drive found at one k and load is often the best at others far from it; the
+    strong reference transfers drives between points the same way. No search: the cost is the
+    field's drives times its nodes times ``screen_periods``."""
+
+    screen_periods: int = 12
+    screen_average: int = 4
+    finalists: int = 8
+    SEED_OFFSET = 999_000
+
+    def __post_init__(self) -> None:
+        check_int("sweep screen_periods", self.screen_periods, 2)
+        check_int("sweep screen_average", self.screen_average, 1)
+        check_range("sweep screen_average", self.screen_average, 1, self.screen_periods - 1)
+        check_int("sweep finalists", self.finalists, 1)
+
+    def run(self, field, executor, seed: int) -> None:
+        from .refine import sweep
+
+        before = field.drives.copy()
+        sweep(field, int(self.screen_periods), int(self.screen_average), int(self.finalists), executor)
+        field.settle(keep_phases_of=before)
+
+
+STAGES = ("refine_k", "refine_load", "refine_steep", "polish_stall", "polish_band", "refine_band", "audit", "sweep")
 
 
 @dataclass(frozen=True)
@@ -271,10 +300,10 @@ class FieldConfig:
         consolidate_tolerance: after the search, nodes take their neighbours' most shared drive if it
             loses at most this fraction of their velocity (``DriveField.consolidate``; 0: off) (-).
         polish: polish passes after the search, exchange and consolidation (``PolishPass``).
-        refine_k, refine_load, refine_steep, polish_stall, polish_band, refine_band, audit: the
+        refine_k, refine_load, refine_steep, polish_stall, polish_band, refine_band, audit, sweep: the
             refinement stages, run in this order after the polish passes, each followed by an
             exchange between neighbours (``RefineK``, ``RefineLoad``, ``RefineSteep``,
-            ``PolishStall``, ``PolishBand``, ``RefineBand``, ``Audit``; None: not run). The bands of
+            ``PolishStall``, ``PolishBand``, ``RefineBand``, ``Audit``, ``Sweep``; None: not run). The bands of
             ``polish_band`` and ``refine_band`` are in k, so they fit one drive; the shipped recipe
             uses ``audit`` instead.
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
@@ -298,6 +327,7 @@ class FieldConfig:
     polish_band: PolishBand | None = None
     refine_band: RefineBand | None = None
     audit: Audit | None = None
+    sweep: Sweep | None = None
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -313,7 +343,8 @@ class FieldConfig:
             if not isinstance(entry, PolishPass):
                 raise ValueError(f"polish={self.polish!r}: each pass is a PolishPass (budget, sigma)")
         kinds = {"refine_k": RefineK, "refine_load": RefineLoad, "refine_steep": RefineSteep,
-                 "polish_stall": PolishStall, "polish_band": PolishBand, "refine_band": RefineBand, "audit": Audit}
+                 "polish_stall": PolishStall, "polish_band": PolishBand, "refine_band": RefineBand, "audit": Audit,
+                 "sweep": Sweep}
         for name, kind in kinds.items():
             stage = getattr(self, name)
             if stage is not None and not isinstance(stage, kind):
@@ -357,4 +388,4 @@ class FieldConfig:
 
 
 __all__ = ["PAPER_FRICTION", "STAGES", "Audit", "Band", "FieldConfig", "PolishBand", "PolishPass", "PolishStall",
-           "RefineBand", "RefineK", "RefineLoad", "RefineSteep", "check_search"]
+           "RefineBand", "RefineK", "RefineLoad", "RefineSteep", "Sweep", "check_search"]

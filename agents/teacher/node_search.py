@@ -108,4 +108,21 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
     return drives, velocities
 
 
-__all__ = ["map_polish_by_node", "polish_slice", "search_new_nodes", "search_node", "search_slice"]
+def sweep_line(args) -> list[tuple[int, float]]:
+    """Per node of one k line, the index of its fastest drive among ``drives`` and that drive's steady
+    velocity (m/s) over the full evaluation (``refine.sweep``): every drive is screened over
+    ``screen_periods`` periods (velocity over the last ``screen_average``), the ``finalists`` fastest
+    are played again over ``EVAL_PERIODS``; ``args``: (points (k, load kg, mu, mu1), drives (d, 2, 5),
+    screen_periods, screen_average, finalists, DriveDescription)."""
+    points, drives, screen_periods, screen_average, finalists, drive = args
+    n, d = len(points), len(drives)
+    screened = open_loop_velocity([p for p in points for _ in range(d)], np.tile(drives, (n, 1, 1)),
+                                  periods=screen_periods, average=screen_average, drive=drive).reshape(n, d)
+    top = np.argsort(-screened, axis=1)[:, :min(finalists, d)]
+    full = open_loop_velocity([p for p, row in zip(points, top) for _ in row], drives[top.ravel()],
+                              drive=drive).reshape(top.shape)
+    best = np.argmax(full, axis=1)
+    return [(int(top[i, b]), float(full[i, b])) for i, b in enumerate(best)]
+
+
+__all__ = ["map_polish_by_node", "polish_slice", "search_new_nodes", "search_node", "search_slice", "sweep_line"]
