@@ -253,9 +253,9 @@ class Audit:
 
 #: The refinement stages in the order the search runs them (after the polish passes).
 @dataclass(frozen=True)
-class Sweep:
+class ExchangeAll:
     """Every node plays every distinct drive of the field (its grid drives and point drives, in both
-    phases) and keeps the fastest if it beats its own (``refine.sweep``): each drive is screened over
+    phases) and keeps the fastest if it beats its own (``refine.exchange_all``): each drive is screened over
     ``screen_periods`` periods (steady velocity over the last ``screen_average``), and the node's
     ``finalists`` fastest are played again over the full evaluation. The searches start from drives
     near each node, and a drive found at one k and load is often the best at others far from it; the
@@ -268,20 +268,20 @@ class Sweep:
     SEED_OFFSET = 999_000
 
     def __post_init__(self) -> None:
-        check_int("sweep screen_periods", self.screen_periods, 2)
-        check_int("sweep screen_average", self.screen_average, 1)
-        check_range("sweep screen_average", self.screen_average, 1, self.screen_periods - 1)
-        check_int("sweep finalists", self.finalists, 1)
+        check_int("exchange_all screen_periods", self.screen_periods, 2)
+        check_int("exchange_all screen_average", self.screen_average, 1)
+        check_range("exchange_all screen_average", self.screen_average, 1, self.screen_periods - 1)
+        check_int("exchange_all finalists", self.finalists, 1)
 
     def run(self, field, executor, seed: int) -> None:
-        from .refine import sweep
+        from .refine import exchange_all
 
         before = field.drives.copy()
-        sweep(field, int(self.screen_periods), int(self.screen_average), int(self.finalists), executor)
+        exchange_all(field, int(self.screen_periods), int(self.screen_average), int(self.finalists), executor)
         field.settle(keep_phases_of=before)
 
 
-STAGES = ("refine_k", "refine_load", "refine_steep", "polish_stall", "polish_band", "refine_band", "audit", "sweep")
+STAGES = ("refine_k", "refine_load", "refine_steep", "polish_stall", "polish_band", "refine_band", "audit", "exchange_all")
 
 
 @dataclass(frozen=True)
@@ -300,10 +300,10 @@ class FieldConfig:
         consolidate_tolerance: after the search, nodes take their neighbours' most shared drive if it
             loses at most this fraction of their velocity (``DriveField.consolidate``; 0: off) (-).
         polish: polish passes after the search, exchange and consolidation (``PolishPass``).
-        refine_k, refine_load, refine_steep, polish_stall, polish_band, refine_band, audit, sweep: the
+        refine_k, refine_load, refine_steep, polish_stall, polish_band, refine_band, audit, exchange_all: the
             refinement stages, run in this order after the polish passes, each followed by an
             exchange between neighbours (``RefineK``, ``RefineLoad``, ``RefineSteep``,
-            ``PolishStall``, ``PolishBand``, ``RefineBand``, ``Audit``, ``Sweep``; None: not run). The bands of
+            ``PolishStall``, ``PolishBand``, ``RefineBand``, ``Audit``, ``ExchangeAll``; None: not run). The bands of
             ``polish_band`` and ``refine_band`` are in k, so they fit one drive; the shipped recipe
             uses ``audit`` instead.
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
@@ -327,7 +327,7 @@ class FieldConfig:
     polish_band: PolishBand | None = None
     refine_band: RefineBand | None = None
     audit: Audit | None = None
-    sweep: Sweep | None = None
+    exchange_all: ExchangeAll | None = None
     friction: tuple[float, float] = PAPER_FRICTION
 
     def __post_init__(self) -> None:
@@ -344,7 +344,7 @@ class FieldConfig:
                 raise ValueError(f"polish={self.polish!r}: each pass is a PolishPass (budget, sigma)")
         kinds = {"refine_k": RefineK, "refine_load": RefineLoad, "refine_steep": RefineSteep,
                  "polish_stall": PolishStall, "polish_band": PolishBand, "refine_band": RefineBand, "audit": Audit,
-                 "sweep": Sweep}
+                 "exchange_all": ExchangeAll}
         for name, kind in kinds.items():
             stage = getattr(self, name)
             if stage is not None and not isinstance(stage, kind):
@@ -388,4 +388,4 @@ class FieldConfig:
 
 
 __all__ = ["PAPER_FRICTION", "STAGES", "Audit", "Band", "FieldConfig", "PolishBand", "PolishPass", "PolishStall",
-           "RefineBand", "RefineK", "RefineLoad", "RefineSteep", "Sweep", "check_search"]
+           "RefineBand", "RefineK", "RefineLoad", "ExchangeAll", "RefineSteep", "check_search"]

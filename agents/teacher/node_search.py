@@ -108,9 +108,9 @@ def search_new_nodes(lines: list, budget: int, sigma: float, starts: int, seed: 
     return drives, velocities
 
 
-def sweep_line(args) -> list[tuple[int, float]]:
+def exchange_all_line(args) -> list[tuple[int, float]]:
     """Per node of one k line, the index of its fastest drive among ``drives`` and that drive's steady
-    velocity (m/s) over the full evaluation (``refine.sweep``): every drive is screened over
+    velocity (m/s) over the full evaluation (``refine.exchange_all``): every drive is screened over
     ``screen_periods`` periods (velocity over the last ``screen_average``), the ``finalists`` fastest
     are played again over ``EVAL_PERIODS``; ``args``: (points (k, load kg, mu, mu1), drives (d, 2, 5),
     screen_periods, screen_average, finalists, DriveDescription)."""
@@ -125,4 +125,4 @@ def sweep_line(args) -> list[tuple[int, float]]:
     return [(int(top[i, b]), float(full[i, b])) for i, b in enumerate(best)]
 
 
-__all__ = ["map_polish_by_node", "polish_slice", "search_new_nodes", "search_node", "search_slice", "sweep_line"]
+__all__ = ["exchange_all_line", "map_polish_by_node", "polish_slice", "search_new_nodes", "search_node", "search_slice"]

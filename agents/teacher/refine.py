@@ -4,8 +4,8 @@ between two of its load lines (``refine_load``; with ``min_drop``, only where th
 steep), a stronger search at the nodes either side of each k line's stall (``polish_stall``) and at
 the nodes of a band of k and load (``polish_band``), and load lines searched in such a band only
 (``refine_band``), and an audit against a stronger search at random points that mends the cells
-where the teacher falls short (``audit``), and a sweep in which every node plays every drive of
-the field (``sweep``). Each but the sweep searches its new or chosen nodes with CMA-ES over two-action cycles from the
+where the teacher falls short (``audit``), and an exchange in which every node plays every drive
+of the field (``exchange_all``). Each but the last searches its new or chosen nodes with CMA-ES over two-action cycles from the
 drives around them (``mdr_drive_agents.teacher.node_search``), one task per node on an executor;
 ``DriveField.search`` runs them in the order ``FieldConfig`` gives (its stage dataclasses).
 """
@@ -17,7 +17,7 @@ import numpy as np
 from ..cycles import align_phase
 from ..protocol import open_loop_velocity, trapezoid_action, trapezoid_critical_load
 from ..search import PUSH_CLAMP
-from .node_search import map_polish_by_node, search_new_nodes, sweep_line
+from .node_search import exchange_all_line, map_polish_by_node, search_new_nodes
 
 
 def polish(field, budget: int, sigma: float, executor=None, seed: int = 0) -> int:
@@ -270,11 +270,11 @@ def audit(field, points: int, budget: int, sigma: float, band: tuple[float, floa
     return record
 
 
-def sweep(field, screen_periods: int, screen_average: int, finalists: int, executor=None) -> dict:
+def exchange_all(field, screen_periods: int, screen_average: int, finalists: int, executor=None) -> dict:
     """Every node plays every distinct drive of the field, its grid drives and its point drives, each
-    cycle in both phases (``config.Sweep``): screened over ``screen_periods`` periods, the node's
+    cycle in both phases (``config.ExchangeAll``): screened over ``screen_periods`` periods, the node's
     ``finalists`` fastest over the full evaluation; a node keeps the fastest (in its own phase) if it
-    beats its own drive. One task per k line on ``executor``; no randomness. ``field.meta["swept"]``
+    beats its own drive. One task per k line on ``executor``; no randomness. ``field.meta["exchanged_all"]``
     keeps the drives played, the nodes and those changed. Returns that record."""
     from mdr_drive_env.sweep import Executor
 
@@ -284,7 +284,7 @@ def sweep(field, screen_periods: int, screen_average: int, finalists: int, execu
     nk, ns = field.velocities.shape
     tasks = [([field.point(i, j) for j in range(ns)], table, screen_periods, screen_average, finalists, field.drive)
              for i in range(nk)]
-    found = (executor or Executor()).map(sweep_line, tasks, "teacher: sweep")
+    found = (executor or Executor()).map(exchange_all_line, tasks, "teacher: exchange all")
     changed = 0
     for i, line in enumerate(found):
         for j, (index, velocity) in enumerate(line):
@@ -293,9 +293,9 @@ def sweep(field, screen_periods: int, screen_average: int, finalists: int, execu
                 changed += 1
     record = {"drives": int(len(table)), "nodes": int(nk * ns), "changed": changed, "screen_periods": screen_periods,
               "screen_average": screen_average, "finalists": finalists}
-    field.meta["swept"] = record
+    field.meta["exchanged_all"] = record
     return record
 
 
-__all__ = ["audit", "polish", "polish_band", "polish_nodes", "polish_stall", "refine_band", "refine_k", "refine_load",
-           "sweep"]
+__all__ = ["audit", "exchange_all", "polish", "polish_band", "polish_nodes", "polish_stall", "refine_band", "refine_k",
+           "refine_load"]

@@ -16,12 +16,12 @@ from mdr_drive_agents.protocol import trapezoid_action
 from mdr_drive_agents.student.distill import DistillConfig
 from mdr_drive_agents.teacher import FieldConfig, refine
 from mdr_drive_agents.teacher.config import (Audit, PolishBand, PolishStall, RefineBand, RefineK, RefineLoad,
-                                             RefineSteep, Sweep)
+                                             RefineSteep, ExchangeAll)
 from mdr_drive_agents.yaml_config import build
 from tests.agents.fields import synthetic_field
 
 STAGES = {"refine_k": RefineK, "refine_load": RefineLoad, "refine_steep": RefineSteep, "polish_stall": PolishStall,
-          "polish_band": PolishBand, "refine_band": RefineBand, "audit": Audit, "sweep": Sweep}
+          "polish_band": PolishBand, "refine_band": RefineBand, "audit": Audit, "exchange_all": ExchangeAll}
 
 
 def stage_config(name: str, values: tuple) -> FieldConfig:
@@ -397,7 +397,7 @@ def test_audit_mends_the_cells_where_a_stronger_search_beats_the_teacher_and_rec
             stage_config("audit", bad)
 
 
-def test_the_sweep_gives_each_node_the_fastest_drive_of_the_field_and_keeps_only_gains():
+def test_exchange_all_gives_each_node_the_fastest_drive_of_the_field_and_keeps_only_gains():
     from mdr_drive_agents.protocol import open_loop_velocity
     from mdr_drive_env.sweep import Executor
 
@@ -406,8 +406,8 @@ def test_the_sweep_gives_each_node_the_fastest_drive_of_the_field_and_keeps_only
     field.velocities = open_loop_velocity(points, field.drives.reshape(6, 2, 5)).reshape(2, 3)
     field.add_point_drives([(0.3, 0.03)], np.tile(trapezoid_action(PAPER_DRIVE), (1, 2, 1)))
     before_d, before_v = field.drives.copy(), field.velocities.copy()
-    record = refine.sweep(field, 6, 2, 3, executor=Executor(workers=1, progress=False))
-    assert field.meta["swept"] is record and record["nodes"] == 6 and record["drives"] == 13  # 7 drives, 6 swapped
+    record = refine.exchange_all(field, 6, 2, 3, executor=Executor(workers=1, progress=False))
+    assert field.meta["exchanged_all"] is record and record["nodes"] == 6 and record["drives"] == 13  # 7 drives, 6 swapped
     assert np.all(field.velocities >= before_v) and record["changed"] == int((field.velocities > before_v).sum())
     assert record["changed"] > 0  # random drives: some node has a faster one elsewhere in the field
     assert np.allclose(open_loop_velocity(points, field.drives.reshape(6, 2, 5)), field.velocities.ravel())
@@ -419,12 +419,12 @@ def test_the_sweep_gives_each_node_the_fastest_drive_of_the_field_and_keeps_only
     again = synthetic_field(nk=2, ns=3)
     again.velocities = before_v.copy()
     again.add_point_drives([(0.3, 0.03)], np.tile(trapezoid_action(PAPER_DRIVE), (1, 2, 1)))
-    refine.sweep(again, 6, 2, 3, executor=Executor(workers=1, progress=False))
+    refine.exchange_all(again, 6, 2, 3, executor=Executor(workers=1, progress=False))
     assert np.array_equal(again.drives, field.drives)  # no randomness
-    for bad, match in (((1, 1, 8), "sweep screen_periods"), ((12, 12, 8), "sweep screen_average"),
-                       ((12, 4, 0), "sweep finalists")):
+    for bad, match in (((1, 1, 8), "exchange_all screen_periods"), ((12, 12, 8), "exchange_all screen_average"),
+                       ((12, 4, 0), "exchange_all finalists")):
         with pytest.raises(ValueError, match=match):
-            stage_config("sweep", bad)
+            stage_config("exchange_all", bad)
 
 
 def test_a_point_drive_is_offered_near_where_it_was_found_and_survives_a_save(tmp_path):

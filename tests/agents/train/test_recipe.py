@@ -37,7 +37,7 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     out, summary = recipe_run
     assert set(summary["stage_wall_time_s"]) == {"teacher_s", "student_s", "total_s"}
     teacher_stages = summary["teacher_stage_wall_time_s"]  # each of the teacher's stages, in the order they ran
-    assert list(teacher_stages) == ["grid", "polish_1", "refine_k", "polish_stall", "audit", "sweep"]
+    assert list(teacher_stages) == ["grid", "polish_1", "refine_k", "polish_stall", "audit", "exchange_all"]
     assert all(s >= 0.0 for s in teacher_stages.values())
     assert sum(teacher_stages.values()) <= summary["stage_wall_time_s"]["teacher_s"] + 1.0
     assert "blas_core" in summary  # the BLAS kernels the teacher was searched with (mdr_drive_env.blas)
@@ -66,8 +66,9 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     assert field.meta["polished_stall"]["k_max"] is None and field.meta["polished_stall"]["nodes"] == 6  # every k line
     audited = field.meta["audited"]  # and the audit against a stronger search
     assert audited["points"] == 2 and 0 <= audited["short"] <= 2 and audited["nodes"] <= 4 * audited["short"]
-    swept = field.meta["swept"]  # and the sweep of the field's drives over its nodes, last
-    assert swept["nodes"] == field.velocities.size and 0 <= swept["changed"] <= swept["nodes"] and swept["drives"] >= 2
+    exchanged = field.meta["exchanged_all"]  # and every node offered every drive of the field, last
+    assert exchanged["nodes"] == field.velocities.size and 0 <= exchanged["changed"] <= exchanged["nodes"]
+    assert exchanged["drives"] >= 2
 
 
 def test_the_distilled_policy_fine_tunes_with_train_resume(recipe_run):
