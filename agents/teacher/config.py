@@ -251,7 +251,6 @@ class Audit:
         field.settle(keep_phases_of=before)
 
 
-#: The refinement stages in the order the search runs them (after the polish passes).
 @dataclass(frozen=True)
 class ExchangeAll:
     """Every node plays every distinct drive of the field (its grid drives and point drives, in both
@@ -281,7 +280,9 @@ class ExchangeAll:
         field.settle(keep_phases_of=before)
 
 
-STAGES = ("refine_k", "refine_load", "refine_steep", "polish_stall", "polish_band", "refine_band", "audit", "exchange_all")
+#: The refinement stages in the order the search runs them (after the polish passes).
+STAGES = ("refine_k", "refine_load", "refine_steep", "polish_stall", "polish_band", "refine_band", "audit",
+          "exchange_all")
 
 
 @dataclass(frozen=True)
@@ -300,10 +301,11 @@ class FieldConfig:
         consolidate_tolerance: after the search, nodes take their neighbours' most shared drive if it
             loses at most this fraction of their velocity (``DriveField.consolidate``; 0: off) (-).
         polish: polish passes after the search, exchange and consolidation (``PolishPass``).
-        refine_k, refine_load, refine_steep, polish_stall, polish_band, refine_band, audit, exchange_all: the
-            refinement stages, run in this order after the polish passes, each followed by an
-            exchange between neighbours (``RefineK``, ``RefineLoad``, ``RefineSteep``,
-            ``PolishStall``, ``PolishBand``, ``RefineBand``, ``Audit``, ``ExchangeAll``; None: not run). The bands of
+        refine_k, refine_load, refine_steep, polish_stall, polish_band, refine_band, audit,
+            exchange_all: the refinement stages, run in this order after the polish passes, each
+            followed by an exchange between neighbours (``RefineK``, ``RefineLoad``, ``RefineSteep``,
+            ``PolishStall``, ``PolishBand``, ``RefineBand``, ``Audit``, ``ExchangeAll``; None: not
+            run). The bands of
             ``polish_band`` and ``refine_band`` are in k, so they fit one drive; the shipped recipe
             uses ``audit`` instead.
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
@@ -388,4 +390,4 @@ class FieldConfig:
 
 
 __all__ = ["PAPER_FRICTION", "STAGES", "Audit", "Band", "FieldConfig", "PolishBand", "PolishPass", "PolishStall",
-           "RefineBand", "RefineK", "RefineLoad", "ExchangeAll", "RefineSteep", "check_search"]
+           "ExchangeAll", "RefineBand", "RefineK", "RefineLoad", "RefineSteep", "check_search"]

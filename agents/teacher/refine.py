@@ -5,9 +5,9 @@ steep), a stronger search at the nodes either side of each k line's stall (``pol
 the nodes of a band of k and load (``polish_band``), and load lines searched in such a band only
 (``refine_band``), and an audit against a stronger search at random points that mends the cells
 where the teacher falls short (``audit``), and an exchange in which every node plays every drive
-of the field (``exchange_all``). Each but the last searches its new or chosen nodes with CMA-ES over two-action cycles from the
-drives around them (``mdr_drive_agents.teacher.node_search``), one task per node on an executor;
-``DriveField.search`` runs them in the order ``FieldConfig`` gives (its stage dataclasses).
+of the field (``exchange_all``). Each but the last searches its new or chosen nodes with CMA-ES over
+two-action cycles from the drives around them (``mdr_drive_agents.teacher.node_search``), one task
+per node on an executor; ``DriveField.search`` runs them in the order ``FieldConfig`` gives (its stage dataclasses).
 """
 
 from __future__ import annotations
@@ -42,9 +42,7 @@ def polish(field, budget: int, sigma: float, executor=None, seed: int = 0) -> in
     changed = 0
     for i, slice_ in enumerate(found):
         for j, (drive, vel) in enumerate(slice_):
-            if vel > field.velocities[i, j] * (1.0 + 1e-3) + 1e-6:
-                field.drives[i, j], field.velocities[i, j] = drive, vel
-                changed += 1
+            changed += field.keep_if_faster(i, j, drive, vel)
     field.meta.setdefault("polished", []).append({"budget": budget, "sigma": sigma, "changed": changed})
     return changed
 
@@ -209,9 +207,7 @@ def polish_nodes(field, nodes, budget: int, sigma: float, executor=None, seed: i
                                             executor, field.drive)
         for (i, line), drives, velocities in zip(lines.items(), found_d, found_v):
             for ((j, _), _), drive, vel in zip(line, drives, velocities):
-                if vel > field.velocities[i, j] * (1.0 + 1e-3) + 1e-6:
-                    field.drives[i, j], field.velocities[i, j] = drive, vel
-                    changed += 1
+                changed += field.keep_if_faster(i, j, drive, vel)
     if record is not None:
         record.update({"budget": budget, "sigma": sigma, "nodes": sum(map(len, lines.values())), "changed": changed})
     return changed
@@ -288,9 +284,7 @@ def exchange_all(field, screen_periods: int, screen_average: int, finalists: int
     changed = 0
     for i, line in enumerate(found):
         for j, (index, velocity) in enumerate(line):
-            if velocity > field.velocities[i, j] * (1.0 + 1e-3) + 1e-6:
-                field.drives[i, j], field.velocities[i, j] = align_phase(table[index], field.drives[i, j]), velocity
-                changed += 1
+            changed += field.keep_if_faster(i, j, align_phase(table[index], field.drives[i, j]), velocity)
     record = {"drives": int(len(table)), "nodes": int(nk * ns), "changed": changed, "screen_periods": screen_periods,
               "screen_average": screen_average, "finalists": finalists}
     field.meta["exchanged_all"] = record

@@ -15,8 +15,8 @@ from mdr_drive_agents.drive import PAPER_DRIVE
 from mdr_drive_agents.protocol import trapezoid_action
 from mdr_drive_agents.student.distill import DistillConfig
 from mdr_drive_agents.teacher import FieldConfig, refine
-from mdr_drive_agents.teacher.config import (Audit, PolishBand, PolishStall, RefineBand, RefineK, RefineLoad,
-                                             RefineSteep, ExchangeAll)
+from mdr_drive_agents.teacher.config import (Audit, ExchangeAll, PolishBand, PolishStall, RefineBand, RefineK,
+                                             RefineLoad, RefineSteep)
 from mdr_drive_agents.yaml_config import build
 from tests.agents.fields import synthetic_field
 
