@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from mdr_drive_env.core import Waveform
+from mdr_drive_env.core.params import check_int
 from mdr_drive_env.gym_envs.spaces import ActionMap, sample_range
 
 #: The keywords a drive description may set, with their units: the stage's physics and its strokes.
@@ -41,6 +42,8 @@ DOMAIN_KEYS = {"k": "- (low, high)", "load_ratio": "- (low, high), fractions of 
 #: The domain every policy of this package is built for unless a description says otherwise.
 DEFAULT_K_RANGE = (0.0, 0.6)
 DEFAULT_LOAD_RATIO_RANGE = (0.0, 0.55)
+#: The fewest time steps per period a search solver may take (``DriveDescription.search_steps_per_period``).
+MIN_SEARCH_STEPS = 50
 
 
 @dataclass(frozen=True)
@@ -53,12 +56,17 @@ class DriveDescription:
         k_range: (low, high) of the grading exponent k (-).
         load_ratio_range: (low, high) of the load as a fraction of mu F_ref (-).
         name: a label for tables and files (the YAML file's stem).
+        search_steps_per_period: the node solver's longest time step for open-loop plays on this
+            description (``numerics``) is the period over this (-; never shorter than the env's own
+            step); None: the env's solver. The teacher's searches set it (``with_search_solver``); it
+            is not part of what the drive is: descriptions that differ only in it compare equal.
     """
 
     settings: tuple = ()
     k_range: tuple[float, float] = DEFAULT_K_RANGE
     load_ratio_range: tuple[float, float] = DEFAULT_LOAD_RATIO_RANGE
     name: str = "paper"
+    search_steps_per_period: int | None = dataclasses.field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         settings = dict(self.settings)
@@ -68,6 +76,8 @@ class DriveDescription:
         object.__setattr__(self, "settings", tuple(sorted((k, _plain(v)) for k, v in settings.items())))
         object.__setattr__(self, "k_range", sample_range("k", self.k_range, 0.0, 1.0, high_open=True))
         object.__setattr__(self, "load_ratio_range", sample_range("load_ratio", self.load_ratio_range, 0.0, 10.0))
+        if self.search_steps_per_period is not None:
+            check_int("search_steps_per_period", self.search_steps_per_period, MIN_SEARCH_STEPS)
         contact = template(self.settings).params_for(0.0, 0.0).contact  # the env validates every value
         mu, mu1 = contact.friction_coefficient, contact.base_friction_coefficient
         if mu <= mu1:  # M X'' = F_x - mu1 F_z - F_m with |F_x| <= mu F_z: never a forward push (docs/model.md)
@@ -130,6 +140,11 @@ class DriveDescription:
         return (self.action_map() == paper.action_map
                 and template(self.settings).params_for(0.2, 0.0) == paper.params_for(0.2, 0.0))
 
+    def with_search_solver(self, steps_per_period: int | None) -> "DriveDescription":
+        """The same drive, its open-loop plays (``numerics``) run with the node solver's longest step
+        the period over ``steps_per_period`` (never shorter than the env's own; None: the env's solver)."""
+        return dataclasses.replace(self, search_steps_per_period=steps_per_period)
+
     def with_settings(self, **settings) -> "DriveDescription":
         """The same description with ``settings`` added or replaced."""
         return dataclasses.replace(self, settings=tuple({**self.env_kwargs, **settings}.items()))
@@ -159,9 +174,13 @@ class DriveDescription:
 
     @property
     def numerics(self):
-        """The env's fast-solver numerics on this drive (``Numerics``): the preset, its longest time step
-        shortened on periods under 1 ms so the waveform's shortest edge spans 10 steps."""
-        return template(self.settings).numerics
+        """The fast-solver numerics of open-loop plays on this drive (``Numerics``): the env's (the preset,
+        its longest time step shortened on periods under 1 ms so the waveform's shortest edge spans 10
+        steps), with the longest step the period over ``search_steps_per_period`` where that is longer."""
+        env = template(self.settings).numerics
+        if self.search_steps_per_period is None:
+            return env
+        return dataclasses.replace(env, time_step=max(env.time_step, self.period / self.search_steps_per_period))
 
     @property
     def indenter_min_velocity(self) -> float:

@@ -17,6 +17,8 @@ import numpy as np
 
 from mdr_drive_env.core.params import check_bool, check_int, check_range
 
+from ..drive import MIN_SEARCH_STEPS
+
 #: The paper's friction coefficients (mu indenter-slider, mu1 slider-base), the env's defaults.
 PAPER_FRICTION = (0.3, 0.1)
 
@@ -311,6 +313,12 @@ class FieldConfig:
         friction: (mu, mu1), the indenter-slider and slider-base friction coefficients the drives are
             searched at (-); the grid's loads stay fractions of the trapezoid's critical load at the
             paper's friction (0.3, 0.1).
+        search_steps_per_period: the teacher plays its drives with the node solver's longest time step
+            the drive's period over this (-; never shorter than the env's own step, and the solver still
+            shortens its steps on fast edges), then plays every node's drive once more with the env's
+            solver to keep its velocity; None: every play with the env's solver. The step is relative
+            to the period, so a slow drive costs no more per period than a fast one
+            (``DriveDescription.with_search_solver``, docs/results.md).
     """
 
     k_values: int = 13
@@ -331,6 +339,7 @@ class FieldConfig:
     audit: Audit | None = None
     exchange_all: ExchangeAll | None = None
     friction: tuple[float, float] = PAPER_FRICTION
+    search_steps_per_period: int | None = None
 
     def __post_init__(self) -> None:
         for name, low in (("k_values", 2), ("load_fractions", 2), ("fixed_budget", 1), ("cycle_budget", 1)):
@@ -371,6 +380,8 @@ class FieldConfig:
             raise ValueError(f"friction={self.friction!r} must be (mu, mu1)")
         check_range("friction mu", self.friction[0], 0.0, 2.0, low_open=True)
         check_range("friction mu1", self.friction[1], 0.0, 2.0)
+        if self.search_steps_per_period is not None:
+            check_int("search_steps_per_period", self.search_steps_per_period, MIN_SEARCH_STEPS)
 
     def named_stages(self) -> list[tuple[str, object]]:
         """(name, stage) of the refinement stages that are set, in the order the search runs them (``STAGES``)."""

@@ -84,11 +84,13 @@ class DriveField:
 
         t0 = time.perf_counter()
         ks, fractions = config.ks, config.fractions
-        crit = trapezoid_critical_load([float(k) for k in ks], drive)
-        tasks = [(float(k), fractions * c, config, seed + 1000 * i, drive) for i, (k, c) in enumerate(zip(ks, crit))]
+        searched_on = drive.with_search_solver(config.search_steps_per_period)
+        crit = trapezoid_critical_load([float(k) for k in ks], searched_on)
+        tasks = [(float(k), fractions * c, config, seed + 1000 * i, searched_on) for i, (k, c) in enumerate(zip(ks, crit))]
         found = (executor or Executor()).map(search_slice, tasks, "teacher: k slices", store=store)
         field = cls(ks, fractions, crit, np.array([f[0] for f in found]), np.array([f[1] for f in found]),
                     {"config": asdict(config), "seed": seed, **drive_meta(drive)})
+        field.drive = searched_on  # every stage plays on the search solver; the env's keeps the velocities
         field.exchange()
         if config.consolidate_tolerance > 0.0:
             field.consolidate(config.consolidate_tolerance)
@@ -103,6 +105,12 @@ class DriveField:
             t1 = time.perf_counter()
             stage.run(field, executor, seed + stage.SEED_OFFSET)
             times[name] = round(time.perf_counter() - t1, 1)
+        if field.drive.numerics != drive.numerics:
+            t1 = time.perf_counter()
+            field.drive = drive
+            field.velocities = field.node_velocities()
+            times["env_replay"] = round(time.perf_counter() - t1, 1)
+        field.drive = drive
         field.meta["stage_wall_time_s"] = times
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
@@ -135,6 +143,12 @@ class DriveField:
     def point(self, i: int, j: int) -> tuple[float, float, float, float]:
         """(k, load kg, mu, mu1) of grid node (i, j): its point at the field's friction."""
         return float(self.ks[i]), float(self.fractions[j] * self.trapezoid_critical[i]), *self.friction
+
+    def node_velocities(self) -> np.ndarray:
+        """Every node's drive played at the node (one batched call): velocities (n_k, n_s) (m/s)."""
+        nk, ns = self.velocities.shape
+        return open_loop_velocity([self.point(i, j) for i in range(nk) for j in range(ns)],
+                                  self.drives.reshape(-1, 2, 5), drive=self.drive).reshape(nk, ns)
 
     def grid_neighbours(self, i: int, j: int):
         """The indices of node (i, j)'s four grid neighbours that lie on the grid."""

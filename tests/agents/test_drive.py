@@ -48,6 +48,22 @@ def test_a_description_reads_yaml_numbers_validates_keys_and_values(tmp_path):
         PAPER_DRIVE.with_settings(base_friction_coefficient=0.3)
 
 
+def test_a_search_solver_steps_relative_to_the_period_and_leaves_the_drive_what_it_is():
+    slow = DriveDescription.from_mapping({"period": 4e-3, "x_amplitude_max": 20e-6, "z_amplitude_max": 4e-6})
+    searched = slow.with_search_solver(200)
+    assert searched.numerics.time_step == pytest.approx(2e-5)  # T / 200, not the env's 5 us
+    assert searched.numerics.max_x_step == slow.numerics.max_x_step  # the solver still shortens steps on edges
+    assert slow.numerics.time_step == 5e-6 and searched.with_search_solver(None).numerics == slow.numerics
+    assert searched == slow and hash(searched) == hash(slow) and searched.to_record() == slow.to_record()
+    assert PAPER_DRIVE.with_search_solver(1000).numerics == PAPER_DRIVE.numerics  # never finer than the env's
+    with pytest.raises(ValueError, match=r"search_steps_per_period=10 is outside the allowed range \[50, inf\)"):
+        slow.with_search_solver(10)
+    points, action = [(0.3, 0.02), (0.5, 0.0)], slow.trapezoid_action()
+    fine, coarse = (open_loop_velocity(points, action, drive=d) for d in (slow, searched))
+    assert not np.array_equal(fine, coarse)  # played with another step ...
+    np.testing.assert_allclose(coarse, fine, rtol=0.02, atol=1e-5)  # ... to about the same velocity
+
+
 def test_the_trapezoid_of_any_drive_is_the_papers_shape_at_its_strokes_and_period():
     env = gym.make("MDRDrive-v0", period=1e-3, x_amplitude_max=20e-6, z_amplitude_max=4e-6).unwrapped
     action = env.trapezoid_action()  # the example of issue 76: it used to raise "lies outside the action box"

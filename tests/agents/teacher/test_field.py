@@ -488,6 +488,25 @@ def test_the_grid_searches_each_node_from_its_lighter_neighbour_the_trapezoid_pu
         assert np.array_equal(starts[-2], PUSH_CLAMP) and np.array_equal(starts[-1], THROW_COAST)
 
 
+def test_a_teacher_searched_on_a_coarser_solver_keeps_the_velocities_its_drives_play_at_on_the_envs():
+    from mdr_drive_agents.protocol import open_loop_velocity
+    from mdr_drive_agents.teacher import DriveField
+    from mdr_drive_env.sweep import Executor
+
+    slow = PAPER_DRIVE.with_settings(period=4e-3)
+    config = FieldConfig(k_values=2, k_range=(0.2, 0.4), load_fractions=2, fixed_budget=4, cycle_budget=4,
+                         search_steps_per_period=100)
+    with pytest.raises(ValueError, match=r"search_steps_per_period=20 is outside the allowed range \[50, inf\)"):
+        FieldConfig(search_steps_per_period=20)
+    field = DriveField.search(config, drive=slow, executor=Executor(workers=1, progress=False))
+    assert field.drive.search_steps_per_period is None and "env_replay" in field.meta["stage_wall_time_s"]
+    points = [field.point(i, j) for i in range(2) for j in range(2)]
+    on_env = open_loop_velocity(points, field.drives.reshape(-1, 2, 5), drive=slow).reshape(2, 2)
+    np.testing.assert_array_equal(field.velocities, on_env)
+    on_search = open_loop_velocity(points, field.drives.reshape(-1, 2, 5), drive=slow.with_search_solver(100))
+    assert not np.array_equal(on_search.reshape(2, 2), on_env)  # the search played on another solver
+
+
 def test_throw_coast_throws_on_xs_fastest_edge_at_full_depth_then_lets_the_slider_coast_out_of_contact():
     from mdr_drive_agents.search import THROW_COAST
 
