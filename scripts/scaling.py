@@ -87,8 +87,9 @@ def teacher_sweep(n: int):
 
     config = load_recipe(DEFAULT_CONFIG).teacher
     ks = config.ks[1::max(1, len(config.ks) // n)][:n]  # k slices of the shipped recipe's grid
-    crit = trapezoid_critical_load([float(k) for k in ks])
-    return search_slice, [(float(k), config.fractions * c, config, i, PAPER_DRIVE) for i, (k, c) in enumerate(zip(ks, crit))], \
+    drive = PAPER_DRIVE.with_search_solver(config.search_steps_per_period)  # the solver the teacher searches on
+    crit = trapezoid_critical_load([float(k) for k in ks], drive)
+    return search_slice, [(float(k), config.fractions * c, config, i, drive) for i, (k, c) in enumerate(zip(ks, crit))], \
         config.k_values
 
 
