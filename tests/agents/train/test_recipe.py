@@ -37,7 +37,8 @@ def test_recipe_writes_a_plain_sb3_policy_that_loads_and_acts(recipe_run):
     out, summary = recipe_run
     assert set(summary["stage_wall_time_s"]) == {"teacher_s", "student_s", "total_s"}
     teacher_stages = summary["teacher_stage_wall_time_s"]  # each of the teacher's stages, in the order they ran
-    assert list(teacher_stages) == ["grid", "polish_1", "refine_k", "polish_stall", "audit", "exchange_all"]
+    assert list(teacher_stages) == ["grid", "polish_1", "refine_k", "polish_stall", "audit", "exchange_all",
+                                    "env_replay"]  # the paper drive's 2 ms: searched at T/200, replayed on the env's solver
     assert all(s >= 0.0 for s in teacher_stages.values())
     assert sum(teacher_stages.values()) <= summary["stage_wall_time_s"]["teacher_s"] + 1.0
     assert "blas_core" in summary  # the BLAS kernels the teacher was searched with (mdr_drive_env.blas)
