@@ -58,7 +58,7 @@ bench: $(STAMP)
 scaling: $(STAMP)
 	$(PY) scripts/scaling.py --out results/scaling
 
-## make train: the recipe on the paper's drive, teacher then student (runs/recipe; about 24 minutes alone on 2 cores, docs/results.md)
+## make train: the recipe on the paper's drive, teacher then student (runs/recipe; about 20 minutes alone on 2 cores, docs/results.md)
 train: $(STAMP)
 	$(MDR) recipe agents/configs/recipe.yaml --out runs/recipe --force
 
