@@ -105,12 +105,11 @@ class DriveField:
             t1 = time.perf_counter()
             stage.run(field, executor, seed + stage.SEED_OFFSET)
             times[name] = round(time.perf_counter() - t1, 1)
-        if field.drive.numerics != drive.numerics:
+        field.drive = drive
+        if searched_on.numerics != drive.numerics:  # the nodes' velocities as the env plays their drives
             t1 = time.perf_counter()
-            field.drive = drive
             field.velocities = field.node_velocities()
             times["env_replay"] = round(time.perf_counter() - t1, 1)
-        field.drive = drive
         field.meta["stage_wall_time_s"] = times
         field.meta["wall_time_s"] = round(time.perf_counter() - t0, 1)
         return field
