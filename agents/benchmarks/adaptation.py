@@ -47,7 +47,7 @@ from .point_search import PointTask, best_drive
 from .targets import MOVING_THRESHOLD, velocity_statistics
 
 SENSOR_POLICY = "agents/pretrained/ppo_sensor"
-FULL_POLICY = "agents/pretrained/ppo_sensor_self_sensing/teacher"  # told k, the load and mu1/mu: the upper bound the sensor policies approximate
+FULL_POLICY = "agents/pretrained/ppo_sensor/teacher"  # told k, the load and mu1/mu: the upper bound the sensor policies approximate
 #: The tuned-once waveform's point: the middle of the sensor env's ranges (k, load ratio, mu, mu1).
 TUNED_ONCE_POINT = {"k": 0.3, "load_ratio": 0.2, "friction_coefficient": 0.3, "base_friction_coefficient": 0.1}
 STEP_PERIOD = 20

@@ -6,7 +6,7 @@ friction.
 Teacher-student training, as controllers that must act without privileged information are trained
 (Lee et al. 2020; Kumar et al. 2021), with DAgger (Ross et al. 2011):
 
-* the **teacher** is a full-observation Box policy (default: ``agents/pretrained/ppo_sensor_self_sensing/teacher``,
+* the **teacher** is a full-observation Box policy (default: ``agents/pretrained/ppo_sensor/teacher``,
   ``mdr-drive friction-teacher``; the shipped ``ppo_generalist`` picks from an action table and cannot
   teach it), told k, the load and the friction ratio mu1 / mu through the env's
   ``privileged_observation(friction=True)``;
@@ -102,7 +102,7 @@ class AdaptConfig:
         encoder_noise: standard deviation of each position sample (m).
     """
 
-    teacher: str = "agents/pretrained/ppo_sensor_self_sensing/teacher"
+    teacher: str = "agents/pretrained/ppo_sensor/teacher"
     history: int = 6
     episodes: int = 512
     periods: int = 40

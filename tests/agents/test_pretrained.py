@@ -18,8 +18,11 @@ pytest.importorskip("stable_baselines3")
 #: The shipped policies: the generalist, the sensor policy and the best plain-RL run (make rl-baselines).
 PLAIN = sorted(PRETRAINED.parent.glob("*_plain"))
 SELF_SENSING = SENSOR_PRETRAINED.parent / "ppo_sensor_self_sensing"
-SHIPPED = [PRETRAINED, SENSOR_PRETRAINED, SELF_SENSING, *PLAIN]
-IDS = ["full", "sensor", "self-sensing", *[p.name for p in PLAIN]]
+ENCODER = SENSOR_PRETRAINED.parent / "ppo_sensor_encoder"
+#: The sensor policies by the tier each was built in from agents/configs/sensor.yaml (make train-sensor).
+SENSOR_TIERS = {SENSOR_PRETRAINED: "trace", ENCODER: "encoder", SELF_SENSING: "self-sensing"}
+SHIPPED = [PRETRAINED, SENSOR_PRETRAINED, ENCODER, SELF_SENSING, *PLAIN]
+IDS = ["full", "sensor", "encoder", "self-sensing", *[p.name for p in PLAIN]]
 
 
 def snippets(folder) -> list[str]:
@@ -86,12 +89,13 @@ def test_the_sensor_recipe_reads_the_shipped_teacher_told_friction():
     from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 
     config = yaml.safe_load((ROOT / "agents" / "configs" / "sensor.yaml").read_text())
-    assert (ROOT / config["adapt"]["teacher"]).resolve() == (SELF_SENSING / "teacher").resolve()
-    assert teacher_layout(load_policy(SELF_SENSING / "teacher")) is PrivilegedLayout
-    run = json.loads((SELF_SENSING / "run.json").read_text())
-    built = run["adapted_from"]["adapt"]  # the config's settings, in the self-sensing tier (--sensor-tier)
-    assert {**built, **config["adapt"], "sensor_tier": "self-sensing"} == built
-    assert run["env_kwargs"]["sensor_tier"] == "self-sensing"
+    assert (ROOT / config["adapt"]["teacher"]).resolve() == (SENSOR_PRETRAINED / "teacher").resolve()
+    assert teacher_layout(load_policy(SENSOR_PRETRAINED / "teacher")) is PrivilegedLayout
+    for folder, tier in SENSOR_TIERS.items():  # each tier: the config's settings, in its own tier (--sensor-tier)
+        run = json.loads((folder / "run.json").read_text())
+        built = run["adapted_from"]["adapt"]
+        assert {**built, **config["adapt"], "sensor_tier": tier} == built
+        assert run["env_kwargs"].get("sensor_tier", "encoder") == tier
 
 
 def test_each_policy_sees_the_observation_it_was_trained_on():

@@ -39,9 +39,9 @@ def test_the_adaptation_report_runs_in_quick_mode(tmp_path):
                            out=tmp_path / "again", quick=True,
                            reuse=tmp_path / "adaptation.json")  # other policies judged on the same searches
     assert again["best_search"] == json.loads((tmp_path / "adaptation.json").read_text())["best_search"]
-    assert again["drives"][:2] == ["sensor policy (encoder, ppo_sensor)", "sensor policy (encoder, teacher)"]
+    assert again["drives"][:2] == ["sensor policy (trace)", "sensor policy (encoder)"]  # each labelled by its tier
     assert set(again["statistics"]) == set(again["drives"]) and again["drives"][2:] == list(adaptation.BASELINES)
-    assert "sensor_policy_encoder_ppo_sensor_m_s" in (tmp_path / "again" / "points.csv").read_text().splitlines()[0]
+    assert "sensor_policy_trace_m_s" in (tmp_path / "again" / "points.csv").read_text().splitlines()[0]
     assert again["search_reused_from"] == str(tmp_path / "adaptation.json")
     with pytest.raises(ValueError, match="--reuse-search .* seed"):
         adaptation.run(adaptation.SENSOR_POLICY, adaptation.FULL_POLICY, 2, 1, seed=6, out=tmp_path / "other", quick=True,
@@ -50,8 +50,21 @@ def test_the_adaptation_report_runs_in_quick_mode(tmp_path):
     from mdr_drive_agents.benchmarks.model_card import ship_sensor
 
     card = ship_sensor(adaptation.SENSOR_POLICY, tmp_path / "shipped", tmp_path / "again" / "adaptation.json").read_text()
-    assert 'This policy is the\nrow "sensor policy (encoder, ppo_sensor)"' in card and "`encoder` tier" in card
-    assert "| sensor policy (encoder, teacher) |" in card  # the report's other drives beside it
+    assert 'This policy is the\nrow "sensor policy (trace)"' in card and "`trace` tier" in card
+    assert "| sensor policy (encoder) |" in card  # the report's other drives beside it
     with pytest.raises(ValueError, match="none of the sensor policies"):
         ship_sensor("agents/pretrained/ppo_generalist", tmp_path / "other", tmp_path / "again" / "adaptation.json")
     assert not (tmp_path / "other").exists()  # refused before anything is copied
+
+
+def test_sensor_policies_of_one_tier_are_told_apart_by_folder():
+    from types import SimpleNamespace
+
+    def policy(folder, tier):
+        return SimpleNamespace(folder=folder, play_kwargs={} if tier == "encoder" else {"sensor_tier": tier})
+
+    assert adaptation.drive_labels([policy("a/x", "trace")]) == list(adaptation.DRIVES)
+    labels = adaptation.drive_labels([policy("a/x", "trace"), policy("b/y", "trace"), policy("c/z", "encoder")])
+    assert labels[:3] == ["sensor policy (trace, x)", "sensor policy (trace, y)", "sensor policy (encoder)"]
+    with pytest.raises(ValueError, match="not told apart"):
+        adaptation.drive_labels([policy("a/x", "trace"), policy("b/x", "trace")])

@@ -146,7 +146,7 @@ def test_fitting_the_estimator_through_the_teacher_brings_its_actions_to_the_tol
     from mdr_drive_agents.student.network import edge_loss
     from mdr_drive_agents.student.estimator import Estimator, SensorTeacher, hidden_entries, teacher_layout
     from mdr_drive_agents.policy import load_policy
-    from mdr_drive_env.gym_envs.spaces import SensorLayout
+    from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
 
     from mdr_drive_agents.policy import SENSOR_PRETRAINED
 
@@ -154,9 +154,11 @@ def test_fitting_the_estimator_through_the_teacher_brings_its_actions_to_the_tol
     config = AdaptConfig(history=2, episodes=8, periods=6, load_step_periods=(1, 4), estimator_arch=(16,),
                          teacher=str(Path(SENSOR_PRETRAINED) / "teacher"))
     teacher = load_policy(config.teacher)
-    sensed, privileged, _ = collect(*sensor_envs(config, 8, seed=4), lambda s, p: teacher.act(p))
-    hidden = hidden_entries(teacher_layout(teacher))
-    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0)
+    layout = teacher_layout(teacher)
+    sensed, privileged, _ = collect(*sensor_envs(config, 8, seed=4), lambda s, p: teacher.act(p),
+                                    friction=layout is PrivilegedLayout)
+    hidden = hidden_entries(layout)
+    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0, n_out=len(hidden))
     estimator.fit(sensed, privileged[:, hidden], 3, 16, 1e-3, 0, False)  # a poor estimate to start from
     composed = SensorTeacher(teacher, estimator, SensorLayout(2).structure)
     labels = composed.told_truth(sensed, privileged)
