@@ -16,13 +16,16 @@ friction, drives often far from the best ones. This recipe makes a teacher that 
 The result can teach a sensor policy (``mdr_drive_agents.train.sensor``) whose estimator learns mu
 and mu1 as well as k and the load. Writes ``OUT/fields/rho*.npz``, ``OUT/policy/`` and
 ``OUT/friction_teacher.json`` (stage times); an existing ``OUT`` is refused unless ``--resume``
-(finished fields reused) or ``--force``.
+or ``--force``. ``--resume`` reuses the finished fields and, if it finished, the student's first fit
+(round 0, most of the student stage), kept in ``OUT/.tasks/student_round0.npz`` for the same
+fields and settings (``mdr_drive_agents.student.checkpoint``); the hole rounds run again.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 import time
 from pathlib import Path
 
@@ -136,8 +139,10 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         f = cfg.friction
         env_kwargs = {**cfg.env_kwargs, "observation": "privileged", "friction_coefficient": list(f.friction_coefficient),
                       "base_friction_coefficient": list(f.base_friction_coefficient)}
+        tasks = task_folder(out, resume=True)  # the fields' searches are done: keep a resumed run's checkpoint
         student = distill(field, cfg.distill, seed=cfg.seed, env_kwargs=env_kwargs, hyperparameters=cfg.ppo,
-                          progress=progress, friction=(f.friction_coefficient, f.base_friction_coefficient))
+                          progress=progress, friction=(f.friction_coefficient, f.base_friction_coefficient),
+                          checkpoint=tasks / "student_round0.npz")
         stages["student_s"] = round(time.perf_counter() - t1, 1)
         command = command_line()
         record = student_record(cfg.seed, env_kwargs, cfg.ppo, cfg.distill, student, stages["student_s"], command,
@@ -150,6 +155,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
                    "rhos": field.rhos.tolist(),
                    "field_mean_velocity_m_s": [float(np.mean(fl.velocities)) for fl in field.fields]}
         write_text(out / "friction_teacher.json", json.dumps(summary, indent=2))
+        shutil.rmtree(tasks, ignore_errors=True)  # the fields and the student are written: their task files are spent
         print(f"friction_teacher: fields {stages['fields_s']:.0f} s, student {stages['student_s']:.0f} s; policy in "
               f"{out / 'policy'}", flush=True)
         return summary

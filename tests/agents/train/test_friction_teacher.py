@@ -89,3 +89,33 @@ def test_stall_probes_with_a_drawn_friction_are_refused_before_any_work(tmp_path
     assert err.count("\n") == 1 and "stall_probes" in err and not (tmp_path / "out").exists()
     with pytest.raises(ValueError, match="stall_probes"):  # no field, no student: refused before either is used
         distill(None, DistillConfig(stall_probes=4), friction=((0.2, 0.4), (0.07, 0.13)))
+
+
+def test_an_interrupted_friction_teacher_resumes_after_its_students_first_fit(teacher_run, tmp_path, monkeypatch,
+                                                                              capsys):
+    from mdr_drive_agents.student import distill
+
+    out, _ = teacher_run
+    assert not (out / ".tasks").exists()  # a finished run leaves no task files
+    config = yaml.safe_load(TINY.read_text())
+    config["friction"]["fields"] = [str(p) for p in sorted((out / "fields").glob("*.npz"))]  # no search: fast
+    config["friction"]["rhos"] = []
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    run = tmp_path / "run"
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:  # Ctrl-C in the hole round, after the first fit
+        m.setattr(distill, "hole_round", interrupt)
+        assert main(["friction-teacher", str(tmp_path / "config.yaml"), "--out", str(run), "--no-progress"]) == 130
+    assert "first fit are kept" in capsys.readouterr().err
+    saved = run / ".tasks" / "student_round0.npz"
+    assert saved.exists() and not (run / "policy").exists()
+    fits = []
+    real_fit = distill.fit
+    monkeypatch.setattr(distill, "fit", lambda *a, **k: fits.append(a[3]) or real_fit(*a, **k))
+    friction_teacher.run(tmp_path / "config.yaml", run, progress=False, resume=True)
+    assert f"round 0 read from {saved}" in capsys.readouterr().out
+    assert fits == [config["distill"]["hole_steps"]]  # only the hole round was fitted
+    assert (run / "policy" / "model.zip").exists() and not (run / ".tasks").exists()
