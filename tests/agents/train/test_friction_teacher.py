@@ -16,6 +16,7 @@ from mdr_drive_env.cli import main
 from mdr_drive_agents.teacher import DriveField
 from tests import DATA
 from tests.agents.fields import friction_field as _field
+from tests.agents.train.student_stage import interrupt_in_the_hole_round, record_fits
 
 TINY = DATA / "friction_teacher_tiny.yaml"
 
@@ -93,8 +94,6 @@ def test_stall_probes_with_a_drawn_friction_are_refused_before_any_work(tmp_path
 
 def test_an_interrupted_friction_teacher_resumes_after_its_students_first_fit(teacher_run, tmp_path, monkeypatch,
                                                                               capsys):
-    from mdr_drive_agents.student import distill
-
     out, _ = teacher_run
     assert not (out / ".tasks").exists()  # a finished run leaves no task files
     config = yaml.safe_load(TINY.read_text())
@@ -103,18 +102,9 @@ def test_an_interrupted_friction_teacher_resumes_after_its_students_first_fit(te
     (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
     run = tmp_path / "run"
 
-    def interrupt(*args, **kwargs):
-        raise KeyboardInterrupt
-
-    with monkeypatch.context() as m:  # Ctrl-C in the hole round, after the first fit
-        m.setattr(distill, "hole_round", interrupt)
-        assert main(["friction-teacher", str(tmp_path / "config.yaml"), "--out", str(run), "--no-progress"]) == 130
-    assert "first fit are kept" in capsys.readouterr().err
-    saved = run / ".tasks" / "student_round0.npz"
-    assert saved.exists() and not (run / "policy").exists()
-    fits = []
-    real_fit = distill.fit
-    monkeypatch.setattr(distill, "fit", lambda *a, **k: fits.append(a[3]) or real_fit(*a, **k))
+    saved = interrupt_in_the_hole_round(["friction-teacher", str(tmp_path / "config.yaml"), "--out", str(run),
+                                         "--no-progress"], run, monkeypatch, capsys)
+    fits = record_fits(monkeypatch)
     friction_teacher.run(tmp_path / "config.yaml", run, progress=False, resume=True)
     assert f"round 0 read from {saved}" in capsys.readouterr().out
     assert fits == [config["distill"]["hole_steps"]]  # only the hole round was fitted

@@ -19,6 +19,7 @@ from mdr_drive_agents.teacher import FieldConfig
 from mdr_drive_agents.teacher.config import PolishPass
 from mdr_drive_env.cli import main
 from tests import DATA
+from tests.agents.train.student_stage import ctrl_c, interrupt_in_the_hole_round, record_fits
 
 TINY = DATA / "recipe_tiny.yaml"
 
@@ -237,18 +238,10 @@ def test_an_interrupted_student_stage_resumes_after_its_first_fit_with_the_same_
     teacher = out / "teacher_field.npz"
     run = tmp_path / "run"
 
-    def interrupt(*args, **kwargs):
-        raise KeyboardInterrupt
-
-    with monkeypatch.context() as m:  # Ctrl-C in the hole round, after the first fit and the DAgger round
-        m.setattr(distill, "hole_round", interrupt)
-        assert main(["recipe", str(TINY), "--out", str(run), "--no-progress", "--teacher", str(teacher)]) == 130
-    assert "first fit are kept" in capsys.readouterr().err
-    saved = run / ".tasks" / "student_round0.npz"
-    assert saved.exists() and not (run / "policy").exists()
-    fits = []
-    real_fit = distill.fit
-    monkeypatch.setattr(distill, "fit", lambda *a, **k: fits.append(a[3]) or real_fit(*a, **k))
+    # Ctrl-C in the hole round, after the first fit and the DAgger round
+    saved = interrupt_in_the_hole_round(["recipe", str(TINY), "--out", str(run), "--no-progress", "--teacher",
+                                         str(teacher)], run, monkeypatch, capsys)
+    fits = record_fits(monkeypatch)
     recipe.run(TINY, run, progress=False, resume=True, teacher=teacher)
     assert f"round 0 read from {saved}" in capsys.readouterr().out
     # the DAgger round and the hole round were fitted, round 0 was not
@@ -265,7 +258,7 @@ def test_an_interrupted_student_stage_resumes_after_its_first_fit_with_the_same_
 
     # a checkpoint is used only for the round-0 settings and teacher it was fitted with
     config = yaml.safe_load(TINY.read_text())
-    monkeypatch.setattr(distill, "hole_round", interrupt)
+    monkeypatch.setattr(distill, "hole_round", ctrl_c)
     assert main(["recipe", str(TINY), "--out", str(run), "--no-progress", "--force", "--teacher", str(teacher)]) == 130
     capsys.readouterr()
     state = _checkpoint_meta(saved)
