@@ -95,7 +95,7 @@ dense: $(STAMP)
 	$(MDR) dense --policy agents/pretrained/ppo_generalist --ks 173 --loads 277 --out results/dense --force
 
 #: The shipped sensor policies (the first, position only, is the one whose estimates the report plots).
-SENSOR_POLICIES := agents/pretrained/ppo_sensor agents/pretrained/ppo_sensor_self_sensing
+SENSOR_POLICIES := agents/pretrained/ppo_sensor agents/pretrained/ppo_sensor_encoder agents/pretrained/ppo_sensor_self_sensing
 #: The seed of the sensor policies' report (never used to build or choose them).
 ADAPTATION_SEED := 20261423
 
