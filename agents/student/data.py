@@ -180,10 +180,29 @@ def jump_points(field_: DriveField, points, drives: np.ndarray, config) -> tuple
     return new_points, new_drives
 
 
+def neighbour_coordinates(field_: DriveField, pts: np.ndarray, load_factor: float) -> np.ndarray:
+    """Where ``jump_brackets`` finds neighbours: (k, load kg) points (n, 2) as k over the field's k
+    range and the load over ``load_factor`` times the trapezoid's critical load; (k, load kg, mu, mu1)
+    points (n, 4) of a ``FrictionField`` as k, the load over that critical load scaled to mu (the
+    fields are searched at mu = ``PAPER_FRICTION[0]``), and mu1 / mu over the fields' range of it.
+
+    Points of different friction at the same (k, load) are then as far apart as what changes the
+    drive: mu1 / mu and the load relative to mu, not the unscaled load (which alone would count
+    neighbours of different friction as jumps). Returns (n, 2) or (n, 3) coordinates (-)."""
+    crit = np.interp(pts[:, 0], field_.ks, field_.trapezoid_critical) * load_factor
+    span = field_.ks[-1] - field_.ks[0]
+    if pts.shape[1] == 2:
+        return np.c_[pts[:, 0] / span, pts[:, 1] / np.maximum(crit, 1e-12)]
+    rhos = field_.rhos
+    rho = pts[:, 3] / pts[:, 2]
+    return np.c_[pts[:, 0] / span, pts[:, 1] * (PAPER_FRICTION[0] / pts[:, 2]) / np.maximum(crit, 1e-12),
+                 (rho - rhos[0]) / max(rhos[-1] - rhos[0], 1e-12)]
+
+
 def jump_brackets(field_: DriveField, points, drives: np.ndarray, config):
     """Points (and their teacher drives) that locate where the teacher's drive jumps, found by
-    bisection between ``points`` and their ``config.jump_neighbours`` nearest neighbours (in k over
-    the field's k range and load over ``load_factor`` times the trapezoid's critical load) whose
+    bisection between ``points`` and their ``config.jump_neighbours`` nearest neighbours (in
+    ``neighbour_coordinates``: k, the load relative to the critical load, and mu1 / mu) whose
     drives differ (``drive_difference`` > ``config.jump_threshold``): every level adds the pairs'
     midpoints and keeps the halves whose ends still differ, ``config.jump_levels`` levels.
 
@@ -192,14 +211,12 @@ def jump_brackets(field_: DriveField, points, drives: np.ndarray, config):
     the fit can put its blend anywhere in that gap; points on both sides of the jump, a few levels
     of bisection closer, narrow it.
 
-    Returns the added points (list of (k, load kg)), their drives (m, 2, 5) and the brackets the
+    Returns the added points (list of (k, load kg) or (k, load kg, mu, mu1)), their drives (m, 2, 5) and the brackets the
     last level leaves: their ends (b, 2) and (b, 2) and the ends' drives (b, 2, 5) and (b, 2, 5)."""
     from scipy.spatial import cKDTree
 
     pts = np.array([tuple(p) for p in points], dtype=np.float64)
-    crit = np.interp(pts[:, 0], field_.ks, field_.trapezoid_critical)
-    span = field_.ks[-1] - field_.ks[0]
-    coords = np.c_[pts[:, 0] / span, pts[:, 1] / np.maximum(crit * config.load_factor, 1e-12)]
+    coords = neighbour_coordinates(field_, pts, config.load_factor)
     _, idx = cKDTree(coords).query(coords, k=min(config.jump_neighbours + 1, len(pts)))
     pairs = np.unique(np.sort(np.c_[np.repeat(np.arange(len(pts)), idx.shape[1] - 1), idx[:, 1:].ravel()], axis=1), axis=0)
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]
@@ -236,4 +253,5 @@ def around(points, n: int, rng: np.random.Generator, k_range: tuple[float, float
 
 
 __all__ = ["around", "draw_points", "drive_difference", "jump_brackets", "jump_points", "labelled_episodes",
+           "neighbour_coordinates",
            "grid_actions", "perturb_previous_actions", "rollout", "stall_fractions", "stall_points", "teacher_drives"]

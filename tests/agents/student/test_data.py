@@ -89,6 +89,24 @@ def test_jump_brackets_end_with_pairs_that_straddle_the_jump_closely_and_carry_i
     assert np.abs(a[:, 0] - b[:, 0]).max() <= 0.1 / 16 + 1e-12
 
 
+def test_friction_points_are_neighbours_by_what_changes_the_drive_not_by_their_load_in_kilograms():
+    from types import SimpleNamespace
+
+    from mdr_drive_agents.student.data import neighbour_coordinates
+
+    field = SimpleNamespace(ks=np.array([0.0, 0.6]), trapezoid_critical=np.array([0.2, 0.1]),
+                            rhos=np.array([0.2, 0.6]))
+    plain = neighbour_coordinates(field, np.array([[0.3, 0.15], [0.6, 0.0]]), 2.0)
+    np.testing.assert_allclose(plain, [[0.5, 0.5], [1.0, 0.0]])  # k over its range, load over 2 x critical
+    # the same k, load / mu and mu1 / mu: one point; the same load at twice mu: half as heavy
+    pts = np.array([[0.3, 0.15, 0.3, 0.12], [0.3, 0.10, 0.2, 0.08], [0.3, 0.15, 0.6, 0.24], [0.3, 0.15, 0.3, 0.06]])
+    coords = neighbour_coordinates(field, pts, 2.0)
+    np.testing.assert_allclose(coords[0], [0.5, 0.5, 0.5])
+    np.testing.assert_allclose(coords[1], coords[0])
+    np.testing.assert_allclose(coords[2], [0.5, 0.25, 0.5])
+    np.testing.assert_allclose(coords[3], [0.5, 0.5, 0.0])  # mu1 / mu = 0.2: the low end of the fields' ratios
+
+
 def test_quantum_centres_label_the_student_with_the_teachers_waveforms_at_their_quanta_centres():
     from mdr_drive_agents.student.data import labelled_episodes
     from mdr_drive_agents.protocol import ACTION_MAP
