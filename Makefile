@@ -97,7 +97,7 @@ dense: $(STAMP)
 #: The shipped sensor policies (the first, position only, is the one whose estimates the report plots).
 SENSOR_POLICIES := agents/pretrained/ppo_sensor agents/pretrained/ppo_sensor_encoder agents/pretrained/ppo_sensor_self_sensing
 #: The seed of the sensor policies' report (never used to build or choose them).
-ADAPTATION_SEED := 20261423
+ADAPTATION_SEED := 20261429
 
 ## make adaptation: the shipped sensor policies on blind hidden-parameter draws and load steps, then the dense check of each (results/adaptation)
 adaptation: $(STAMP)
