@@ -62,7 +62,7 @@ scaling: $(STAMP)
 train: $(STAMP)
 	$(MDR) recipe agents/configs/recipe.yaml --out runs/recipe --force
 
-## make train-friction-teacher: the sensor policies' teacher, told k, the load and mu1/mu (runs/friction_teacher; about 75 minutes)
+## make train-friction-teacher: the sensor policies' teacher, told k, the load and mu1/mu (runs/friction_teacher; about 65 minutes)
 train-friction-teacher: $(STAMP)
 	$(MDR) friction-teacher agents/configs/friction_teacher.yaml --out runs/friction_teacher --force
 
