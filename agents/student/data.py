@@ -183,8 +183,9 @@ def jump_points(field_: DriveField, points, drives: np.ndarray, config) -> tuple
 def neighbour_coordinates(field_: DriveField, pts: np.ndarray, load_factor: float) -> np.ndarray:
     """Where ``jump_brackets`` finds neighbours: (k, load kg) points (n, 2) as k over the field's k
     range and the load over ``load_factor`` times the trapezoid's critical load; (k, load kg, mu, mu1)
-    points (n, 4) of a ``FrictionField`` as k, the load over that critical load scaled to mu (the
-    fields are searched at mu = ``PAPER_FRICTION[0]``), and mu1 / mu over the fields' range of it.
+    points (n, 4) of a ``FrictionField`` as k, the load at its first field's friction
+    (``DriveField.field_load``, the field whose critical loads it keeps) over that critical load, and
+    mu1 / mu over the fields' range of it.
 
     Points of different friction at the same (k, load) are then as far apart as what changes the
     drive: mu1 / mu and the load relative to mu, not the unscaled load (which alone would count
@@ -193,10 +194,10 @@ def neighbour_coordinates(field_: DriveField, pts: np.ndarray, load_factor: floa
     span = field_.ks[-1] - field_.ks[0]
     if pts.shape[1] == 2:
         return np.c_[pts[:, 0] / span, pts[:, 1] / np.maximum(crit, 1e-12)]
+    loads = np.array([field_.fields[0].field_load(p) for p in pts])
     rhos = field_.rhos
     rho = pts[:, 3] / pts[:, 2]
-    return np.c_[pts[:, 0] / span, pts[:, 1] * (PAPER_FRICTION[0] / pts[:, 2]) / np.maximum(crit, 1e-12),
-                 (rho - rhos[0]) / max(rhos[-1] - rhos[0], 1e-12)]
+    return np.c_[pts[:, 0] / span, loads / np.maximum(crit, 1e-12), (rho - rhos[0]) / max(rhos[-1] - rhos[0], 1e-12)]
 
 
 def jump_brackets(field_: DriveField, points, drives: np.ndarray, config):

@@ -9,7 +9,7 @@ import pytest
 import mdr_drive_env  # noqa: F401
 from mdr_drive_agents.cycles import align_phase
 from mdr_drive_agents.student.distill import DistillConfig
-from tests.agents.fields import StepTeacher, synthetic_field
+from tests.agents.fields import StepTeacher, friction_field, synthetic_field
 
 def test_a_student_in_a_finer_time_quantum_env_is_played_and_probed_there():
     from mdr_drive_agents.student.distill import student_velocity
@@ -90,16 +90,14 @@ def test_jump_brackets_end_with_pairs_that_straddle_the_jump_closely_and_carry_i
 
 
 def test_friction_points_are_neighbours_by_what_changes_the_drive_not_by_their_load_in_kilograms():
-    from types import SimpleNamespace
-
     from mdr_drive_agents.student.data import neighbour_coordinates
+    from mdr_drive_agents.teacher import FrictionField
 
-    field = SimpleNamespace(ks=np.array([0.0, 0.6]), trapezoid_critical=np.array([0.2, 0.1]),
-                            rhos=np.array([0.2, 0.6]))
-    plain = neighbour_coordinates(field, np.array([[0.3, 0.15], [0.6, 0.0]]), 2.0)
-    np.testing.assert_allclose(plain, [[0.5, 0.5], [1.0, 0.0]])  # k over its range, load over 2 x critical
+    field = FrictionField([friction_field(0.06, ks=(0.0, 0.6)), friction_field(0.18, ks=(0.0, 0.6))])  # rho 0.2, 0.6
+    plain = neighbour_coordinates(field, np.array([[0.3, 0.05], [0.6, 0.0]]), 2.0)
+    np.testing.assert_allclose(plain, [[0.5, 0.5], [1.0, 0.0]])  # k over its range, load over 2 x critical (0.05 kg)
     # the same k, load / mu and mu1 / mu: one point; the same load at twice mu: half as heavy
-    pts = np.array([[0.3, 0.15, 0.3, 0.12], [0.3, 0.10, 0.2, 0.08], [0.3, 0.15, 0.6, 0.24], [0.3, 0.15, 0.3, 0.06]])
+    pts = np.array([[0.3, 0.05, 0.3, 0.12], [0.3, 0.05 / 1.5, 0.2, 0.08], [0.3, 0.05, 0.6, 0.24], [0.3, 0.05, 0.3, 0.06]])
     coords = neighbour_coordinates(field, pts, 2.0)
     np.testing.assert_allclose(coords[0], [0.5, 0.5, 0.5])
     np.testing.assert_allclose(coords[1], coords[0])
