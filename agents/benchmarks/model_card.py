@@ -176,6 +176,15 @@ def _periods(x) -> str:
     return "-" if x is None else f"{x:g}"
 
 
+def below_note(summary: dict, n: int) -> str:
+    """Where an adaptation report's drive ``summary`` fell below the trapezoid on its ``n`` draws."""
+    below = summary["points_below_trapezoid"]
+    if not below:
+        return f"this policy at none of {n} blind points; the dense check finds such points"
+    return (f"this policy at {below} of {n} blind points, by up to "
+            f"{-min(summary['worst_difference_to_trapezoid_mm_s'], 0.0):.1f} mm/s")
+
+
 def sensor_drive_label(res: dict, src: str | Path) -> str:
     """The drive of an adaptation report ``res`` that is the sensor policy in ``src`` (its folder
     among the report's sensor policies; the only one where the report has one)."""
@@ -435,8 +444,7 @@ row "{label}".
 * It needs its tier's sensor: played on another sensor, or with more noise than it was trained
   with, it is untested.
 * Its drives are its teacher's on the estimated values; where the estimate is off it can be slower
-  than the trapezoid (this policy at {s_sensor['points_below_trapezoid']} of {res['n']} blind points, by up to
-  {-min(s_sensor['worst_difference_to_trapezoid_mm_s'], 0.0):.1f} mm/s). Check a working point with `mdr-drive evaluate` first.
+  than the trapezoid ({below_note(s_sensor, res['n'])}). Check a working point with `mdr-drive evaluate` first.
 * Before it has seen a few periods it plays an average drive: the first periods after a reset or a load
   step are slower than a drive told the load (median {_periods(recovery['median_periods_to_recover'])}
   periods to 0.9 of its new steady velocity after a load step).

@@ -106,3 +106,12 @@ def test_the_model_card_names_the_recipes_commit_where_the_run_record_keeps_one(
     assert "git checkout 525a95b" in recipe_commit_note({"recipe_commit": "525a95b"})
     card = (PRETRAINED / "MODEL_CARD.md").read_text()
     assert "at commit 525a95b (`git checkout 525a95b` first" in card  # the shipped policy's recipe has changed since
+
+
+def test_the_sensor_cards_below_trapezoid_note_says_none_plainly():
+    from mdr_drive_agents.benchmarks.model_card import below_note
+
+    none = below_note({"points_below_trapezoid": 0, "worst_difference_to_trapezoid_mm_s": 0.179}, 48)
+    assert none == "this policy at none of 48 blind points; the dense check finds such points"
+    some = below_note({"points_below_trapezoid": 2, "worst_difference_to_trapezoid_mm_s": -1.971}, 48)
+    assert some == "this policy at 2 of 48 blind points, by up to 2.0 mm/s"
