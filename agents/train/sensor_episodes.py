@@ -1,0 +1,101 @@
+"""The sensor policy's training episodes: envs with hidden parameters drawn per episode, the
+deliberate probe, and episodes driven by a driver of the sensor and privileged observations.
+
+Used by ``mdr_drive_agents.train.sensor``, which re-exports them.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import gymnasium as gym
+import numpy as np
+
+from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
+
+from ..student.estimator import SENSOR_ID
+
+if TYPE_CHECKING:
+    from .sensor import AdaptConfig
+
+
+def sensor_envs(config: AdaptConfig, n: int, seed: int) -> tuple[list, np.ndarray]:
+    """``n`` sensor envs (hidden parameters drawn per episode), the first ``load_step_share`` of
+    them with a load step, reset with seeds ``seed, seed + 1, ...``; and their first observations."""
+    n_step = int(round(config.load_step_share * n))
+    kwargs = sensor_env_kwargs(config)
+    envs = [gym.make(SENSOR_ID, **kwargs, load_step_period=config.load_step_periods if i < n_step else None)
+            for i in range(n)]
+    return envs, np.array([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)])
+
+
+def probe_actions(env) -> np.ndarray:
+    """The deliberate probe of ``env``'s drive, (6, 5) actions: the trapezoid; reversed (its z phase
+    half a period on); out of contact (no z stroke: the slider coasts under the load alone); at half
+    the trapezoid's z stroke; symmetric (both rise fractions 1/2); a clamp (no x stroke)."""
+    amap = env.unwrapped.action_map
+    trapezoid = env.unwrapped.trapezoid_action().astype(np.float64)
+    rows = np.tile(trapezoid, (6, 1))
+    rows[1, 4] = 2.0 * (((trapezoid[4] + 1.0) / 2.0 + 0.5) % 1.0) - 1.0
+    rows[2, 2] = -1.0
+    rows[3, 2] = (trapezoid[2] + 1.0) / 2.0 - 1.0
+    rows[4, [1, 3]] = 2.0 * (0.5 - amap.min_rise_fraction) / (amap.max_rise_fraction - amap.min_rise_fraction) - 1.0
+    rows[5, 0] = -1.0
+    return rows.astype(np.float32)
+
+
+class ProbeFirst:
+    """A driver (``collect``'s ``driver(sensor_obs, privileged_obs)``) that plays ``actions`` in turn
+    in the first ``periods`` periods of every episode (read from the sensor observation's elapsed
+    fraction of ``max_periods``), then ``driver``."""
+
+    def __init__(self, driver, actions: np.ndarray, periods: int, max_periods: int):
+        self.driver, self.actions, self.periods, self.max_periods = driver, actions, periods, max_periods
+
+    def __call__(self, sensed: np.ndarray, privileged: np.ndarray | None = None) -> np.ndarray:
+        action = np.array(self.driver(sensed, privileged), dtype=np.float32).reshape(len(sensed), -1)
+        index = np.rint(sensed[:, -1] * self.max_periods).astype(int)
+        probing = index < self.periods
+        action[probing] = self.actions[index[probing] % len(self.actions)]
+        return action
+
+
+def with_probe(driver, config: AdaptConfig, envs: list):
+    """``driver`` after ``config.probe_periods`` periods of the probe (``ProbeFirst``), or itself."""
+    if not config.probe_periods:
+        return driver
+    return ProbeFirst(driver, probe_actions(envs[0]), config.probe_periods, envs[0].unwrapped.max_periods)
+
+
+def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.random.Generator | None = None,
+            friction: bool = False):
+    """One episode in every env (reset, first observations ``obs``), each period's actions
+    ``driver(sensor_obs, privileged_obs)`` plus Gaussian noise of std ``noise`` (from ``rng``).
+    Returns the sensor observations (periods * n, d), the privileged observations (periods * n, 14;
+    with ``friction`` 15, mu1 / mu appended) and the displacements (periods, n) m."""
+    sensed, privileged, disp = [], [], []
+    for _ in range(envs[0].unwrapped.max_periods):
+        full = np.array([env.unwrapped.privileged_observation(friction=friction) for env in envs])
+        action = np.clip(np.asarray(driver(obs, full), dtype=np.float32).reshape(len(envs), 5), -1.0, 1.0)
+        if noise > 0.0:
+            action = np.clip(action + rng.normal(0.0, noise, action.shape), -1.0, 1.0).astype(np.float32)
+        sensed.append(obs)
+        privileged.append(full)
+        steps = [env.step(a) for env, a in zip(envs, action)]
+        obs = np.array([s[0] for s in steps])
+        disp.append([s[4]["displacement"] for s in steps])
+    return np.concatenate(sensed), np.concatenate(privileged), np.array(disp)
+
+
+def sensor_env_kwargs(config: AdaptConfig) -> dict:
+    """The env the sensor policy is trained and acts in, as ``MDRDriveSensor-v0`` keywords: its trained
+    range (run.json: what ``evaluate`` warns outside) and its observation."""
+    tier = {} if config.sensor_tier == "encoder" else {
+        "sensor_tier": config.sensor_tier, "trace_samples": config.trace_samples, "encoder_noise": config.encoder_noise}
+    return {**{key: list(v) if isinstance(v, tuple) else v for key, v in SENSOR_DEFAULTS.items()},
+            "history": config.history, "max_periods": config.periods, **tier}
+
+
+def sensor_structure_of(config: AdaptConfig) -> dict[str, slice]:
+    """Where each group of entries sits in the sensor observation ``config`` trains on."""
+    return gym.make(SENSOR_ID, **sensor_env_kwargs(config)).unwrapped.observation_structure
