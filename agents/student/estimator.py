@@ -120,7 +120,7 @@ class SensorTeacher:
     observation alone (RMA's base policy on its adaptation module's estimate)."""
 
     def __init__(self, teacher: Policy, estimator: Estimator, sensor_structure: dict):
-        self.teacher, self.estimator, self.sensor_structure = teacher, estimator, sensor_structure
+        self.teacher, self.estimator = teacher, estimator
         layout = teacher_layout(teacher)
         self.n_full = len(layout.NAMES)
         full = layout.structure

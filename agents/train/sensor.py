@@ -60,7 +60,6 @@ from ..student.network import Student, save_student
 from ..yaml_config import from_yaml
 from .sensor_episodes import (ProbeFirst, collect, probe_actions, sensor_env_kwargs, sensor_envs, sensor_structure_of,
                               with_probe)
-from .sensor_robust import robust_refit
 
 DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "sensor.yaml"
 
@@ -101,10 +100,6 @@ class AdaptConfig:
             ``"self-sensing"`` (also the piezo-sensed peak forces).
         trace_samples: position samples per period of the ``trace`` and ``self-sensing`` tiers (-).
         encoder_noise: standard deviation of each position sample (m).
-        robust_neighbours: after the rounds, the estimator is refitted to posterior-robust targets
-            (``mdr_drive_agents.train.sensor_robust``): the number of library episodes, nearest by
-            estimate, that stand for what the sensor cannot tell apart (0: no refit) (-).
-        robust_episodes: episodes of that stage's library (-).
     """
 
     teacher: str = "agents/pretrained/ppo_sensor/teacher"
@@ -128,8 +123,6 @@ class AdaptConfig:
     sensor_tier: str = "encoder"
     trace_samples: int = DEFAULT_TRACE_SAMPLES
     encoder_noise: float = DEFAULT_ENCODER_NOISE
-    robust_neighbours: int = 0
-    robust_episodes: int = 2048
 
     def __post_init__(self) -> None:
         for name in ("history", "episodes", "periods", "estimator_steps", "batch", "torch_threads"):
@@ -138,10 +131,6 @@ class AdaptConfig:
         check_int("action_steps", self.action_steps, 0)
         check_int("action_rounds", self.action_rounds, 0)
         check_int("probe_periods", self.probe_periods, 0)
-        check_int("robust_episodes", self.robust_episodes, 1)
-        if not (isinstance(self.robust_neighbours, int) and 0 <= self.robust_neighbours <= self.robust_episodes):
-            raise ValueError(f"robust_neighbours={self.robust_neighbours!r} is outside the allowed range "
-                             f"[0, robust_episodes = {self.robust_episodes}]")
         if self.action_rounds > self.rounds:
             raise ValueError(f"action_rounds={self.action_rounds!r} is outside the allowed range [0, rounds = {self.rounds}]")
         check_range("action_learning_rate", self.action_learning_rate, 0.0, 1.0, low_open=True)
@@ -254,11 +243,6 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
         t0 = time.perf_counter()
         finish({"action_fit": config.action_steps, "samples": len(x),
                 "loss": fit_on_actions(sensor_teacher, x, full, config, seed + 99, progress)}, t0)
-    if config.robust_neighbours:
-        t0 = time.perf_counter()
-        sensor_teacher, record = robust_refit(sensor_teacher, config, x, layout is PrivilegedLayout, seed + 5_000_011,
-                                              progress)
-        finish(record, t0)
     return sensor_teacher, history
 
 
