@@ -6,12 +6,14 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 HELP = "the sensor policy's recipe: an estimator of k, the load and friction, merged with its teacher"
 DESCRIPTION = ("Build a policy that drives MDRDriveSensor-v0 without being told k, the load or friction "
                "(agents/configs/sensor.yaml, docs/adaptation.md): an estimator of what the sensor hides is fitted on "
                "episodes its full-observation teacher drives, round by round on its own guesses (DAgger), then "
-               "written with the teacher as one plain SB3 MlpPolicy (OUT/policy/, OUT/adapt.json).")
+               "written with the teacher as one plain SB3 MlpPolicy (OUT/policy/, OUT/adapt.json). A Ctrl-C once the first "
+               "round's fit has finished saves the policy of the last finished round and exits with 130.")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -33,7 +35,13 @@ def main(args: argparse.Namespace) -> int:
 
     from ..train.sensor import run
 
-    return run_command("mdr-drive train-sensor",
-                       lambda: run(args.config, args.out, force=args.force, progress=not args.no_progress,
-                                   sensor_tier=args.sensor_tier),
-                       "nothing was saved")
+    summary = {}
+    code = run_command("mdr-drive train-sensor",
+                       lambda: summary.update(run(args.config, args.out, force=args.force, progress=not args.no_progress,
+                                                  sensor_tier=args.sensor_tier)),
+                       "nothing was saved (no round of the estimator had finished)")
+    if code == 0 and summary.get("interrupted"):
+        print(f"mdr-drive train-sensor: interrupted; the policy of the last finished round is in {args.out}/policy "
+              "(adapt.json: interrupted)", file=sys.stderr)
+        return 130
+    return code

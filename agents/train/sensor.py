@@ -34,11 +34,14 @@ Teacher-student training, as controllers that must act without privileged inform
   (``merge_check``).
 
 Writes ``OUT/policy/`` (``model.zip``, ``vecnormalize.pkl``, ``run.json``) and ``OUT/adapt.json``
-(per-round validation, stage times). An existing ``OUT`` is refused unless ``--force``.
+(per-round validation, stage times). An existing ``OUT`` is refused unless ``--force``. A Ctrl-C once
+the first round's fit has finished writes the policy of the last finished stage, marked
+``"interrupted": true``; the command then exits with 130.
 """
 
 from __future__ import annotations
 
+import copy
 import json
 import time
 from dataclasses import asdict, dataclass, replace
@@ -194,10 +197,12 @@ def _log(record: dict) -> None:
 
 
 def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None,
-          progress: bool = True) -> tuple[SensorTeacher, list[dict]]:
+          progress: bool = True) -> tuple[SensorTeacher, list[dict], bool]:
     """Round 0: the privileged teacher drives; rounds 1 ... R: the estimator-informed teacher
     (``SensorTeacher``) drives, on its own state distribution. After every round the estimator is
-    refitted on every episode so far. Returns the final ``SensorTeacher`` and the per-round records."""
+    refitted on every episode so far. Returns the final ``SensorTeacher``, the per-round records and
+    whether it was interrupted: a Ctrl-C once a stage has finished keeps the estimator of the last
+    finished stage (before that, the Ctrl-C is raised)."""
     import torch
 
     torch.set_num_threads(config.torch_threads)
@@ -210,40 +215,50 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
     hidden = hidden_entries(layout)
     sensor_structure = sensor_structure_of(config)
     sensed, privileged, history = [], [], []
-    estimator = sensor_teacher = None
+    estimator = sensor_teacher = kept = None  # kept: the estimator's weights after the last finished stage
 
     def finish(record: dict, t0: float) -> None:  # validate, time, keep and print a stage's record
+        nonlocal kept
         if validate is not None:
             record.update(validate(sensor_teacher))
         record["wall_time_s"] = round(time.perf_counter() - t0, 1)
         history.append(record)
+        kept = copy.deepcopy(estimator.net.state_dict())
         _log(record)
 
-    for r in range(config.rounds + 1):
-        t0 = time.perf_counter()
-        envs, first = sensor_envs(config, config.episodes, seed + 1_000_003 * (r + 1))
-        driver = with_probe((lambda s, p: teacher.act(p)) if r == 0 else sensor_teacher, config, envs)
-        s, p, _ = collect(envs, first, driver, config.action_noise, rng, friction=layout is PrivilegedLayout)
-        sensed.append(s)
-        privileged.append(p)
-        x, full = np.concatenate(sensed), np.concatenate(privileged)
-        if estimator is None:
-            estimator = Estimator(x.shape[1], config.estimator_arch, seed, n_out=len(hidden),
-                                  names=tuple(layout.NAMES[i] for i in hidden))
-            sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
-        if config.action_steps and config.action_rounds and r > config.rounds - config.action_rounds:
-            record = {"round": r, "samples": len(x), "action_fit": config.action_steps,  # on the actions only
-                      "loss": fit_on_actions(sensor_teacher, x, full, config, seed + r, progress)}
-        else:
-            record = {"round": r, "samples": len(x),
-                      "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
-                                            config.learning_rate, seed + r, progress)}
-        finish(record, t0)
-    if config.action_steps and not config.action_rounds:  # x, full: every episode, from the last round
-        t0 = time.perf_counter()
-        finish({"action_fit": config.action_steps, "samples": len(x),
-                "loss": fit_on_actions(sensor_teacher, x, full, config, seed + 99, progress)}, t0)
-    return sensor_teacher, history
+    try:
+        for r in range(config.rounds + 1):
+            t0 = time.perf_counter()
+            envs, first = sensor_envs(config, config.episodes, seed + 1_000_003 * (r + 1))
+            driver = with_probe((lambda s, p: teacher.act(p)) if r == 0 else sensor_teacher, config, envs)
+            s, p, _ = collect(envs, first, driver, config.action_noise, rng, friction=layout is PrivilegedLayout)
+            sensed.append(s)
+            privileged.append(p)
+            x, full = np.concatenate(sensed), np.concatenate(privileged)
+            if estimator is None:
+                estimator = Estimator(x.shape[1], config.estimator_arch, seed, n_out=len(hidden),
+                                      names=tuple(layout.NAMES[i] for i in hidden))
+                sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
+            if config.action_steps and config.action_rounds and r > config.rounds - config.action_rounds:
+                record = {"round": r, "samples": len(x), "action_fit": config.action_steps,  # on the actions only
+                          "loss": fit_on_actions(sensor_teacher, x, full, config, seed + r, progress)}
+            else:
+                record = {"round": r, "samples": len(x),
+                          "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
+                                                config.learning_rate, seed + r, progress)}
+            finish(record, t0)
+        if config.action_steps and not config.action_rounds:  # x, full: every episode, from the last round
+            t0 = time.perf_counter()
+            finish({"action_fit": config.action_steps, "samples": len(x),
+                    "loss": fit_on_actions(sensor_teacher, x, full, config, seed + 99, progress)}, t0)
+    except KeyboardInterrupt:
+        if kept is None:
+            raise
+        estimator.net.load_state_dict(kept)
+        print(f"adapt: interrupted; the estimator of the last finished stage ({len(history)} finished) is kept",
+              flush=True)
+        return sensor_teacher, history, True
+    return sensor_teacher, history, False
 
 
 def fit_on_actions(sensor_teacher: SensorTeacher, sensed: np.ndarray, privileged: np.ndarray, config: AdaptConfig,
@@ -296,7 +311,9 @@ def load_config(path: str | Path) -> tuple[int, int | None, AdaptConfig]:
 def run(config_path: str | Path, out: str | Path, force: bool = False, progress: bool = True,
         sensor_tier: str | None = None) -> dict:
     """Train the sensor student from ``config_path`` (its ``sensor_tier`` replaced by
-    ``sensor_tier`` if given) into ``out``; returns what ``adapt.json`` holds."""
+    ``sensor_tier`` if given) into ``out``; returns what ``adapt.json`` holds. A Ctrl-C once a stage
+    has finished saves the policy of the last finished stage (``"interrupted": true`` in ``adapt.json``
+    and ``run.json``)."""
     seed, validation_seed, config = load_config(config_path)
     if sensor_tier is not None:
         config = replace(config, sensor_tier=sensor_tier)
@@ -311,10 +328,10 @@ def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig
     command = command_line()
     t0 = time.perf_counter()
     validate = None if validation_seed is None else Validation(load_policy(config.teacher), config, validation_seed)
-    sensor_teacher, history = train(config, seed, validate, progress)
+    sensor_teacher, history, interrupted = train(config, seed, validate, progress)
     student = merged_policy(sensor_teacher, sensor_env_kwargs(config), config.log_std, seed)
     check = merge_check(student, sensor_teacher, config, seed)
-    if validate is not None:
+    if validate is not None and not interrupted:
         check.update(validate(lambda s, p: student.act(s)))
     _log(check)
     wall = round(time.perf_counter() - t0, 1)
@@ -328,12 +345,12 @@ def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig
                          "validation_seed": validation_seed, "history": history, "merged": check},
         "command": command, "versions": versions(), "torch_threads": config.torch_threads,
         "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall, "steps_per_s_this_run": 0.0, "resumes": 0,
-        "interrupted": False,
+        "interrupted": interrupted,
     }
     save_student(student, out / "policy", record)
     sensor_teacher.estimator.save(out / "policy" / ESTIMATOR_FILE)  # what the report plots the estimates with
     summary = {"config": str(config_path), "command": command, "seed": seed, "wall_time_s": wall,
-               "rounds": history, "merged": check}
+               "rounds": history, "merged": check, "interrupted": interrupted}
     write_text(out / "adapt.json", json.dumps(summary, indent=2))
     print(f"adapt: {wall:.0f} s; policy in {out / 'policy'}", flush=True)
     return summary

@@ -61,7 +61,7 @@ def test_the_sensor_student_is_a_plain_sb3_policy_on_the_sensor_observation(sens
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
     out, summary = sensor_run
-    assert [r["round"] for r in summary["rounds"]] == [0, 1]
+    assert [r["round"] for r in summary["rounds"]] == [0, 1] and summary["interrupted"] is False
     assert summary["rounds"][1]["samples"] == 2 * 8 * 12
     assert "val_mean_fraction_of_teacher" in summary["rounds"][0]
     from mdr_drive_agents.policy import load_policy
@@ -232,3 +232,37 @@ def test_the_policy_keeps_its_estimator_and_the_report_plots_its_estimates(senso
     assert tracked["names"] == list(est.names) and len(tracked["estimate"]) == 2
     assert np.shape(tracked["truth"][0]) == (adaptation.STEP_EPISODE_PERIODS, len(est.names))
     assert (tmp_path / "report" / "adaptation_estimates.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("interrupt_at, kept", [(2, [0]), (1, None)])
+def test_ctrl_c_keeps_the_policy_of_the_last_finished_round(tmp_path, monkeypatch, capsys, interrupt_at, kept):
+    """A Ctrl-C in round 1's episodes saves round 0's policy, marked interrupted; one in round 0 saves nothing."""
+    import mdr_drive_agents.train.sensor as sensor
+    from mdr_drive_agents.policy import load_policy
+
+    calls = []
+    collect = sensor.collect
+
+    def interrupted_collect(envs, *args, **kwargs):
+        if len(envs) == 8:  # the tiny config's episodes per round (validation and the merge check play 64)
+            calls.append(1)
+            if len(calls) == interrupt_at:
+                raise KeyboardInterrupt
+        return collect(envs, *args, **kwargs)
+
+    monkeypatch.setattr(sensor, "collect", interrupted_collect)
+    out = tmp_path / "sensor"
+    assert main(["train-sensor", str(TINY), "--out", str(out), "--no-progress", "--sensor-tier", "trace"]) == 130
+    err = capsys.readouterr().err
+    if kept is None:
+        assert "nothing was saved" in err and not (out / "policy" / "model.zip").exists()
+        return
+    assert "last finished round" in err
+    summary = json.loads((out / "adapt.json").read_text())
+    assert summary["interrupted"] and [r["round"] for r in summary["rounds"]] == kept
+    assert summary["merged"]["merge_max_action_difference"] < 1e-4
+    assert json.loads((out / "policy" / "run.json").read_text())["interrupted"] is True
+    policy = load_policy(out / "policy")
+    env = policy.make_env()
+    obs, _ = env.reset(seed=0)
+    assert np.all(np.abs(policy.predict(obs)) <= 1.0)
