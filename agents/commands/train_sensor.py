@@ -39,7 +39,7 @@ def main(args: argparse.Namespace) -> int:
     code = run_command("mdr-drive train-sensor",
                        lambda: summary.update(run(args.config, args.out, force=args.force, progress=not args.no_progress,
                                                   sensor_tier=args.sensor_tier)),
-                       "nothing was saved (no round of the estimator had finished)")
+                       "nothing was saved (the first round had not finished, or the save was cut short)")
     if code == 0 and summary.get("interrupted"):
         print(f"mdr-drive train-sensor: interrupted; the policy of the last finished round is in {args.out}/policy "
               "(adapt.json: interrupted)", file=sys.stderr)
