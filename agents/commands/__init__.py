@@ -37,3 +37,19 @@ def add_drive_argument(p, what: str) -> None:
                         f"youngs_modulus Pa, poisson_ratio, friction_coefficient, base_friction_coefficient, period s, "
                         f"x_amplitude_max m, z_amplitude_max m; optionally k and load_ratio ranges; docs/your_drive.md) "
                         f"{what}; default the paper's drive")
+
+
+def replot(out, stem: str, markdown, plot) -> None:
+    """``--replot``: ``OUT/<stem>.md`` and the plots (``plot(res)``) redrawn from ``OUT/<stem>.json``;
+    nothing is recomputed."""
+    import json
+    from pathlib import Path
+
+    from mdr_drive_env.files import write_text
+
+    path = Path(out) / f"{stem}.json"
+    if not path.is_file():
+        raise ValueError(f"--replot needs {path}")
+    res = json.loads(path.read_text())
+    write_text(Path(out) / f"{stem}.md", markdown(res))
+    plot(res)

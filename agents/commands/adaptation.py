@@ -7,7 +7,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from .evaluate import policy_path
@@ -46,20 +45,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from mdr_drive_env.cli_args import run_command
-    from mdr_drive_env.files import write_text
     from mdr_drive_env.sweep import executor_from
 
     from ..benchmarks.adaptation import SENSOR_POLICY, markdown, plot, run
     from ..blas import pin_command
+    from . import replot
 
     out = Path(args.out or f"runs/adaptation/seed{args.seed}")
     if args.replot:
-        path = out / "adaptation.json"
-        if not path.is_file():
-            raise ValueError(f"--replot needs {path}")
-        res = json.loads(path.read_text())
-        write_text(out / "adaptation.md", markdown(res))
-        plot(res, out)
+        replot(out, "adaptation", markdown, lambda res: plot(res, out))
         return 0
     pin_command()
 

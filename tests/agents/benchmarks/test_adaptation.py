@@ -68,3 +68,16 @@ def test_sensor_policies_of_one_tier_are_told_apart_by_folder():
     assert labels[:3] == ["sensor policy (trace, x)", "sensor policy (trace, y)", "sensor policy (encoder)"]
     with pytest.raises(ValueError, match="not told apart"):
         adaptation.drive_labels([policy("a/x", "trace"), policy("b/x", "trace")])
+
+
+def test_replot_redraws_the_shipped_report_from_its_json_alone(tmp_path):
+    import shutil
+
+    from mdr_drive_env.cli import main
+
+    from tests import ROOT
+
+    shutil.copy(ROOT / "results" / "adaptation" / "adaptation.json", tmp_path)
+    assert main(["adaptation", "--seed", "1", "--out", str(tmp_path), "--replot"]) == 0
+    assert (tmp_path / "adaptation.md").read_text() == (ROOT / "results" / "adaptation" / "adaptation.md").read_text()
+    assert (tmp_path / "adaptation_load_steps.png").stat().st_size > 10_000
