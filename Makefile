@@ -13,7 +13,7 @@ PLAIN_RECORD_SEEDS := 20261258 20261259 20261260 20261273 20261274 20261275 2026
 
 .PHONY: help install test demo reproduce claims convergence bench scaling train train-friction-teacher train-sensor benchmark \
         record reference dense \
-        adaptation rl-baselines your-drive cards clean
+        adaptation identifiability rl-baselines your-drive cards clean
 
 ## make help: this list
 help:
@@ -105,6 +105,13 @@ adaptation: $(STAMP)
 	for p in $(SENSOR_POLICIES); do \
 	    $(MDR) dense --policy $$p --ks 21 --loads 21 --out results/adaptation/dense_$$(basename $$p) --force --no-progress \
 	        || exit $$?; done
+
+#: The seed of the identifiability study's draws (never used to build or choose anything).
+IDENTIFIABILITY_SEED := 20261501
+
+## make identifiability: what each sensor tier can tell of the hidden k, load and friction, by the drive played (results/identifiability; about 30 minutes)
+identifiability: $(STAMP)
+	$(MDR) identifiability --seed $(IDENTIFIABILITY_SEED) --out results/identifiability --force
 
 #: The drive of docs/your_drive.md's worked example, and the seed of its blind benchmark (never used to choose anything).
 EXAMPLE_DRIVE := agents/configs/drives/small_stage.yaml

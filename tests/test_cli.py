@@ -210,7 +210,7 @@ def test_console_script_help_runs():
 
 
 AGENT_COMMANDS = ("train", "recipe", "train-sensor", "friction-teacher", "evaluate", "benchmark", "dense",
-                  "adaptation", "model-card", "demo", "rl-baselines")
+                  "adaptation", "identifiability", "model-card", "demo", "rl-baselines")
 
 
 def test_the_agents_package_adds_its_subcommands_through_the_entry_point_group():
