@@ -152,15 +152,9 @@ def tier_columns(layout: SensorLayout, tier: str, periods: int, actions: bool = 
     return np.array(columns)
 
 
-def standardised_error(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
-    """Root mean square error of each column over that column's standard deviation in ``truth``
-    (0 exact, 1 no better than the mean)."""
-    return np.sqrt(np.mean((estimate - truth) ** 2, axis=0)) / (truth.std(axis=0) + 1e-12)
-
-
 def full_observation_teacher(folder: str):
-    """The policy at ``folder`` as the teacher drives play it: ``(policy, its act on the privileged
-    observation)``; a ``ValueError`` for a policy that does not see the full observation or does not
+    """The policy at ``folder`` as the teacher drives play it: its act on the privileged observation
+    (``collect``'s driver); a ``ValueError`` for a policy that does not see the full observation or does not
     act with the sensor env's action map."""
     from ..policy import load_policy
     from ..student.estimator import teacher_layout
@@ -172,8 +166,8 @@ def full_observation_teacher(folder: str):
                          f"(its run.json: observation={play.get('observation')!r}, "
                          f"z_phase_origin={play.get('z_phase_origin', 0.0)!r})")
     if teacher_layout(teacher) is PrivilegedLayout:
-        return teacher, lambda sensed, privileged: teacher.act(privileged)
-    return teacher, lambda sensed, privileged: teacher.act(privileged[:, :-1])  # not told friction
+        return lambda sensed, privileged: teacher.act(privileged)
+    return lambda sensed, privileged: teacher.act(privileged[:, :-1])  # not told friction
 
 
 def sensor_policy_player(folder: str, config: IdentifiabilityConfig):
@@ -202,8 +196,8 @@ def sensor_policy_player(folder: str, config: IdentifiabilityConfig):
     return history, act_on
 
 
-def _driver(drive: str, envs: list, teacher_act):
-    """``collect``'s driver of ``drive`` over ``envs`` (``teacher_act``: the policy's, for the
+def _driver(drive: str, envs: list, policy_act):
+    """``collect``'s driver of ``drive`` over ``envs`` (``policy_act``: the policy's, for the
     policy drives)."""
     from ..train.sensor_episodes import ProbeFirst, probe_actions
 
@@ -214,7 +208,7 @@ def _driver(drive: str, envs: list, teacher_act):
     if drive == "probe":
         periods = envs[0].unwrapped.max_periods
         return ProbeFirst(constant, probe_actions(envs[0]), periods, periods)
-    return teacher_act
+    return policy_act
 
 
 def episodes_of(config: IdentifiabilityConfig, drive: str) -> tuple[np.ndarray, np.ndarray, SensorLayout]:
@@ -240,7 +234,7 @@ def episodes_of(config: IdentifiabilityConfig, drive: str) -> tuple[np.ndarray, 
     if player:
         policy_act = player[1](envs[0].unwrapped.sensor.layout)
     else:
-        policy_act = full_observation_teacher(config.teacher)[1] if drive.startswith("teacher") else None
+        policy_act = full_observation_teacher(config.teacher) if drive.startswith("teacher") else None
     sensed, privileged, _ = collect(envs, first, _driver(drive, envs, policy_act), friction=True)
     rows = slice(end * n, (end + 1) * n)  # the observations before period `end`: after the `end` periods measured
     names = PrivilegedLayout.NAMES
@@ -255,7 +249,7 @@ def drive_errors(config: IdentifiabilityConfig, drive: str) -> dict:
     episodes: ``{tier: {str(P): [error per target]}}``, and the wall time (s)."""
     import torch
 
-    from ..student.estimator import Estimator
+    from ..student.estimator import Estimator, standardised_error
 
     t0 = time.perf_counter()
     torch.set_num_threads(1)
@@ -356,4 +350,4 @@ def plot(res: dict, path: str | Path) -> None:
 
 
 __all__ = ["DRIVES", "IdentifiabilityConfig", "TARGETS", "drive_errors", "episodes_of", "full_observation_teacher", "markdown", "plot", "run", "sensor_policy_player",
-           "standardised_error", "tier_columns"]
+           "tier_columns"]

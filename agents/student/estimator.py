@@ -42,6 +42,12 @@ def hidden_entries(layout) -> list[int]:
     return [i for name in names for i in range(*layout.structure[name].indices(len(layout.NAMES)))]
 
 
+def standardised_error(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """Root mean square error of each column over that column's standard deviation in ``truth``
+    (0 exact, 1 no better than the mean): how well an estimator reads each hidden entry."""
+    return np.sqrt(np.mean((estimate - truth) ** 2, axis=0)) / (truth.std(axis=0) + 1e-12)
+
+
 class Estimator:
     """An MLP from the sensor observation to the entries the sensor hides (``hidden_entries``), both
     standardised with the statistics of the first data it is fitted on; ``names``: those entries'

@@ -58,7 +58,7 @@ from ..policy import CODEBOOK_FILE, ESTIMATOR_FILE, Policy, load_policy, package
 from ..protocol import steady_velocity_of
 from ..run_record import RunLock, command_line, versions
 from ..student.estimator import (FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy,
-                                 teacher_layout)
+                                 standardised_error, teacher_layout)
 from ..student.network import Student, save_student
 from ..yaml_config import from_yaml
 from .sensor_episodes import (ProbeFirst, collect, probe_actions, sensor_env_kwargs, sensor_envs, sensor_structure_of,
@@ -186,8 +186,7 @@ def estimate_errors(sensor_teacher: SensorTeacher, sensed: np.ndarray, privilege
     """The estimator's standardised error on each hidden entry (``val_error_<name>``: root mean
     square error over the entry's standard deviation in ``privileged``)."""
     names = teacher_layout(sensor_teacher.teacher).NAMES
-    truth = privileged[:, sensor_teacher.hidden]
-    err = np.sqrt(np.mean((sensor_teacher.estimator(sensed) - truth) ** 2, axis=0)) / (truth.std(axis=0) + 1e-12)
+    err = standardised_error(sensor_teacher.estimator(sensed), privileged[:, sensor_teacher.hidden])
     return {f"val_error_{names[i]}": float(e) for i, e in zip(sensor_teacher.hidden, err)}
 
 

@@ -43,12 +43,6 @@ def test_a_tiers_columns_of_the_self_sensing_observation_are_that_tiers_own_obse
         ident.tier_columns(SensorLayout(2, forces=True, trace_samples=5), tier, 3)
 
 
-def test_the_standardised_error_is_zero_when_exact_and_one_for_the_mean():
-    truth = np.random.default_rng(1).normal(size=(500, 3)) * [1.0, 10.0, 0.1]
-    assert np.allclose(ident.standardised_error(truth, truth), 0.0)
-    assert np.allclose(ident.standardised_error(np.broadcast_to(truth.mean(axis=0), truth.shape), truth), 1.0)
-
-
 @pytest.mark.parametrize("field, value, needle", [
     ("drives", ("wander",), "drives="), ("tiers", ("encoder", "encoder"), "tiers="), ("periods", (0,), "periods="),
     ("steady_end", 2, "steady_end="), ("episodes", 1, "episodes="), ("encoder_noise", -1.0, "encoder_noise="),
