@@ -349,5 +349,5 @@ def plot(res: dict, path: str | Path) -> None:
     plt.close(fig)
 
 
-__all__ = ["DRIVES", "IdentifiabilityConfig", "TARGETS", "drive_errors", "episodes_of", "full_observation_teacher", "markdown", "plot", "run", "sensor_policy_player",
-           "tier_columns"]
+__all__ = ["DRIVES", "IdentifiabilityConfig", "TARGETS", "drive_errors", "episodes_of", "full_observation_teacher",
+           "markdown", "plot", "run", "sensor_policy_player", "tier_columns"]
