@@ -148,11 +148,12 @@ class MDRDriveEnv(gym.Env):
     would give k away). ``sensor_forces=True`` adds the peak F_x / 10 N and peak F_z / 100 N of each
     period, bounds [0, 100], for a drive with a force sensor. ``observation_structure`` has
     ``"measured"``, ``"actions"``, ``"episode_fraction"``. ``held_periods=H`` (default 0) adds,
-    before the elapsed fraction, the per-period entries of the episode's first H periods, oldest
-    first, zeros until measured and then held to the episode's end (``"held"``): a memory of the
-    start transient, in which the motion shows the friction and the material best
-    (docs/adaptation.md), for a policy without memory of its own. k and the friction do not change
-    within an episode; the load may (``load_step_period``), which the recent periods show.
+    before the elapsed fraction, the per-period entries and the action of each of the episode's
+    first H periods, oldest first, zeros until measured and then held to the episode's end
+    (``"held"``): a memory of the start transient, in which the motion shows the friction and the
+    material best (docs/adaptation.md), for a policy without memory of its own. k and the friction
+    do not change within an episode; the load may (``load_step_period``), which the recent periods
+    show.
 
     **Sensor tiers** (``sensor_tier``, with the sensor observation): ``"encoder"`` (the default) is
     the above, noise-free. ``"trace"`` adds per period the slider's position at ``trace_samples``

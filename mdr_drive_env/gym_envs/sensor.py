@@ -75,13 +75,13 @@ def sample_positions(trace: np.ndarray, displacement: float, period: float, samp
 
 class SensorHistory:
     """The last ``layout.history`` periods, newest first, and the episode's first ``layout.held``
-    periods, oldest first, as the sensor observation of ``tier``."""
+    periods (what was measured and played), oldest first, as the sensor observation of ``tier``."""
 
     def __init__(self, layout: SensorLayout, tier: SensorTier | None = None):
         self.layout, self.tier = layout, tier or SensorTier()
         self.measured = np.zeros((layout.history, len(layout.per_period)))
         self.actions = np.zeros((layout.history, ActionMap.SIZE))
-        self.held = np.zeros((layout.held, len(layout.per_period)))
+        self.held = np.zeros((layout.held, len(layout.per_period) + ActionMap.SIZE))  # measured, then the action
         self.periods = 0  # periods measured since reset
 
     def reset(self) -> None:
@@ -113,7 +113,7 @@ class SensorHistory:
         self.measured[0] = row
         self.actions[0] = action
         if self.periods < self.layout.held:
-            self.held[self.periods] = row
+            self.held[self.periods] = [*row, *action]
         self.periods += 1
 
     def observation(self, episode_fraction: float) -> np.ndarray:

@@ -326,9 +326,9 @@ class SensorLayout:
     a scale from the contact would reveal k), bounds [0, 100]; with ``trace_samples`` N > 0 also the
     slider's position at N evenly spaced times of the period (the last at its end), relative to its
     position at the period's start, / reward_scale, bounds [-100, 100]. Then the 5 action entries of
-    each of the ``history`` periods, [-1, 1]; with ``held`` H > 0 then the per-period entries of the
-    episode's first H periods, oldest first, held for the rest of the episode (zeros until measured);
-    last the fraction of the episode elapsed, [0, 1].
+    each of the ``history`` periods, [-1, 1]; with ``held`` H > 0 then, for each of the episode's
+    first H periods, oldest first, its per-period entries and its 5 action entries, held for the rest
+    of the episode (zeros until measured); last the fraction of the episode elapsed, [0, 1].
     """
 
     MEASURED = ("displacement", "mean_velocity", "end_velocity")
@@ -361,6 +361,9 @@ class SensorLayout:
                 names.append(f"{name}[period {period}]")
                 low.append(0.0 if name in self.FORCES else -100.0)
                 high.append(100.0)
+            names += [f"{name}[period {period}]" for name in ActionMap.NAMES]
+            low += [-1.0] * ActionMap.SIZE
+            high += [1.0] * ActionMap.SIZE
         names.append("episode_fraction")
         low.append(0.0)
         high.append(1.0)
@@ -372,10 +375,11 @@ class SensorLayout:
     def structure(self) -> dict[str, slice]:
         """Where each group of entries sits: ``measured`` (history x per-period entries, newest
         first; ``per_period`` names them), ``actions`` (history x 5), with ``held`` > 0 ``held``
-        (held x per-period entries, the episode's first periods, oldest first), ``episode_fraction``."""
+        (held x (per-period entries and 5 actions), the episode's first periods, oldest first),
+        ``episode_fraction``."""
         m = self.history * len(self.per_period)
         a = self.history * ActionMap.SIZE
-        h = self.held * len(self.per_period)
+        h = self.held * (len(self.per_period) + ActionMap.SIZE)
         groups = {"measured": slice(0, m), "actions": slice(m, m + a)}
         if h:
             groups["held"] = slice(m + a, m + a + h)

@@ -8,6 +8,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import mdr_drive_env  # noqa: F401
+from mdr_drive_env.gym_envs.spaces import ActionMap
 
 
 def test_gymnasium_and_sb3_checkers_pass():
@@ -222,15 +223,16 @@ def test_held_periods_keep_the_first_periods_measurements_to_the_episode_end():
     s, layout = env.unwrapped.observation_structure, env.unwrapped.sensor.layout
     width = len(layout.per_period)
     assert list(s) == ["measured", "actions", "held", "episode_fraction"]
-    assert env.observation_space.shape == ((width + 5) * 2 + 3 * width + 1,)
-    assert layout.names[s["held"]][:width] == tuple(f"{n}[period 1]" for n in layout.per_period)
+    assert env.observation_space.shape == ((width + 5) * 5 + 1,)
+    assert layout.names[s["held"]][:width + 5] == tuple(f"{n}[period 1]" for n in layout.per_period + ActionMap.NAMES)
     obs, _ = env.reset(seed=5)
     assert not np.any(obs[s["held"]])
-    newest = []
+    newest, rng = [], np.random.default_rng(0)
     for _ in range(6):  # the load steps before period 4: the held rows are those of periods 1-3
-        obs, *_ = env.step(env.unwrapped.trapezoid_action())
-        newest.append(obs[s["measured"]][:width].copy())
-        held = obs[s["held"]].reshape(3, width)
+        action = rng.uniform(-1, 1, 5).astype(np.float32)
+        obs, *_ = env.step(action)
+        newest.append(np.concatenate([obs[s["measured"]][:width], action]))
+        held = obs[s["held"]].reshape(3, width + 5)
         n = min(len(newest), 3)
         np.testing.assert_array_equal(held[:n], np.array(newest[:n]))  # oldest first, as measured
         assert not np.any(held[n:])  # zeros until measured

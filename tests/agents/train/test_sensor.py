@@ -28,7 +28,7 @@ def sensor_run(tmp_path_factory):
 
 
 @pytest.mark.parametrize("tier, held, width", [("encoder", 0, 17), ("trace", 0, 17 + 2 * 3),
-                                               ("self-sensing", 0, 17 + 2 * 5), ("trace", 2, 17 + 2 * 3 + 2 * 6)])
+                                               ("self-sensing", 0, 17 + 2 * 5), ("trace", 2, 17 + 2 * 3 + 2 * (6 + 5))])
 def test_the_merged_network_is_the_estimator_informed_teacher(tier, held, width):
     from mdr_drive_agents.train.sensor import sensor_env_kwargs, sensor_envs, sensor_structure_of
     from mdr_drive_agents.student.estimator import (Estimator, SensorTeacher, hidden_entries, merged_policy,
