@@ -161,15 +161,9 @@ def full_observation_teacher(folder: str):
     """The policy at ``folder`` as the teacher drives play it: its act on the privileged observation
     (``collect``'s driver); a ``ValueError`` for a policy that does not see the full observation or does not
     act with the sensor env's action map."""
-    from ..policy import load_policy
-    from ..student.estimator import teacher_layout
+    from ..student.estimator import sensor_teacher_policy, teacher_layout
 
-    teacher = load_policy(folder)
-    play = teacher.play_kwargs
-    if play.get("observation") == "sensor" or play.get("z_phase_origin", 0.0) != 0.0:
-        raise ValueError(f"teacher={folder!r} is not a full-observation policy on the sensor env's action map "
-                         f"(its run.json: observation={play.get('observation')!r}, "
-                         f"z_phase_origin={play.get('z_phase_origin', 0.0)!r})")
+    teacher = sensor_teacher_policy(folder)
     if teacher_layout(teacher) is PrivilegedLayout:
         return lambda sensed, privileged: teacher.act(privileged)
     return lambda sensed, privileged: teacher.act(privileged[:, :-1])  # not told friction

@@ -35,6 +35,20 @@ def teacher_layout(teacher: Policy):
     return PrivilegedLayout if teacher.play_kwargs.get("observation") == "privileged" else ObservationLayout
 
 
+def sensor_teacher_policy(folder: str) -> Policy:
+    """The policy at ``folder`` as a sensor policy's teacher: a ``ValueError`` unless it sees the full
+    (or privileged) observation and acts with the sensor env's action map (``z_phase_origin`` 0)."""
+    from ..policy import load_policy
+
+    teacher = load_policy(folder)
+    play = teacher.play_kwargs
+    if play.get("observation") == "sensor" or play.get("z_phase_origin", 0.0) != 0.0:
+        raise ValueError(f"teacher={folder!r} is not a full-observation policy on the sensor env's action map "
+                         f"(its run.json: observation={play.get('observation')!r}, "
+                         f"z_phase_origin={play.get('z_phase_origin', 0.0)!r})")
+    return teacher
+
+
 def hidden_entries(layout) -> list[int]:
     """Indices of the entries of ``layout`` the sensor observation hides: ``HIDDEN``, and the
     friction ratio in the privileged layout."""

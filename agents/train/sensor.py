@@ -54,11 +54,11 @@ from mdr_drive_env.files import write_text
 from mdr_drive_env.gym_envs.sensor import DEFAULT_ENCODER_NOISE, DEFAULT_TRACE_SAMPLES, SensorTier
 from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 
-from ..policy import CODEBOOK_FILE, ESTIMATOR_FILE, Policy, load_policy, package_path
+from ..policy import CODEBOOK_FILE, ESTIMATOR_FILE, Policy, package_path
 from ..protocol import steady_velocity_of
 from ..run_record import RunLock, command_line, versions
 from ..student.estimator import (FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy,
-                                 standardised_error, teacher_layout)
+                                 sensor_teacher_policy, standardised_error, teacher_layout)
 from ..student.network import Student, save_student
 from ..yaml_config import from_yaml
 from .sensor_episodes import (ProbeFirst, collect, probe_actions, sensor_env_kwargs, sensor_envs, sensor_structure_of,
@@ -211,10 +211,7 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
     import torch
 
     torch.set_num_threads(config.torch_threads)
-    teacher = load_policy(config.teacher)
-    if teacher.play_kwargs.get("z_phase_origin", 0.0) != 0.0:
-        raise ValueError(f"teacher {config.teacher} acts with z_phase_origin="
-                         f"{teacher.play_kwargs['z_phase_origin']}; the sensor envs use the default action map (0)")
+    teacher = sensor_teacher_policy(config.teacher)
     rng = np.random.default_rng(seed)
     layout = teacher_layout(teacher)
     hidden = hidden_entries(layout)
@@ -332,7 +329,8 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
 def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig, progress: bool) -> dict:
     command = command_line()
     t0 = time.perf_counter()
-    validate = None if validation_seed is None else Validation(load_policy(config.teacher), config, validation_seed)
+    validate = None if validation_seed is None else Validation(sensor_teacher_policy(config.teacher), config,
+                                                               validation_seed)
     sensor_teacher, history, interrupted = train(config, seed, validate, progress)
     student = merged_policy(sensor_teacher, sensor_env_kwargs(config), config.log_std, seed)
     check = merge_check(student, sensor_teacher, config, seed)

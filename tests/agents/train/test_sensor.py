@@ -269,3 +269,12 @@ def test_ctrl_c_keeps_the_policy_of_the_last_finished_round(tmp_path, monkeypatc
     env = policy.make_env()
     obs, _ = env.reset(seed=0)
     assert np.all(np.abs(policy.predict(obs)) <= 1.0)
+
+
+def test_a_sensor_policy_as_teacher_is_refused_in_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"  # a policy that sees only the sensor observation cannot be told the truth
+    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_sensor/teacher",
+                                            "teacher: agents/pretrained/ppo_sensor_encoder"))
+    assert main(["train-sensor", str(bad), "--out", str(tmp_path / "out"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "is not a full-observation policy" in err and err.count("\n") == 1
