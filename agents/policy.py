@@ -49,8 +49,8 @@ CODEBOOK_FILE = "action_codebook.npy"
 ESTIMATOR_FILE = "estimator.npz"
 #: Keys of a policy's env keywords (run.json) that shape its observation, and that set what its
 #: Box actions mean: the closed-loop protocol builds its envs with them.
-OBSERVATION_KEYS = ("observation", "history", "held_periods", "sensor_forces", "sensor_tier", "trace_samples",
-                    "encoder_noise", "force_noise")
+OBSERVATION_KEYS = ("observation", "history", "sensor_forces", "sensor_tier", "trace_samples", "encoder_noise",
+                    "force_noise")
 ACTION_KEYS = ("z_phase_origin", "time_quantum")
 #: ... and the drive it was built for (``mdr_drive_agents.drive.DRIVE_KEYS``): it plays on that drive.
 PLAY_KEYS = OBSERVATION_KEYS + ACTION_KEYS + tuple(DRIVE_KEYS)

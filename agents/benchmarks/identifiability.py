@@ -131,9 +131,8 @@ class IdentifiabilityConfig:
 def tier_columns(layout: SensorLayout, tier: str, periods: int, actions: bool = True) -> np.ndarray:
     """Indices of the columns of ``layout`` (a ``self-sensing`` observation, ``layout.history`` >=
     ``periods`` deep) that make ``tier``'s own observation with ``history = periods``: what ``tier``
-    measures of the newest ``periods`` periods, then (``actions``) their actions, what it measured
-    of the held first periods (``layout.held`` of them) and the elapsed fraction: the observation
-    of a sensor policy; without ``actions``, the measurements of the newest periods alone."""
+    measures of the newest ``periods`` periods, then (``actions``) their actions and the elapsed
+    fraction."""
     if periods > layout.history:
         raise ValueError(f"periods={periods} is deeper than the observation's history {layout.history}")
     kept = set(SensorLayout.MEASURED) | (set(ActionMap.NAMES) if actions else set())
@@ -145,10 +144,6 @@ def tier_columns(layout: SensorLayout, tier: str, periods: int, actions: bool = 
     for i, name in enumerate(layout.names):
         if name == "episode_fraction":
             if actions:
-                columns.append(i)
-            continue
-        if "[period " in name:  # a held first period: part of the policy's observation, not of the study's
-            if actions and name.split("[period ")[0] in kept:
                 columns.append(i)
             continue
         base, lag = name[:-1].split("[t-")
@@ -186,15 +181,13 @@ def sensor_policy_player(folder: str, config: IdentifiabilityConfig):
         raise ValueError(f"sensor_policy={folder!r} senses {play.get('trace_samples')} positions per period with "
                          f"{play.get('encoder_noise')} m noise; the study's sensors take {config.trace_samples} with "
                          f"{config.encoder_noise} m")
-    history, held = int(play.get("history", 6)), int(play.get("held_periods", 0))
+    history = int(play.get("history", 6))
 
     def act_on(layout: SensorLayout):
-        if layout.held != held:
-            raise ValueError(f"the observation holds {layout.held} first periods; sensor_policy={folder!r} {held}")
         cols = tier_columns(layout, tier, history)
         return lambda sensed, privileged: policy.act(sensed[:, cols])
 
-    return history, held, act_on
+    return history, act_on
 
 
 def _driver(drive: str, envs: list, policy_act):
@@ -225,16 +218,15 @@ def episodes_of(config: IdentifiabilityConfig, drive: str) -> tuple[np.ndarray, 
 
     player = sensor_policy_player(config.sensor_policy, config) if drive.startswith("sensor") else None
     depth = max(max(config.periods), player[0] if player else 1)
-    held = {"held_periods": player[1]} if player and player[1] else {}
     end = config.steady_end if drive.endswith("steady") else max(config.periods)
     n = config.episodes + config.test_episodes
     kwargs = {**SENSOR_DEFAULTS, "history": depth, "max_periods": end + 1, "sensor_tier": "self-sensing",
               "trace_samples": config.trace_samples, "encoder_noise": config.encoder_noise,
-              "force_noise": config.force_noise, **held}
+              "force_noise": config.force_noise}
     envs = [gym.make(SENSOR_ID, **kwargs) for _ in range(n)]
     first = np.array([env.reset(seed=config.seed + i)[0] for i, env in enumerate(envs)])
     if player:
-        policy_act = player[2](envs[0].unwrapped.sensor.layout)
+        policy_act = player[1](envs[0].unwrapped.sensor.layout)
     else:
         policy_act = full_observation_teacher(config.teacher) if drive.startswith("teacher") else None
     sensed, privileged, _ = collect(envs, first, _driver(drive, envs, policy_act), friction=True)

@@ -151,12 +151,6 @@ def tier_arguments(run: dict) -> str:
             f'encoder_noise={kw["encoder_noise"]:g}, ')
 
 
-def held_argument(run: dict) -> str:
-    """``held_periods=H, `` of a sensor policy's env that holds its first periods, or ""."""
-    held = run["env_kwargs"].get("held_periods", 0)
-    return f"held_periods={held}, " if held else ""
-
-
 #: What each sensor tier measures, as a sensor policy's model card says it.
 TIER_TEXT = {
     "encoder": "what a position encoder reports per period: the slider's displacement, mean and end velocity",
@@ -166,13 +160,6 @@ TIER_TEXT = {
     "self-sensing": "the position trace of the `trace` tier ({n} samples a period, {noise:g} nm noise) and the peak "
                     "contact forces the piezo senses from its own charge ({force:g} % noise)",
 }
-
-
-def held_text(run: dict) -> str:
-    """What a sensor policy of ``run`` remembers of its episode's start, or ""."""
-    held = run["env_kwargs"].get("held_periods", 0)
-    return (f", and what they measured in the episode's first {held} periods, which its env holds to the "
-            "episode's end (`held_periods`)") if held else ""
 
 
 def tier_text(run: dict) -> str:
@@ -252,7 +239,6 @@ def snippet(dst: Path, run: dict) -> str:
                               comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
                                       "here to try one drive\n",
                               make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, '
-                                        f"{held_argument(run)}"
                                         f"{tier_arguments(run)}max_periods=30, "
                                         "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
                                         "base_friction_coefficient=0.1")
@@ -414,7 +400,7 @@ def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -
 
 One plain Stable-Baselines3 PPO policy that drives the slider from what its sensors measure
 (the `{tier}` sensor tier: {tier_text(run)}) over the last {run['env_kwargs']['history']} periods,
-and the actions that produced them{held_text(run)}. It is not told k, the load or the friction coefficients
+and the actions that produced them. It is not told k, the load or the friction coefficients
 (docs/adaptation.md).
 
 ## Load it

@@ -74,8 +74,6 @@ class AdaptConfig:
     Attributes:
         teacher: folder of the full-observation teacher policy (``model.zip``, ``vecnormalize.pkl``).
         history: periods of the sensor observation (-).
-        held_periods: the episode's first periods the sensor observation holds to the episode's end
-            (``MDRDriveSensor-v0(held_periods=...)``; 0: none) (-).
         episodes: episodes driven per round (-).
         periods: periods per episode (-).
         load_step_share: share of the episodes with a load step (-).
@@ -109,7 +107,6 @@ class AdaptConfig:
 
     teacher: str = "agents/pretrained/ppo_sensor/teacher"
     history: int = 6
-    held_periods: int = 0
     episodes: int = 512
     periods: int = 40
     load_step_share: float = 0.5
@@ -137,9 +134,6 @@ class AdaptConfig:
         check_int("action_steps", self.action_steps, 0)
         check_int("action_rounds", self.action_rounds, 0)
         check_int("probe_periods", self.probe_periods, 0)
-        check_int("held_periods", self.held_periods, 0)
-        if self.held_periods > self.periods:
-            raise ValueError(f"held_periods={self.held_periods!r} is outside the allowed range [0, periods = {self.periods}]")
         if self.action_rounds > self.rounds:
             raise ValueError(f"action_rounds={self.action_rounds!r} is outside the allowed range [0, rounds = {self.rounds}]")
         check_range("action_learning_rate", self.action_learning_rate, 0.0, 1.0, low_open=True)

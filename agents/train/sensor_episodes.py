@@ -92,9 +92,8 @@ def sensor_env_kwargs(config: AdaptConfig) -> dict:
     range (run.json: what ``evaluate`` warns outside) and its observation."""
     tier = {} if config.sensor_tier == "encoder" else {
         "sensor_tier": config.sensor_tier, "trace_samples": config.trace_samples, "encoder_noise": config.encoder_noise}
-    held = {"held_periods": config.held_periods} if config.held_periods else {}
     return {**{key: list(v) if isinstance(v, tuple) else v for key, v in SENSOR_DEFAULTS.items()},
-            "history": config.history, "max_periods": config.periods, **held, **tier}
+            "history": config.history, "max_periods": config.periods, **tier}
 
 
 def sensor_structure_of(config: AdaptConfig) -> dict[str, slice]:

@@ -147,13 +147,7 @@ class MDRDriveEnv(gym.Env):
     forces would need a force sensor in the contact, and any scale taken from the contact model
     would give k away). ``sensor_forces=True`` adds the peak F_x / 10 N and peak F_z / 100 N of each
     period, bounds [0, 100], for a drive with a force sensor. ``observation_structure`` has
-    ``"measured"``, ``"actions"``, ``"episode_fraction"``. ``held_periods=H`` (default 0) adds,
-    before the elapsed fraction, the per-period entries and the action of each of the episode's
-    first H periods, oldest first, zeros until measured and then held to the episode's end
-    (``"held"``): a memory of the start transient, in which the motion shows the friction and the
-    material best (docs/adaptation.md), for a policy without memory of its own. k and the friction
-    do not change within an episode; the load may (``load_step_period``), which the recent periods
-    show.
+    ``"measured"``, ``"actions"``, ``"episode_fraction"``.
 
     **Sensor tiers** (``sensor_tier``, with the sensor observation): ``"encoder"`` (the default) is
     the above, noise-free. ``"trace"`` adds per period the slider's position at ``trace_samples``
@@ -237,7 +231,6 @@ class MDRDriveEnv(gym.Env):
     ``x_amplitude_max`` (m), ``z_amplitude_max`` (m), ``min_rise_fraction``,
     ``max_rise_fraction``, ``z_phase_origin`` (fraction of T, in [0, 1)), ``time_quantum`` (s), ``reward_scale`` (m), ``actuation_penalty``, ``reward_floor``, ``observation``
     (``"full"``, the default, ``"sensor"`` or ``"privileged"``), ``history`` (periods in the sensor observation),
-    ``held_periods`` (the episode's first periods the sensor observation holds; default 0),
     ``sensor_forces`` (bool), ``sensor_tier`` (``"encoder"``, ``"trace"`` or ``"self-sensing"``),
     ``trace_samples``, ``encoder_noise`` (m), ``force_noise``, ``load_step_period`` (int or (low, high), or None), ``action_codebook``
     ((N, 5) array or ``.npy`` path, or None), ``render_mode``
@@ -249,8 +242,7 @@ class MDRDriveEnv(gym.Env):
     * v0: initial version; later within v0: the sensor observation, friction ranges, load steps,
       ``MDRDriveSensor-v0``, the privileged observation (one friction entry, the ratio mu1 / mu,
       where it first had mu and mu1), ``z_phase_origin``, ``time_quantum``, ``action_codebook`` and
-      the sensor tiers, ``held_periods`` (the full observation, the action map and the defaults are
-      unchanged).
+      the sensor tiers (the full observation, the action map and the defaults are unchanged).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -285,7 +277,6 @@ class MDRDriveEnv(gym.Env):
         reward_floor: float | None = None,
         observation: str = "full",
         history: int = 4,
-        held_periods: int = 0,
         sensor_forces: bool = False,
         sensor_tier: str = "encoder",
         trace_samples: int = DEFAULT_TRACE_SAMPLES,
@@ -347,12 +338,10 @@ class MDRDriveEnv(gym.Env):
                              f"{self.action_map.steps_per_period}] (the period's time steps)")
         if tier.name != "encoder" and observation != "sensor":
             raise ValueError(f"sensor_tier={sensor_tier!r} needs observation='sensor' (MDRDriveSensor-v0)")
-        if held_periods != 0 and observation != "sensor":
-            raise ValueError(f"held_periods={held_periods!r} needs observation='sensor' (MDRDriveSensor-v0)")
         self.sensor = None
         if observation == "sensor":
             layout = SensorLayout(history, sensor_forces or tier.name == "self-sensing",
-                                  trace_samples if tier.traced else 0, held_periods)
+                                  trace_samples if tier.traced else 0)
             self.sensor = SensorHistory(layout, tier)
         self._noise_rng: np.random.Generator | None = None
         layout = self.sensor.layout if self.sensor else OBSERVATIONS[observation]

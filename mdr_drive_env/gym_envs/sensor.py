@@ -74,22 +74,17 @@ def sample_positions(trace: np.ndarray, displacement: float, period: float, samp
 
 
 class SensorHistory:
-    """The last ``layout.history`` periods, newest first, and the episode's first ``layout.held``
-    periods (what was measured and played), oldest first, as the sensor observation of ``tier``."""
+    """The last ``layout.history`` periods, newest first, as the sensor observation of ``tier``."""
 
     def __init__(self, layout: SensorLayout, tier: SensorTier | None = None):
         self.layout, self.tier = layout, tier or SensorTier()
         self.measured = np.zeros((layout.history, len(layout.per_period)))
         self.actions = np.zeros((layout.history, ActionMap.SIZE))
-        self.held = np.zeros((layout.held, len(layout.per_period) + ActionMap.SIZE))  # measured, then the action
-        self.periods = 0  # periods measured since reset
 
     def reset(self) -> None:
         """Nothing measured yet: zeros, as the full observation after reset."""
         self.measured[:] = 0.0
         self.actions[:] = 0.0
-        self.held[:] = 0.0
-        self.periods = 0
 
     def push(self, displacement: float, mean_velocity: float, end_velocity: float, peak_fx: float, peak_fz: float,
              action: np.ndarray, reward_scale: float, period: float, positions: np.ndarray | None = None,
@@ -112,13 +107,10 @@ class SensorHistory:
             row += list(positions / reward_scale)
         self.measured[0] = row
         self.actions[0] = action
-        if self.periods < self.layout.held:
-            self.held[self.periods] = [*row, *action]
-        self.periods += 1
 
     def observation(self, episode_fraction: float) -> np.ndarray:
         """The observation (float32, clipped to the layout's bounds)."""
-        obs = np.concatenate([self.measured.ravel(), self.actions.ravel(), self.held.ravel(), [episode_fraction]])
+        obs = np.concatenate([self.measured.ravel(), self.actions.ravel(), [episode_fraction]])
         return np.minimum(np.maximum(obs, self.layout.low), self.layout.high).astype(np.float32)
 
 

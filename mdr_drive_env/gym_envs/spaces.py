@@ -326,24 +326,19 @@ class SensorLayout:
     a scale from the contact would reveal k), bounds [0, 100]; with ``trace_samples`` N > 0 also the
     slider's position at N evenly spaced times of the period (the last at its end), relative to its
     position at the period's start, / reward_scale, bounds [-100, 100]. Then the 5 action entries of
-    each of the ``history`` periods, [-1, 1]; with ``held`` H > 0 then, for each of the episode's
-    first H periods, oldest first, its per-period entries and its 5 action entries, held for the rest
-    of the episode (zeros until measured); last the fraction of the episode elapsed, [0, 1].
+    each of the ``history`` periods, [-1, 1]; last the fraction of the episode elapsed, [0, 1].
     """
 
     MEASURED = ("displacement", "mean_velocity", "end_velocity")
     FORCES = ("peak_tangential_force", "peak_normal_force")
     FORCE_SCALES = (10.0, 100.0)  # N
 
-    def __init__(self, history: int, forces: bool = False, trace_samples: int = 0, held: int = 0):
+    def __init__(self, history: int, forces: bool = False, trace_samples: int = 0):
         if isinstance(history, bool) or not isinstance(history, (int, np.integer)) or not 1 <= history <= 64:
             raise ValueError(f"history={history!r} is outside the allowed range [1, 64]")
-        if isinstance(held, bool) or not isinstance(held, (int, np.integer)) or not 0 <= held <= 64:
-            raise ValueError(f"held_periods={held!r} is outside the allowed range [0, 64]")
         if isinstance(trace_samples, bool) or not isinstance(trace_samples, (int, np.integer)) or trace_samples < 0:
             raise ValueError(f"trace_samples={trace_samples!r} is outside the allowed range [0, inf)")
         self.history, self.forces, self.trace_samples = int(history), bool(forces), int(trace_samples)
-        self.held = int(held)
         positions = tuple(f"position_{i}/{self.trace_samples}" for i in range(1, self.trace_samples + 1))
         self.per_period = self.MEASURED + (self.FORCES if self.forces else ()) + positions
         names, low, high = [], [], []
@@ -356,14 +351,6 @@ class SensorLayout:
             names += [f"{name}[t-{lag}]" for name in ActionMap.NAMES]
             low += [-1.0] * ActionMap.SIZE
             high += [1.0] * ActionMap.SIZE
-        for period in range(1, self.held + 1):
-            for name in self.per_period:
-                names.append(f"{name}[period {period}]")
-                low.append(0.0 if name in self.FORCES else -100.0)
-                high.append(100.0)
-            names += [f"{name}[period {period}]" for name in ActionMap.NAMES]
-            low += [-1.0] * ActionMap.SIZE
-            high += [1.0] * ActionMap.SIZE
         names.append("episode_fraction")
         low.append(0.0)
         high.append(1.0)
@@ -374,13 +361,7 @@ class SensorLayout:
     @property
     def structure(self) -> dict[str, slice]:
         """Where each group of entries sits: ``measured`` (history x per-period entries, newest
-        first; ``per_period`` names them), ``actions`` (history x 5), with ``held`` > 0 ``held``
-        (held x (per-period entries and 5 actions), the episode's first periods, oldest first),
-        ``episode_fraction``."""
+        first; ``per_period`` names them), ``actions`` (history x 5), ``episode_fraction``."""
         m = self.history * len(self.per_period)
         a = self.history * ActionMap.SIZE
-        h = self.held * (len(self.per_period) + ActionMap.SIZE)
-        groups = {"measured": slice(0, m), "actions": slice(m, m + a)}
-        if h:
-            groups["held"] = slice(m + a, m + a + h)
-        return {**groups, "episode_fraction": slice(m + a + h, m + a + h + 1)}
+        return {"measured": slice(0, m), "actions": slice(m, m + a), "episode_fraction": slice(m + a, m + a + 1)}

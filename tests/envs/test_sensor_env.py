@@ -8,7 +8,6 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import mdr_drive_env  # noqa: F401
-from mdr_drive_env.gym_envs.spaces import ActionMap
 
 
 def test_gymnasium_and_sb3_checkers_pass():
@@ -215,39 +214,3 @@ def test_bad_tier_values_are_one_line_errors(kwargs, needle):
     assert needle in str(e.value)
     with pytest.raises(ValueError, match="needs observation='sensor'"):
         gym.make("MDRDrive-v0", sensor_tier="trace")
-
-
-def test_held_periods_keep_the_first_periods_measurements_to_the_episode_end():
-    env = _tier_env("trace", trace_samples=4, held_periods=3, load_step_period=4)
-    check_env(env.unwrapped, skip_render_check=True)
-    s, layout = env.unwrapped.observation_structure, env.unwrapped.sensor.layout
-    width = len(layout.per_period)
-    assert list(s) == ["measured", "actions", "held", "episode_fraction"]
-    assert env.observation_space.shape == ((width + 5) * 5 + 1,)
-    assert layout.names[s["held"]][:width + 5] == tuple(f"{n}[period 1]" for n in layout.per_period + ActionMap.NAMES)
-    obs, _ = env.reset(seed=5)
-    assert not np.any(obs[s["held"]])
-    newest, rng = [], np.random.default_rng(0)
-    for _ in range(6):  # the load steps before period 4: the held rows are those of periods 1-3
-        action = rng.uniform(-1, 1, 5).astype(np.float32)
-        obs, *_ = env.step(action)
-        newest.append(np.concatenate([obs[s["measured"]][:width], action]))
-        held = obs[s["held"]].reshape(3, width + 5)
-        n = min(len(newest), 3)
-        np.testing.assert_array_equal(held[:n], np.array(newest[:n]))  # oldest first, as measured
-        assert not np.any(held[n:])  # zeros until measured
-    obs_again, _ = env.reset(seed=5)
-    assert not np.any(obs_again[s["held"]])  # reset forgets them
-    # without held periods the observation is the one it always was
-    assert "held" not in _tier_env("trace", trace_samples=4).unwrapped.observation_structure
-
-
-@pytest.mark.parametrize("kwargs, needle", [
-    ({"held_periods": 65}, "held_periods=65 is outside the allowed range [0, 64]"),
-    ({"held_periods": -1}, "held_periods=-1 is outside the allowed range [0, 64]"),
-    ({"held_periods": 2, "observation": "full"}, "held_periods=2 needs observation='sensor'"),
-])
-def test_bad_held_periods_are_one_line_errors(kwargs, needle):
-    with pytest.raises(ValueError) as e:
-        gym.make("MDRDriveSensor-v0", **kwargs)
-    assert needle in str(e.value)

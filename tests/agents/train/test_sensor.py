@@ -27,19 +27,17 @@ def sensor_run(tmp_path_factory):
     return out, json.loads((out / "adapt.json").read_text())
 
 
-@pytest.mark.parametrize("tier, held, width", [("encoder", 0, 17), ("trace", 0, 17 + 2 * 3),
-                                               ("self-sensing", 0, 17 + 2 * 5), ("trace", 2, 17 + 2 * 3 + 2 * (6 + 5))])
-def test_the_merged_network_is_the_estimator_informed_teacher(tier, held, width):
+@pytest.mark.parametrize("tier, width", [("encoder", 17), ("trace", 17 + 2 * 3), ("self-sensing", 17 + 2 * 5)])
+def test_the_merged_network_is_the_estimator_informed_teacher(tier, width):
     from mdr_drive_agents.train.sensor import sensor_env_kwargs, sensor_envs, sensor_structure_of
     from mdr_drive_agents.student.estimator import (Estimator, SensorTeacher, hidden_entries, merged_policy,
                                                     teacher_layout)
     from mdr_drive_agents.policy import load_policy
 
     config = AdaptConfig(history=2, episodes=4, periods=6, load_step_periods=(1, 4), estimator_arch=(8, 8, 8),
-                         sensor_tier=tier, trace_samples=3, held_periods=held)
+                         sensor_tier=tier, trace_samples=3)
     envs, first = sensor_envs(config, 4, seed=2)
     assert first.shape[1] == width
-    assert sensor_env_kwargs(config).get("held_periods", 0) == held
     assert sensor_env_kwargs(config).get("sensor_tier", "encoder") == tier  # what evaluation plays it in
     assert envs[0].unwrapped.sensor.tier.name == tier
     sensed = np.vstack([first, np.random.default_rng(0).normal(size=(50, first.shape[1])).astype(np.float32)])
@@ -97,7 +95,6 @@ def test_the_sensor_student_is_a_plain_sb3_policy_on_the_sensor_observation(sens
                                           ({"load_step_periods": (5, 40)}, "load_step_periods"),
                                           ({"estimator_arch": ()}, "estimator_arch"),
                                           ({"action_rounds": 9}, "action_rounds"),
-                                          ({"held_periods": 41}, "held_periods"), ({"held_periods": -1}, "held_periods"),
                                           ({"action_learning_rate": 0.0}, "action_learning_rate")])
 def test_bad_adapt_settings_name_themselves(kwargs, name):
     with pytest.raises(ValueError, match=name):
