@@ -196,16 +196,17 @@ def _log(record: dict) -> None:
 
 
 def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None,
-          progress: bool = True) -> tuple[SensorTeacher, list[dict], bool]:
+          progress: bool = True, teacher: Policy | None = None) -> tuple[SensorTeacher, list[dict], bool]:
     """Round 0: the privileged teacher drives; rounds 1 ... R: the estimator-informed teacher
     (``SensorTeacher``) drives, on its own state distribution. After every round the estimator is
-    refitted on every episode so far. Returns the final ``SensorTeacher``, the per-round records and
-    whether it was interrupted: a Ctrl-C once a stage has finished keeps the estimator of the last
-    finished stage (before that, the Ctrl-C is raised)."""
+    refitted on every episode so far. ``teacher``: ``config.teacher`` already loaded
+    (``sensor_teacher_policy``), or None to load it here. Returns the final ``SensorTeacher``, the
+    per-round records and whether it was interrupted: a Ctrl-C once a stage has finished keeps the
+    estimator of the last finished stage (before that, the Ctrl-C is raised)."""
     import torch
 
     torch.set_num_threads(config.torch_threads)
-    teacher = sensor_teacher_policy(config.teacher)
+    teacher = teacher or sensor_teacher_policy(config.teacher)
     rng = np.random.default_rng(seed)
     layout = teacher_layout(teacher)
     hidden = hidden_entries(layout)
@@ -323,9 +324,9 @@ def run(config_path: str | Path, out: str | Path, force: bool = False, progress:
 def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig, progress: bool) -> dict:
     command = command_line()
     t0 = time.perf_counter()
-    validate = None if validation_seed is None else Validation(sensor_teacher_policy(config.teacher), config,
-                                                               validation_seed)
-    sensor_teacher, history, interrupted = train(config, seed, validate, progress)
+    teacher = sensor_teacher_policy(config.teacher)  # checked before anything is built
+    validate = None if validation_seed is None else Validation(teacher, config, validation_seed)
+    sensor_teacher, history, interrupted = train(config, seed, validate, progress, teacher)
     student = merged_policy(sensor_teacher, sensor_env_kwargs(config), config.log_std, seed)
     check = merge_check(student, sensor_teacher, config, seed)
     if validate is not None and not interrupted:
