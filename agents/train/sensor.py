@@ -206,7 +206,8 @@ def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None
     import torch
 
     torch.set_num_threads(config.torch_threads)
-    teacher = teacher or sensor_teacher_policy(config.teacher)
+    if teacher is None:
+        teacher = sensor_teacher_policy(config.teacher)
     rng = np.random.default_rng(seed)
     layout = teacher_layout(teacher)
     hidden = hidden_entries(layout)
