@@ -142,10 +142,12 @@ def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
     return field_.best(points, **reach)
 
 
-def grid_actions(field_: DriveField) -> np.ndarray:
-    """The distinct actions of the field's grid drives and point drives at their time quanta's centres
-    (``ActionMap.quantum_centre``), sorted: (N, 5), the codebook a student picks from."""
-    actions = np.concatenate([field_.drives.reshape(-1, 5), field_.point_drives.reshape(-1, 5)])
+def grid_actions(field_) -> np.ndarray:
+    """The distinct actions of the grid drives and point drives of ``field_`` (a ``DriveField``, or
+    every field of a ``FrictionField``) at their time quanta's centres (``ActionMap.quantum_centre``),
+    sorted: (N, 5), the codebook a student picks from."""
+    fields = getattr(field_, "fields", [field_])
+    actions = np.concatenate([a for f in fields for a in (f.drives.reshape(-1, 5), f.point_drives.reshape(-1, 5))])
     return np.unique(field_.drive.action_map().quantum_centre(actions), axis=0)
 
 

@@ -406,12 +406,9 @@ def student_velocity(student: Student, points) -> np.ndarray:
 
 def check_drawn_friction(config: DistillConfig, friction_drawn: bool) -> None:
     """The options that need the drive field's one friction, refused (a ``ValueError`` naming the
-    option) where the episodes' friction is drawn: stall probes (placed at the field's stall) and
-    ``action_codebook`` (a friction teacher mixes the fields' drives, so its drives are not one grid's)."""
+    option) where the episodes' friction is drawn: stall probes (placed at the field's stall)."""
     if config.stall_probes and friction_drawn:
         raise ValueError("stall_probes: not with a drawn friction (the field's stall is at one friction)")
-    if config.action_codebook and friction_drawn:
-        raise ValueError("action_codebook: not with a drawn friction (a friction teacher's drives mix several grids')")
 
 
 def find_holes(student: Student, field_: DriveField, config: DistillConfig, rng: np.random.Generator,

@@ -56,26 +56,36 @@ class FrictionField:
         i = int(min(np.searchsorted(self.rhos, r, side="right") - 1, len(self.rhos) - 2))
         return i, i + 1, (r - self.rhos[i]) / (self.rhos[i + 1] - self.rhos[i])
 
-    def candidates(self, point, radius: int = 1) -> np.ndarray:
+    def candidates(self, point, radius: int = 1, interpolation: bool = True) -> np.ndarray:
         """(c, 2, 5) drives for (k, load kg, mu, mu1): the mixture of the two bracketing fields'
         interpolations (weighted by rho), then each field's :meth:`DriveField.candidates` at the same
-        load over mu F_ref, all aligned to the lower field's interpolation."""
+        load over mu F_ref, all aligned to the lower field's interpolation. Without ``interpolation``:
+        the two fields' grid drives only (each field's candidates but its interpolation), so every
+        drive is one of the fields' own."""
         k, _, mu, mu1 = point
         lo, hi, w = self._bracket(mu1 / mu)
+        skip = 0 if interpolation else 1
         below = self.fields[lo].candidates(k, self.fields[lo].field_load(point), radius)
         if hi == lo:
-            return below
+            return below[skip:]
         above = [align_phase(c, below[0]) for c in
                  self.fields[hi].candidates(k, self.fields[hi].field_load(point), radius)]
+        if not interpolation:
+            return np.array([*below[1:], *above[1:]])
         mixed = (1.0 - w) * below[0] + w * above[0]
         return np.array([mixed, *below, *above])
 
-    def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1,
+             interpolation: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The teacher's drive (n, 2, 5) and its velocity (n,) m/s at each (k, load kg, mu, mu1)
-        point ((k, load) points: the paper's friction): the best of :meth:`candidates` played there."""
+        point ((k, load) points: the paper's friction): the best of :meth:`candidates` played there,
+        the mixture unless another is better by more than ``prefer_interpolation`` (relative).
+        Without ``interpolation``: the best of the fields' own grid drives, what a student that
+        picks among them (``grid_actions``) can be taught."""
         check_int("radius", radius, 1)
         points = with_friction(points, PAPER_FRICTION)
-        return pick_best(points, [self.candidates(p, radius) for p in points], prefer_interpolation)
+        cands = [self.candidates(p, radius, interpolation) for p in points]
+        return pick_best(points, cands, prefer_interpolation if interpolation else 0.0, self.drive)
 
     @classmethod
     def load(cls, paths) -> "FrictionField":

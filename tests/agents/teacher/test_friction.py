@@ -31,6 +31,14 @@ def test_the_friction_field_mixes_the_two_fields_around_the_points_ratio():
     assert ff.candidates((0.15, 0.01, 0.3, 0.03))[0] == pytest.approx(np.full((2, 5), 0.2))  # below the range: clipped
     drives, v = ff.best([(0.15, 0.01, 0.25, 0.075), (0.1, 0.0)])
     assert drives.shape == (2, 2, 5) and v.shape == (2,) and np.isfinite(v).all()
+    own = ff.candidates((0.15, 0.01, 0.3, 0.09), radius=1, interpolation=False)  # the two fields' grid drives only
+    assert len(own) == 4 + 4 and set(np.round(own, 6).ravel()) == {0.2, 0.6}
+    drives, v = ff.best([(0.15, 0.01, 0.3, 0.09)], interpolation=False)
+    assert set(np.round(drives, 6).ravel()) <= {0.2, 0.6} and np.isfinite(v).all()
+    from mdr_drive_agents.student.data import grid_actions
+
+    table = grid_actions(ff)  # a codebook student of a friction teacher picks among every field's drives
+    np.testing.assert_array_equal(table, np.concatenate([grid_actions(low), grid_actions(high)]))
     with pytest.raises(ValueError, match="ratio"):
         FrictionField([low, _field(0.06)])
     with pytest.raises(ValueError, match="k grid"):

@@ -365,6 +365,7 @@ def test_a_codebook_student_picks_the_teachers_grid_actions_and_loads_as_plain_s
         DistillConfig(action_codebook=True)
     from mdr_drive_agents.student.distill import check_drawn_friction
 
-    with pytest.raises(ValueError, match="action_codebook: not with a drawn friction"):  # a friction teacher's
-        check_drawn_friction(DistillConfig(action_codebook=True, quantum_centres=True), friction_drawn=True)
+    check_drawn_friction(DistillConfig(action_codebook=True, quantum_centres=True), friction_drawn=True)  # its fields' drives
+    with pytest.raises(ValueError, match="stall_probes: not with a drawn friction"):
+        check_drawn_friction(DistillConfig(stall_probes=16), friction_drawn=True)
 
