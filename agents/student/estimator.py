@@ -225,7 +225,9 @@ def merged_policy(sensor_teacher: SensorTeacher, env_kwargs: dict, log_std: floa
       the teacher reads from the sensor observation (each as relu(x) and relu(-x));
     * the next layer is the teacher's first layer composed with the estimator's output layer and the
       teacher's observation normalisation (a product of linear maps);
-    * the rest is the teacher's network (its later layers and action head) as it is.
+    * the rest is the teacher's network (its later layers and action head) as it is: for a teacher
+      that picks from an action table (``Discrete(N)``, a codebook student), its logits over the
+      same table, which the merged network then picks from (the env's ``action_codebook``).
     """
     import torch
     from stable_baselines3 import PPO
@@ -242,7 +244,9 @@ def merged_policy(sensor_teacher: SensorTeacher, env_kwargs: dict, log_std: floa
     carried = sensor_teacher.sources
     n_c = len(carried)
     widths = [m.out_features + 2 * n_c for m in est_linear[:-1]]
-    venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: gym.make(SENSOR_ID, **env_kwargs)])),
+    codebook = teacher.codebook  # a codebook teacher's merged network picks among the same table
+    play_env = env_kwargs if codebook is None else {**env_kwargs, "action_codebook": codebook}
+    venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: gym.make(SENSOR_ID, **play_env)])),
                         norm_obs=True, norm_reward=True, gamma=0.98, clip_obs=1e6)
     venv.obs_rms.mean = xm.astype(np.float64)
     venv.obs_rms.var = xs.astype(np.float64) ** 2 - venv.epsilon
@@ -292,4 +296,4 @@ def merged_policy(sensor_teacher: SensorTeacher, env_kwargs: dict, log_std: floa
             lin.bias.copy_(src.bias)
         model.policy.action_net.weight.copy_(teacher.model.policy.action_net.weight)
         model.policy.action_net.bias.copy_(teacher.model.policy.action_net.bias)
-    return Student(model, venv)
+    return Student(model, venv, codebook=codebook)

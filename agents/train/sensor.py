@@ -6,10 +6,10 @@ friction.
 Teacher-student training, as controllers that must act without privileged information are trained
 (Lee et al. 2020; Kumar et al. 2021), with DAgger (Ross et al. 2011):
 
-* the **teacher** is a full-observation Box policy (default: ``agents/pretrained/ppo_sensor/teacher``,
-  ``mdr-drive friction-teacher``; the shipped ``ppo_generalist`` picks from an action table and cannot
-  teach it), told k, the load and the friction ratio mu1 / mu through the env's
-  ``privileged_observation(friction=True)``;
+* the **teacher** is a full-observation policy (default: ``agents/pretrained/ppo_sensor/teacher``,
+  ``mdr-drive friction-teacher``), told k, the load and the friction ratio mu1 / mu through the env's
+  ``privileged_observation(friction=True)``; a teacher that picks from an action table (a codebook
+  student, ``distill.action_codebook``) gives a merged network that picks from the same table;
 * the **student** sees only ``MDRDriveSensor-v0``'s observation in its sensor tier: the last
   ``history`` periods of slider motion (displacement, mean and end velocity; with ``trace``, positions
   through each period; with ``self-sensing``, also the piezo-sensed forces) and the actions that
@@ -294,10 +294,10 @@ class SensorRecipeConfig:
         teacher = package_path(self.adapt.teacher)
         if not (teacher / "model.zip").is_file():
             raise ValueError(f"teacher={self.adapt.teacher!r} is not a policy folder (no model.zip)")
-        if (teacher / CODEBOOK_FILE).is_file():
-            raise ValueError(f"teacher={self.adapt.teacher!r} picks from an action table (Discrete actions); the "
-                             "sensor policy's estimator-informed teacher needs a Box policy, e.g. "
-                             "agents/pretrained/ppo_sensor/teacher")
+        if (teacher / CODEBOOK_FILE).is_file() and self.adapt.action_steps:
+            raise ValueError(f"teacher={self.adapt.teacher!r} picks from an action table (Discrete actions): its "
+                             f"estimator cannot be fitted through its actions (action_steps={self.adapt.action_steps}"
+                             "; allowed with it: 0)")
 
 
 def load_config(path: str | Path) -> tuple[int, int | None, AdaptConfig]:

@@ -109,3 +109,35 @@ def test_an_interrupted_friction_teacher_resumes_after_its_students_first_fit(te
     assert f"round 0 read from {saved}" in capsys.readouterr().out
     assert fits == [config["distill"]["hole_steps"]]  # only the hole round was fitted
     assert (run / "policy" / "model.zip").exists() and not (run / ".tasks").exists()
+
+
+def test_a_codebook_friction_teacher_picks_every_fields_drives_and_teaches_a_picking_sensor_policy(tmp_path):
+    from mdr_drive_agents.policy import load_policy
+    from mdr_drive_agents.student.data import grid_actions
+    from mdr_drive_agents.student.estimator import Estimator, SensorTeacher, hidden_entries, merged_policy
+    from mdr_drive_agents.teacher import FrictionField
+    from mdr_drive_agents.train.sensor import AdaptConfig, collect, sensor_env_kwargs, sensor_envs
+    from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
+
+    fields = [_field(0.1, fill=0.2), _field(0.15, fill=0.6)]  # two ratios, no search
+    for i, f in enumerate(fields):
+        f.save(tmp_path / f"f{i}.npz")
+    config = yaml.safe_load(TINY.read_text())
+    config["friction"].update(rhos=[], fields=[str(tmp_path / "f0.npz"), str(tmp_path / "f1.npz")])
+    config["distill"].update(action_codebook=True, quantum_centres=True)
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    friction_teacher.run(tmp_path / "config.yaml", tmp_path / "out", progress=False)
+    teacher = load_policy(tmp_path / "out" / "policy")
+    np.testing.assert_array_equal(teacher.codebook, grid_actions(FrictionField(fields)))
+    assert len(teacher.codebook) == 2  # each field's one drive
+
+    adapt = AdaptConfig(teacher=str(tmp_path / "out" / "policy"), history=2, episodes=4, periods=6,
+                        load_step_periods=(1, 4), estimator_arch=(8, 8))
+    sensed, privileged, _ = collect(*sensor_envs(adapt, 4, seed=2), lambda s, p: teacher.act(p), friction=True)
+    estimator = Estimator(sensed.shape[1], adapt.estimator_arch, seed=0, n_out=4)
+    estimator.fit(sensed, privileged[:, hidden_entries(PrivilegedLayout)], 5, 16, 1e-3, 0, False)
+    composed = SensorTeacher(teacher, estimator, SensorLayout(2).structure)
+    merged = merged_policy(composed, sensor_env_kwargs(adapt), adapt.log_std)
+    np.testing.assert_array_equal(merged.codebook, teacher.codebook)  # it picks among the same table
+    assert merged.model.action_space.n == 2
+    np.testing.assert_allclose(merged.act(sensed), composed(sensed), atol=1e-6)  # the same row picked
