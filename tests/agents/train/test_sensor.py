@@ -109,17 +109,17 @@ def test_a_config_with_a_missing_teacher_is_one_line(tmp_path, capsys):
     assert "teacher='no/such/folder'" in err and err.count("\n") == 1
 
 
-def test_a_codebook_teacher_is_refused_in_one_line(tmp_path, capsys):
+def test_a_codebook_teacher_with_action_steps_is_refused_in_one_line(tmp_path, capsys):
     import shutil
 
-    teacher = tmp_path / "picks"  # a policy folder with an action table: Discrete actions
+    teacher = tmp_path / "picks"  # a policy folder with an action table: Discrete actions (TINY fits through actions)
     shutil.copytree("agents/pretrained/ppo_sensor/teacher", teacher)
     np.save(teacher / "action_codebook.npy", np.zeros((3, 5)))
     bad = tmp_path / "bad.yaml"
     bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_sensor/teacher", f"teacher: {teacher}"))
     assert main(["train-sensor", str(bad), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert "picks from an action table" in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
+    assert "picks from an action table" in err and "action_steps=10" in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
 
 
 def test_the_sensor_policy_fine_tunes_with_ppo_through_train_resume(sensor_run, tmp_path):
