@@ -26,7 +26,7 @@ $(STAMP): pyproject.toml constraints.txt
 
 install: $(STAMP)
 
-## make test: the whole test suite (about 2 minutes on 2 cores once installed)
+## make test: the whole test suite (about 15 minutes on 2 cores, the install included)
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2 --dist loadgroup $(PYTEST_ARGS)
 
@@ -62,7 +62,7 @@ scaling: $(STAMP)
 train: $(STAMP)
 	$(MDR) recipe agents/configs/recipe.yaml --out runs/recipe --force
 
-## make train-friction-teacher: the sensor policies' teacher, told k, the load and mu1/mu (runs/friction_teacher; about 65 minutes)
+## make train-friction-teacher: the sensor policies' teacher, told k, the load and mu1/mu (runs/friction_teacher; about 3.5 hours)
 train-friction-teacher: $(STAMP)
 	$(MDR) friction-teacher agents/configs/friction_teacher.yaml --out runs/friction_teacher --force
 
