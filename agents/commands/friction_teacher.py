@@ -11,7 +11,7 @@ HELP = "a teacher told friction: drive fields at several mu1/mu, distilled into 
 DESCRIPTION = ("Search drive fields at several ratios mu1 / mu (OUT/fields/rho*.npz), then distil them into one "
                "PPO MlpPolicy on MDRDrive-v0's privileged observation with friction drawn per episode "
                "(OUT/policy/): a teacher for a sensor policy that must estimate friction too. Ctrl-C keeps the "
-               "finished fields and the student's first fit: continue with --resume.")
+               "finished fields and the student's first round once labelled or fitted: continue with --resume.")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -36,4 +36,4 @@ def main(args: argparse.Namespace) -> int:
     return run_command("mdr-drive friction-teacher",
                        lambda: run(args.config, args.out, executor_from(args), resume=args.resume, force=args.force,
                                    progress=not args.no_progress),
-                       f"the finished fields and the student's first fit are kept, continue with --resume --out {args.out}")
+                       f"the finished fields and the student's first round, once labelled or fitted, are kept, continue with --resume --out {args.out}")

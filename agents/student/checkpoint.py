@@ -1,8 +1,10 @@
 """The student's first fit (round 0 of ``distill``), kept so that an interrupted student stage resumes
 after it instead of fitting it again (on the shipped recipe: about 560 of the stage's 730 s).
 
-A checkpoint holds the student's weights and observation statistics after round 0, the episodes
-gathered so far, the state of the random generator that draws the later rounds' points, round 0's
+A checkpoint is written twice in round 0: once its teacher's episodes are labelled (``labelled``:
+the episodes, no weights yet), so that a stage interrupted during the fit resumes at the fit
+instead of labelling again, and once it is fitted. A fitted checkpoint holds the student's weights
+and observation statistics after round 0, the episodes gathered so far, the state of the random generator that draws the later rounds' points, round 0's
 record and a fingerprint of everything round 0 depended on: the teacher's field, the student's seed,
 the env keywords, the PPO settings and every distillation setting but those only later rounds read
 (``LATER_ROUND_KEYS``). Continuing from it gives the weights an uninterrupted run gives
@@ -48,15 +50,18 @@ def fingerprint(field_, config, seed: int, env_kwargs: dict, hyperparameters: di
 
 
 def save(path: str | Path, student, rng: np.random.Generator, obs_all: list, drive_all: list, record: dict,
-         fingerprint_: dict) -> None:
-    """Write the checkpoint after round 0 (atomically; arrays and one JSON text)."""
-    arrays = {f"policy/{name}": tensor.detach().cpu().numpy() for name, tensor in student.model.policy.state_dict().items()}
+         fingerprint_: dict, fitted: bool = True) -> None:
+    """Write the checkpoint after round 0 (atomically; arrays and one JSON text); with ``fitted``
+    False, after its episodes are labelled and before the fit: no weights, and ``record`` holds what
+    the labelling recorded (its jump points and wall time)."""
+    arrays = ({f"policy/{name}": tensor.detach().cpu().numpy()
+               for name, tensor in student.model.policy.state_dict().items()} if fitted else {})
     arrays.update({f"obs/{i}": np.asarray(a) for i, a in enumerate(obs_all)})
     arrays.update({f"drives/{i}": np.asarray(a) for i, a in enumerate(drive_all)})
     rms = student.venv.obs_rms
     arrays.update({"obs_rms/mean": np.asarray(rms.mean), "obs_rms/var": np.asarray(rms.var)})
     meta = {"fingerprint": fingerprint_, "rng": rng.bit_generator.state, "record": record,
-            "obs_rms_count": float(rms.count), "episodes": len(obs_all)}
+            "obs_rms_count": float(rms.count), "episodes": len(obs_all), "fitted": bool(fitted)}
     arrays["meta"] = np.array(json.dumps(meta, default=float))
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
@@ -87,14 +92,21 @@ def load(path: str | Path, fingerprint_: dict) -> tuple[dict | None, str]:
     return {"meta": meta, "arrays": state}, ""
 
 
+def is_fitted(state: dict) -> bool:
+    """Whether a checkpoint read by :func:`load` holds round 0's fit (else only its labelled episodes)."""
+    return bool(state["meta"].get("fitted", True))  # checkpoints from before the labelled stage: fitted
+
+
 def restore(state: dict, student, rng: np.random.Generator) -> tuple[list, list, dict]:
-    """Put a checkpoint's weights, observation statistics and generator state into ``student`` and
-    ``rng``; returns its episodes (observations, drives) and round 0's record."""
+    """Put a checkpoint's weights (a fitted one's), observation statistics and generator state into
+    ``student`` and ``rng``; returns its episodes (observations, drives) and its record (round 0's,
+    or what the labelling recorded)."""
     import torch
 
     meta, arrays = state["meta"], state["arrays"]
-    student.model.policy.load_state_dict({name[len("policy/"):]: torch.from_numpy(value)
-                                          for name, value in arrays.items() if name.startswith("policy/")})
+    if is_fitted(state):
+        student.model.policy.load_state_dict({name[len("policy/"):]: torch.from_numpy(value)
+                                              for name, value in arrays.items() if name.startswith("policy/")})
     rms = student.venv.obs_rms
     rms.mean, rms.var, rms.count = arrays["obs_rms/mean"], arrays["obs_rms/var"], meta["obs_rms_count"]
     rng.bit_generator.state = meta["rng"]

@@ -287,7 +287,9 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
     record)``, if given, is called after each round and hole round with that round's history record
     (e.g. to save the student as it stands). With ``checkpoint`` (a file path), round 0's result is
     written there, and read from there instead of fitted if it was written for the same teacher and
-    settings (``mdr_drive_agents.student.checkpoint``): an interrupted run continues after round 0."""
+    settings (``mdr_drive_agents.student.checkpoint``): an interrupted run continues after round 0;
+    round 0's labelled episodes are written there before its fit, so a run interrupted during that
+    fit continues at the fit."""
     import torch
 
     check_drawn_friction(config, friction is not None)  # before any work, not after round 0's fit
@@ -311,22 +313,31 @@ def distill(field_: DriveField, config: DistillConfig, seed: int = 0, env_kwargs
         if why_not:
             print(f"distill: {why_not}: round 0 is fitted again", file=sys.stderr, flush=True)
     for r in range(config.rounds + 1):
-        if r == 0 and restored is not None:
+        if r == 0 and restored is not None and round0_checkpoint.is_fitted(restored):
             obs_all, drive_all, record = round0_checkpoint.restore(restored, student, rng)
             student.history.append(record)
             print(f"distill: round 0 read from {checkpoint}", flush=True)
             _print_record(record)
             continue
         t0 = time.perf_counter()
-        points, drives, n_jump = round_points(field_, config, rng, friction, first=r == 0)
-        obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r,
-                                               student.z_phase_origin, student.time_quantum, drives=drives)
-        obs_all.append(obs)
-        drive_all.append(sample_drives)
-        if r == 0:  # normalisation statistics of the teacher's observations, fixed from here on
+        if r == 0 and restored is not None:  # labelled, not fitted: the fit goes on from its episodes
+            obs_all, drive_all, labelled = round0_checkpoint.restore(restored, student, rng)
+            n_jump, t0 = labelled["jump_points"], t0 - labelled["labelling_s"]
+            print(f"distill: round 0's episodes read from {checkpoint}", flush=True)
+        else:
+            points, drives, n_jump = round_points(field_, config, rng, friction, first=r == 0)
+            obs, sample_drives = labelled_episodes(field_, points, None if r == 0 else student.act, config, seed + r,
+                                                   student.z_phase_origin, student.time_quantum, drives=drives)
+            obs_all.append(obs)
+            drive_all.append(sample_drives)
+        if r == 0 and restored is None:  # normalisation statistics of the teacher's observations, fixed from here on
             obs64 = obs.astype(np.float64)
             student.venv.obs_rms.mean, student.venv.obs_rms.var = obs64.mean(axis=0), obs64.var(axis=0)
             student.venv.obs_rms.count = float(len(obs))
+            if checkpoint is not None:
+                round0_checkpoint.save(checkpoint, student, rng, obs_all, drive_all,
+                                       {"jump_points": n_jump, "labelling_s": round(time.perf_counter() - t0, 1)},
+                                       fitted_for, fitted=False)
         loss = fit(student, np.concatenate(obs_all), np.concatenate(drive_all),
                    config.steps if r == 0 else config.round_steps, config, seed + r, progress)
         record = {"round": r, **({"jump_points": n_jump} if r == 0 and config.jump_levels else {}),

@@ -16,9 +16,10 @@ friction, drives often far from the best ones. This recipe makes a teacher that 
 The result can teach a sensor policy (``mdr_drive_agents.train.sensor``) whose estimator learns mu
 and mu1 as well as k and the load. Writes ``OUT/fields/rho*.npz``, ``OUT/policy/`` and
 ``OUT/friction_teacher.json`` (stage times); an existing ``OUT`` is refused unless ``--resume``
-or ``--force``. ``--resume`` reuses the finished fields and, if it finished, the student's first fit
-(round 0, most of the student stage), kept in ``OUT/.tasks/student_round0.npz`` for the same
-fields and settings (``mdr_drive_agents.student.checkpoint``); the hole rounds run again.
+or ``--force``. ``--resume`` reuses the finished fields and the student's first round (round 0, most
+of the student stage) as far as it got, its labelled episodes or its fit, kept in
+``OUT/.tasks/student_round0.npz`` for the same fields and settings
+(``mdr_drive_agents.student.checkpoint``); the hole rounds run again.
 """
 
 from __future__ import annotations

@@ -15,8 +15,8 @@ Stages (each one's wall time is printed and kept in ``recipe.json``):
    --resume OUT/policy`` fine-tunes with PPO.
 
 An existing ``OUT`` is refused unless ``--resume`` or ``--force``. ``--resume`` continues an
-interrupted run: the teacher's finished k slices are reused, and so is the student's first fit
-(round 0, most of the student stage) if it finished, kept in ``OUT/.tasks/student_round0.npz`` for
+interrupted run: the teacher's finished k slices are reused, and so is the student's first round
+(round 0, most of the student stage) as far as it got, its labelled episodes or its fit, kept in ``OUT/.tasks/student_round0.npz`` for
 the same teacher and settings (``mdr_drive_agents.student.checkpoint``); the student's hole rounds
 run again. ``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
 ``teacher_field.npz``), for trying student settings without searching the teacher again.

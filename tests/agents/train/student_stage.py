@@ -21,7 +21,7 @@ def interrupt_in_the_hole_round(argv: list[str], out: Path, monkeypatch, capsys)
     with monkeypatch.context() as m:
         m.setattr(distill, "hole_round", ctrl_c)
         assert main(argv) == 130
-    assert "first fit are kept" in capsys.readouterr().err
+    assert "first round, once labelled or fitted, are kept" in capsys.readouterr().err
     saved = out / ".tasks" / "student_round0.npz"
     assert saved.exists() and not (out / "policy").exists()
     return saved

@@ -256,6 +256,20 @@ def test_an_interrupted_student_stage_resumes_after_its_first_fit_with_the_same_
     history = json.loads((run / "policy" / "run.json").read_text())["distilled_from"]["history"]
     assert [h.get("round", h.get("hole_round")) for h in history] == [0, 1, 1]
 
+    # Ctrl-C in round 0's fit: its labelled episodes are kept, and the resumed run fits them to the same weights
+    during = tmp_path / "during_fit"
+    with monkeypatch.context() as m:
+        m.setattr(distill, "fit", ctrl_c)
+        assert main(["recipe", str(TINY), "--out", str(during), "--no-progress", "--teacher", str(teacher)]) == 130
+    capsys.readouterr()
+    assert _checkpoint_meta(during / ".tasks" / "student_round0.npz")["fitted"] is False
+    fits.clear()
+    recipe.run(TINY, during, progress=False, resume=True, teacher=teacher)
+    assert f"round 0's episodes read from {during / '.tasks' / 'student_round0.npz'}" in capsys.readouterr().out
+    assert fits == [tiny.steps, tiny.round_steps, tiny.hole_steps]
+    for a, b in zip(_weights(during / "policy"), _weights(tmp_path / "whole" / "policy"), strict=True):
+        np.testing.assert_array_equal(a, b)
+
     # a checkpoint is used only for the round-0 settings and teacher it was fitted with
     config = yaml.safe_load(TINY.read_text())
     monkeypatch.setattr(distill, "hole_round", ctrl_c)
