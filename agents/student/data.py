@@ -133,10 +133,13 @@ def teacher_drives(field_, points, config) -> tuple[np.ndarray, np.ndarray]:
     """The recipe's teacher at ``points``: drives (n, 2, 5) and velocities (n,) m/s from
     ``field_.best`` with ``config.teacher_radius`` (and ``teacher_load_radius``, if set); with
     ``config.action_codebook``, the grid's own drives only (no interpolation: every action is one of
-    :func:`grid_actions` once quantum-centred)."""
+    :func:`grid_actions` once quantum-centred); with ``config.teacher_load_band``, the pick that
+    holds over that band of load (``LoadBand``)."""
     reach = {"radius": config.teacher_radius}
     if config.teacher_load_radius:
         reach["load_radius"] = config.teacher_load_radius
+    if config.teacher_load_band:
+        reach["load_band"] = config.load_band()
     if config.action_codebook:
         return field_.best(points, interpolation=False, **reach)
     return field_.best(points, **reach)

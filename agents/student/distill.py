@@ -48,7 +48,7 @@ from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
 
 from ..cycles import cycle_action
 from ..protocol import steady_velocity_of
-from ..teacher import DriveField
+from ..teacher import DriveField, LoadBand
 from . import checkpoint as round0_checkpoint
 from .data import (around, clipped_k_range, draw_points, grid_actions, jump_points, labelled_episodes,
                    perturb_previous_actions, rollout, stall_points, teacher_drives)
@@ -139,6 +139,14 @@ class DistillConfig:
         teacher_load_radius: the load lines of the teacher's neighbourhood (``DriveField.candidates``'s
             ``load_radius``): R plays the 2R load lines around the point's cell (0: ``teacher_radius``).
             Where ``refine_band`` halved the load spacing, 3 reaches as far in load as 2 did (-).
+        teacher_load_band: load factors (-) over which the teacher's pick must hold, e.g. [0.92,
+            1.08] (``LoadBand``): each candidate is scored by its worst ratio to the fastest
+            candidate at the point's load times each factor, so a student that reads the load to
+            about 8 % is taught drives that do not fall off a critical load of their own within
+            that error; () picks the fastest at the point. Costs one more play of every
+            candidate per factor.
+        teacher_load_loss: the most such a pick may lose at the point itself against the fastest
+            candidate there (-).
     """
 
     net_arch: tuple[int, ...] = (512, 512, 512)
@@ -180,6 +188,8 @@ class DistillConfig:
     action_codebook: bool = False
     raw_logits: bool = False
     teacher_load_radius: int = 0
+    teacher_load_band: tuple[float, ...] = ()
+    teacher_load_loss: float = 0.1
 
     def __post_init__(self) -> None:
         if self.activation not in ("relu", "tanh"):
@@ -216,8 +226,20 @@ class DistillConfig:
             check_bool(name, getattr(self, name))
         if self.raw_logits and not self.action_codebook:
             raise ValueError("raw_logits=true needs action_codebook=true (a regression student has no logits)")
+        check_range("teacher_load_loss", self.teacher_load_loss, 0.0, 1.0, high_open=True)
+        for scale in self.teacher_load_band:
+            check_range("teacher_load_band", scale, 0.0, 2.0, low_open=True, high_open=True)
+        if any(abs(float(scale) - 1.0) < 1e-9 for scale in self.teacher_load_band):
+            raise ValueError(f"teacher_load_band={list(self.teacher_load_band)!r} must not hold 1 (the point's own "
+                             "load always counts)")
         if self.action_codebook and not self.quantum_centres:
             raise ValueError("action_codebook=true needs quantum_centres=true (the labels must be the codebook's rows)")
+
+    def load_band(self) -> LoadBand | None:
+        """The teacher's ``LoadBand`` (None without ``teacher_load_band``)."""
+        if not self.teacher_load_band:
+            return None
+        return LoadBand(tuple(float(s) for s in self.teacher_load_band), max_loss=float(self.teacher_load_loss))
 
     def focus_bands(self) -> list[tuple[int, tuple[float, float]]]:
         """Round 0's extra episodes: (points, (k low, k high)) per band in use, in drawing order."""

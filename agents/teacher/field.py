@@ -44,6 +44,7 @@ from ..cycles import align_phase
 from ..drive import PAPER_DRIVE, DriveDescription
 from ..protocol import open_loop_velocity, trapezoid_critical_load
 from .config import PAPER_FRICTION, FieldConfig
+from .load_band import LoadBand
 from .node_search import search_slice
 
 
@@ -333,19 +334,21 @@ class DriveField:
         return float(point[1]) * self.friction[0] / float(point[2])
 
     def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1,
-             interpolation: bool = True, load_radius: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+             interpolation: bool = True, load_radius: int | None = None,
+             load_band: LoadBand | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The teacher's drive (n, 2, 5) and its velocity (n,) at each (k, load kg) point, or (k, load
         kg, mu, mu1) point at other friction (the grid is read at the same load over mu F_ref,
         ``field_load``): the best of :meth:`candidates` (with ``radius``, ``load_radius``) played at the point, the
         interpolation unless another candidate is better by more than ``prefer_interpolation``
         (relative), so neighbouring labels stay smooth. Without ``interpolation``: the best of the
         grid's own drives around the point (the candidates but the first), so every drive is one of
-        the grid's (what a student that picks among them can be taught)."""
+        the grid's (what a student that picks among them can be taught). With ``load_band``, the
+        candidate that holds best over a band of load around each point (``LoadBand``)."""
         check_int("radius", radius, 1)
         points = self.with_friction(points)
         cands = [self.candidates(p[0], self.field_load(p), radius, load_radius)[0 if interpolation else 1:]
                  for p in points]  # c may differ at the edge
-        return pick_best(points, cands, prefer_interpolation if interpolation else 0.0, self.drive)
+        return pick_best(points, cands, prefer_interpolation if interpolation else 0.0, self.drive, load_band)
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:
@@ -387,10 +390,14 @@ def drive_meta(drive: DriveDescription) -> dict:
 
 
 def pick_best(points, cands: list, prefer_interpolation: float,
-              drive: DriveDescription = PAPER_DRIVE) -> tuple[np.ndarray, np.ndarray]:
+              drive: DriveDescription = PAPER_DRIVE, load_band: LoadBand | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per point, the best of its candidate drives ``cands[i]`` (c_i, 2, 5) played there (one batched
     call), the first (an interpolation) unless another is better by more than
-    ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s."""
+    ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s at the points.
+    With ``load_band`` (a ``LoadBand``), the candidate whose worst ratio to the best candidate over
+    the band's loads is highest (``LoadBand.scores``) instead."""
+    if load_band is not None:
+        return load_band.pick(points, cands, prefer_interpolation, drive)
     v = open_loop_velocity([p for p, c in zip(points, cands) for _ in c], np.concatenate(cands), drive=drive)
     drives, velocities, start = [], [], 0
     for c in cands:
@@ -404,4 +411,4 @@ def pick_best(points, cands: list, prefer_interpolation: float,
     return np.array(drives), np.array(velocities)
 
 
-__all__ = ["PAPER_FRICTION", "DriveField", "FieldConfig", "pick_best", "with_friction"]
+__all__ = ["PAPER_FRICTION", "DriveField", "FieldConfig", "LoadBand", "pick_best", "with_friction"]

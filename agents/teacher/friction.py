@@ -20,6 +20,7 @@ from mdr_drive_env.core.params import check_int
 from ..cycles import align_phase
 from .config import PAPER_FRICTION
 from .field import DriveField, pick_best, with_friction
+from .load_band import LoadBand
 
 #: mu of every field: the fields differ in mu1 only (the load scales with mu).
 FIELD_MU = PAPER_FRICTION[0]
@@ -76,16 +77,17 @@ class FrictionField:
         return np.array([mixed, *below, *above])
 
     def best(self, points, prefer_interpolation: float = 0.02, radius: int = 1,
-             interpolation: bool = True) -> tuple[np.ndarray, np.ndarray]:
+             interpolation: bool = True, load_band: LoadBand | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The teacher's drive (n, 2, 5) and its velocity (n,) m/s at each (k, load kg, mu, mu1)
         point ((k, load) points: the paper's friction): the best of :meth:`candidates` played there,
         the mixture unless another is better by more than ``prefer_interpolation`` (relative).
         Without ``interpolation``: the best of the fields' own grid drives, what a student that
-        picks among them (``grid_actions``) can be taught."""
+        picks among them (``grid_actions``) can be taught. With ``load_band``, the candidate that
+        holds best over a band of load around each point (``LoadBand``)."""
         check_int("radius", radius, 1)
         points = with_friction(points, PAPER_FRICTION)
         cands = [self.candidates(p, radius, interpolation) for p in points]
-        return pick_best(points, cands, prefer_interpolation if interpolation else 0.0, self.drive)
+        return pick_best(points, cands, prefer_interpolation if interpolation else 0.0, self.drive, load_band)
 
     @classmethod
     def load(cls, paths) -> "FrictionField":
