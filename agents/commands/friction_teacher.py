@@ -36,4 +36,5 @@ def main(args: argparse.Namespace) -> int:
     return run_command("mdr-drive friction-teacher",
                        lambda: run(args.config, args.out, executor_from(args), resume=args.resume, force=args.force,
                                    progress=not args.no_progress),
-                       f"the finished fields and the student's first round, once labelled or fitted, are kept, continue with --resume --out {args.out}")
+                       f"the finished fields and the student's first round, once labelled or fitted, are kept, "
+                       f"continue with --resume --out {args.out}")

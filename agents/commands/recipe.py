@@ -12,8 +12,8 @@ DESCRIPTION = ("Build a policy as the shipped one was built (agents/configs/reci
                "1. the teacher, the best open-loop drives CMA-ES finds on a grid of k and load, polished and refined "
                "stage by stage (OUT/teacher_field.npz); 2. the student, a plain SB3 PPO MlpPolicy fitted to the "
                "teacher's actions by DAgger (OUT/policy/). Each stage's wall time is printed and kept in "
-               "OUT/recipe.json. Ctrl-C keeps the teacher's finished k slices and the student's first round once labelled or fitted: "
-               "continue with --resume.")
+               "OUT/recipe.json. Ctrl-C keeps the teacher's finished k slices and the student's first round "
+               "once labelled or fitted: continue with --resume.")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -44,5 +44,5 @@ def main(args: argparse.Namespace) -> int:
                        lambda: run(args.config, args.out, executor_from(args), resume=args.resume, force=args.force,
                                    progress=not args.no_progress, teacher=args.teacher, snapshots=args.snapshots,
                                    drive=args.drive),
-                       f"the teacher's finished slices and the student's first round, once labelled or fitted, are kept, continue with --resume "
-                       f"--out {args.out}")
+                       f"the teacher's finished slices and the student's first round, once labelled or fitted, "
+                       f"are kept, continue with --resume --out {args.out}")

@@ -1,15 +1,16 @@
-"""The student's first fit (round 0 of ``distill``), kept so that an interrupted student stage resumes
-after it instead of fitting it again (on the shipped recipe: about 560 of the stage's 730 s).
+"""The student's first round (round 0 of ``distill``), kept so that an interrupted student stage
+resumes after it instead of labelling and fitting it again (on the shipped recipe: about 560 of the
+stage's 730 s).
 
-A checkpoint is written twice in round 0: once its teacher's episodes are labelled (``labelled``:
-the episodes, no weights yet), so that a stage interrupted during the fit resumes at the fit
+A checkpoint is written twice in round 0: once its teacher's episodes are labelled (the episodes,
+no weights yet, ``"fitted": false``), so that a stage interrupted during the fit resumes at the fit
 instead of labelling again, and once it is fitted. A fitted checkpoint holds the student's weights
-and observation statistics after round 0, the episodes gathered so far, the state of the random generator that draws the later rounds' points, round 0's
-record and a fingerprint of everything round 0 depended on: the teacher's field, the student's seed,
-the env keywords, the PPO settings and every distillation setting but those only later rounds read
-(``LATER_ROUND_KEYS``). Continuing from it gives the weights an uninterrupted run gives
-(tested). A checkpoint whose fingerprint differs is not used: round 0 is fitted
-again and the checkpoint replaced. The file is data only (an ``.npz`` of arrays and one JSON text,
+and observation statistics after round 0, the episodes gathered so far, the state of the random
+generator that draws the later rounds' points, round 0's record and a fingerprint of everything
+round 0 depended on: the teacher's field, the student's seed, the env keywords, the PPO settings
+and every distillation setting but those only later rounds read (``LATER_ROUND_KEYS``).
+Continuing from either gives the weights an uninterrupted run gives (tested). A checkpoint whose
+fingerprint differs is not used: round 0 is labelled and fitted again and the checkpoint replaced. The file is data only (an ``.npz`` of arrays and one JSON text,
 read with ``allow_pickle=False``): reading it runs no code.
 """
 

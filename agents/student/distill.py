@@ -49,6 +49,7 @@ from mdr_drive_env.gym_envs.spaces import ObservationLayout, shift_phase_origin
 from ..cycles import cycle_action
 from ..protocol import steady_velocity_of
 from ..teacher import DriveField, LoadBand
+from ..teacher.load_band import check_load_factors
 from . import checkpoint as round0_checkpoint
 from .data import (around, clipped_k_range, draw_points, grid_actions, jump_points, labelled_episodes,
                    perturb_previous_actions, rollout, stall_points, teacher_drives)
@@ -227,11 +228,7 @@ class DistillConfig:
         if self.raw_logits and not self.action_codebook:
             raise ValueError("raw_logits=true needs action_codebook=true (a regression student has no logits)")
         check_range("teacher_load_loss", self.teacher_load_loss, 0.0, 1.0, high_open=True)
-        for scale in self.teacher_load_band:
-            check_range("teacher_load_band", scale, 0.0, 2.0, low_open=True, high_open=True)
-        if any(abs(float(scale) - 1.0) < 1e-9 for scale in self.teacher_load_band):
-            raise ValueError(f"teacher_load_band={list(self.teacher_load_band)!r} must not hold 1 (the point's own "
-                             "load always counts)")
+        check_load_factors("teacher_load_band", self.teacher_load_band)
         if self.action_codebook and not self.quantum_centres:
             raise ValueError("action_codebook=true needs quantum_centres=true (the labels must be the codebook's rows)")
 

@@ -390,7 +390,8 @@ def drive_meta(drive: DriveDescription) -> dict:
 
 
 def pick_best(points, cands: list, prefer_interpolation: float,
-              drive: DriveDescription = PAPER_DRIVE, load_band: LoadBand | None = None) -> tuple[np.ndarray, np.ndarray]:
+              drive: DriveDescription = PAPER_DRIVE,
+              load_band: LoadBand | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per point, the best of its candidate drives ``cands[i]`` (c_i, 2, 5) played there (one batched
     call), the first (an interpolation) unless another is better by more than
     ``prefer_interpolation`` (relative): drives (n, 2, 5) and velocities (n,) m/s at the points.

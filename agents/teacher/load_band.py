@@ -16,6 +16,15 @@ from ..drive import PAPER_DRIVE, DriveDescription
 from ..protocol import open_loop_velocity
 
 
+def check_load_factors(name: str, scales) -> None:
+    """A band's load factors: each in (0, 2) and none 1 (the point's own load always counts); a
+    ``ValueError`` naming ``name`` otherwise."""
+    for s in scales:
+        check_range(name, s, 0.0, 2.0, low_open=True, high_open=True)
+    if any(abs(float(s) - 1.0) < 1e-9 for s in scales):
+        raise ValueError(f"{name}={list(scales)!r} must not hold 1 (the point's own load always counts)")
+
+
 @dataclass(frozen=True)
 class LoadBand:
     """A teacher that picks for an uncertain load: where the student that plays its drives reads the
@@ -42,10 +51,7 @@ class LoadBand:
     def __post_init__(self) -> None:
         if not self.scales:
             raise ValueError("load_band scales=() is empty: give load factors such as [0.92, 1.08]")
-        for s in self.scales:
-            check_range("load_band scales", s, 0.0, 2.0, low_open=True, high_open=True)
-            if abs(s - 1.0) < 1e-9:
-                raise ValueError("load_band scales must not hold 1 (the point's own load always counts)")
+        check_load_factors("load_band scales", self.scales)
         check_range("load_band max_loss", self.max_loss, 0.0, 1.0, high_open=True)
         check_range("load_band floor", self.floor, 0.0, 1.0)
 
@@ -88,4 +94,4 @@ class LoadBand:
         return np.array(drives), np.array(velocities)
 
 
-__all__ = ["LoadBand"]
+__all__ = ["LoadBand", "check_load_factors"]
