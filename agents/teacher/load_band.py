@@ -28,13 +28,14 @@ def check_load_factors(name: str, scales) -> None:
 @dataclass(frozen=True)
 class LoadBand:
     """A teacher that picks for an uncertain load: where the student that plays its drives reads the
-    load from motion, to a few per cent, the drive it is told to play runs at a load somewhat off the
-    one it was picked for, and the fastest drive at a point often loses half its velocity 3-5 %
-    heavier (near a critical load of its own). Each candidate is then played at the point's load
-    times each of ``scales`` (and 1) and scored by its worst ratio, over those loads, to the fastest
-    candidate there (loads where the fastest moves less than ``floor`` times the drive's stroke speed
-    do not count); the teacher plays the best-scored candidate among those within ``max_loss``
-    (relative) of the fastest at the point itself (minimax regret over the band).
+    load from motion, to a few per cent, the drive it is told to play runs at a load somewhat off
+    the one it was picked for, and the fastest drive at a point can sit just below a critical load
+    of its own and lose much of its velocity a little heavier. Each candidate is then played at the
+    point's load times each of ``scales`` (and 1) and scored by its worst ratio, over those loads,
+    to the fastest candidate there (loads where the fastest moves less than ``floor`` times the
+    drive's stroke speed do not count); the teacher plays the best-scored candidate among those
+    within ``max_loss`` (relative) of the fastest at the point itself (minimax regret over the
+    band).
 
     Attributes:
         scales: the load factors (-), each in (0, 2) and not 1, e.g. (0.92, 1.08) for a load read to
