@@ -10,8 +10,9 @@ generator that draws the later rounds' points, round 0's record and a fingerprin
 round 0 depended on: the teacher's field, the student's seed, the env keywords, the PPO settings
 and every distillation setting but those only later rounds read (``LATER_ROUND_KEYS``).
 Continuing from either gives the weights an uninterrupted run gives (tested). A checkpoint whose
-fingerprint differs is not used: round 0 is labelled and fitted again and the checkpoint replaced. The file is data only (an ``.npz`` of arrays and one JSON text,
-read with ``allow_pickle=False``): reading it runs no code.
+fingerprint differs is not used: round 0 is labelled and fitted again and the checkpoint replaced.
+The file is data only (an ``.npz`` of arrays and one JSON text, read with
+``allow_pickle=False``): reading it runs no code.
 """
 
 from __future__ import annotations

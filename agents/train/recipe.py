@@ -17,8 +17,9 @@ Stages (each one's wall time is printed and kept in ``recipe.json``):
 An existing ``OUT`` is refused unless ``--resume`` or ``--force``. ``--resume`` continues an
 interrupted run: the teacher's finished k slices are reused, and so is the student's first round
 (round 0, most of the student stage) as far as it got, its labelled episodes or its fit, kept in
-``OUT/.tasks/student_round0.npz`` for the same teacher and settings (``mdr_drive_agents.student.checkpoint``); the student's hole rounds
-run again. ``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
+``OUT/.tasks/student_round0.npz`` for the same teacher and settings
+(``mdr_drive_agents.student.checkpoint``); the student's hole rounds run again.
+``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
 ``teacher_field.npz``), for trying student settings without searching the teacher again.
 ``--snapshots`` also saves the student after each hole round into ``OUT/snapshots/hole_round<H>/``
 (the same files as ``OUT/policy/``), so one run shows what each further hole round changes.
