@@ -85,6 +85,13 @@ class DistillConfig:
             faster on CPUs with AVX-512 BF16 or AMX, slower on CPUs without (0: off) (-).
         fused_adam: torch's fused Adam (one pass over the weights a step; the same update up to
             rounding, so other weights than the default's) (-).
+        flush_denormal: the fits run with denormal floats flushed to zero (``adam_fit``). A codebook
+            student's softmax over a large table (``action_codebook``) grows confident during the
+            fit: the gradients and Adam's second moments of the rows it rules out fall below
+            float32's smallest normal number, and CPU arithmetic on such numbers is many times
+            slower, so the fit slows as it converges. Flushing keeps its speed and changes the
+            weights only where values that small are rounded to zero (so other weights than the
+            default's) (-).
         hole_rounds: rounds that look for where the student falls short of the teacher and add the
             teacher's episodes there (module docstring) (-).
         hole_probes: random points per hole round where the student and the teacher drive (-).
@@ -166,6 +173,7 @@ class DistillConfig:
     torch_threads: int = 1
     bf16_share: float = 0.0
     fused_adam: bool = False
+    flush_denormal: bool = False
     teacher_radius: int = 1
     hole_rounds: int = 0
     hole_probes: int = 4096
@@ -223,7 +231,7 @@ class DistillConfig:
                 raise ValueError(f"{name}={band!r} must be two values of k [low, high]")
             check_range(f"{name}[0]", band[0], 0.0, 1.0)
             check_range(f"{name}[1]", band[1], band[0], 1.0, low_open=True)
-        for name in ("quantum_centres", "hole_dagger", "fused_adam", "action_codebook", "raw_logits"):
+        for name in ("quantum_centres", "hole_dagger", "fused_adam", "flush_denormal", "action_codebook", "raw_logits"):
             check_bool(name, getattr(self, name))
         if self.raw_logits and not self.action_codebook:
             raise ValueError("raw_logits=true needs action_codebook=true (a regression student has no logits)")
@@ -290,7 +298,7 @@ def fit(student: Student, obs: np.ndarray, drives: np.ndarray, steps: int, confi
     policy.set_training_mode(True)
     loss = adam_fit([*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()], epoch, steps,
                     config.batch, learning_rate or config.learning_rate, seed, "distill: fit", progress,
-                    bf16_share=config.bf16_share, fused=config.fused_adam)
+                    bf16_share=config.bf16_share, fused=config.fused_adam, flush_denormal=config.flush_denormal)
     policy.set_training_mode(False)
     return loss
 

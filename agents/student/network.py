@@ -10,6 +10,7 @@ on the files ``save_student`` writes (``mdr_drive_agents.policy``).
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -134,20 +135,43 @@ def make_student(net_arch, activation: str, log_std: float, seed: int, env_kwarg
 def bf16_products(on: bool):
     """A context in which torch's matrix products run in bfloat16 (``torch.autocast``; the weights and
     the optimiser stay float32), or, with ``on`` false, one that changes nothing."""
-    import contextlib
-
     import torch
 
     return torch.autocast("cpu", dtype=torch.bfloat16) if on else contextlib.nullcontext()
 
 
 def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str,
-             progress: bool = True, bf16_share: float = 0.0, fused: bool = False) -> float:
+             progress: bool = True, bf16_share: float = 0.0, fused: bool = False,
+             flush_denormal: bool = False) -> float:
     """``steps`` Adam steps, the learning rate decaying linearly to zero; every epoch ``epoch()``
     gives ``(n, loss_of)``: its sample count and the loss of a minibatch of sample indices, visited
     in a shuffled order. The first ``bf16_share`` of the steps compute the loss under bfloat16
     autocast (matrix products in bfloat16, the weights and the optimiser in float32), the rest in
-    float32; ``fused``: torch's fused Adam. Returns the last epoch's mean loss."""
+    float32; ``fused``: torch's fused Adam; ``flush_denormal``: the fit runs with denormal floats
+    flushed to zero (``torch.set_flush_denormal``; turned off again after it). Returns the last
+    epoch's mean loss."""
+    with flushed_denormals(flush_denormal):
+        return _adam_fit(params, epoch, steps, batch, learning_rate, seed, desc, progress, bf16_share, fused)
+
+
+@contextlib.contextmanager
+def flushed_denormals(on: bool):
+    """A context in which torch flushes denormal floats to zero (``torch.set_flush_denormal``; off
+    again on leaving it), or, with ``on`` false, one that changes nothing."""
+    import torch
+
+    if not on:
+        yield
+        return
+    torch.set_flush_denormal(True)
+    try:
+        yield
+    finally:
+        torch.set_flush_denormal(False)
+
+
+def _adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str, progress: bool,
+              bf16_share: float, fused: bool) -> float:
     import torch
 
     opt = torch.optim.Adam(list(params), lr=learning_rate, fused=True if fused else None)
@@ -183,5 +207,5 @@ def save_student(student: Student, out: str | Path, record: dict) -> None:
     save_policy(out, student.model, student.venv, record, student.codebook)
 
 
-__all__ = ["EDGE", "Student", "adam_fit", "bf16_products", "edge_loss", "make_student", "policy_logits",
-           "policy_mean", "policy_raw_logits", "save_student"]
+__all__ = ["EDGE", "Student", "adam_fit", "bf16_products", "edge_loss", "flushed_denormals", "make_student",
+           "policy_logits", "policy_mean", "policy_raw_logits", "save_student"]

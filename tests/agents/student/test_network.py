@@ -78,6 +78,28 @@ def test_the_huber_loss_fits_one_of_two_conflicting_drives_where_the_squared_err
     assert fitted[0.05] == pytest.approx(0.2 + 2 * 0.05 / 3, abs=0.005)  # within delta of the majority's drive
 
 
+def test_a_fit_with_flush_denormal_flushes_denormal_floats_only_while_it_runs():
+    import torch
+
+    from mdr_drive_agents.student.network import adam_fit
+
+    torch.manual_seed(0)
+    net = torch.nn.Linear(3, 1)
+    x, y = torch.randn(64, 3), torch.randn(64, 1)
+    tiny = []  # a float32 denormal as each step sees it: 0 when flushed
+
+    def loss_of(idx):
+        tiny.append(float(torch.tensor([1e-40], dtype=torch.float32) * 1.0))
+        return torch.mean((net(x[idx]) - y[idx]) ** 2)
+
+    adam_fit(net.parameters(), lambda: (len(x), loss_of), 4, 32, 1e-2, 0, "test", progress=False,
+             flush_denormal=True)
+    assert tiny == [0.0] * 4
+    assert float(torch.tensor([1e-40], dtype=torch.float32) * 1.0) > 0.0  # turned off again after the fit
+    adam_fit(net.parameters(), lambda: (len(x), loss_of), 2, 32, 1e-2, 0, "test", progress=False)
+    assert tiny[4:] == [tiny[5]] * 2 and tiny[5] > 0.0  # the default leaves them alone
+
+
 def test_a_fit_runs_its_first_steps_in_bfloat16_and_the_rest_in_float32():
     import torch
 

@@ -310,6 +310,8 @@ def test_configs_reject_bad_values_naming_them():
         DistillConfig(bf16_share=1.5)
     with pytest.raises(ValueError, match="fused_adam='yes' must be true or false"):
         DistillConfig(fused_adam="yes")
+    with pytest.raises(ValueError, match="flush_denormal='yes' must be true or false"):
+        DistillConfig(flush_denormal="yes")
     with pytest.raises(ValueError, match="jump_threshold"):
         DistillConfig(jump_threshold=0.0)
     with pytest.raises(ValueError, match="polish budget"):
