@@ -140,20 +140,6 @@ def bf16_products(on: bool):
     return torch.autocast("cpu", dtype=torch.bfloat16) if on else contextlib.nullcontext()
 
 
-def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str,
-             progress: bool = True, bf16_share: float = 0.0, fused: bool = False,
-             flush_denormal: bool = False) -> float:
-    """``steps`` Adam steps, the learning rate decaying linearly to zero; every epoch ``epoch()``
-    gives ``(n, loss_of)``: its sample count and the loss of a minibatch of sample indices, visited
-    in a shuffled order. The first ``bf16_share`` of the steps compute the loss under bfloat16
-    autocast (matrix products in bfloat16, the weights and the optimiser in float32), the rest in
-    float32; ``fused``: torch's fused Adam; ``flush_denormal``: the fit runs with denormal floats
-    flushed to zero (``torch.set_flush_denormal``; turned off again after it). Returns the last
-    epoch's mean loss."""
-    with flushed_denormals(flush_denormal):
-        return _adam_fit(params, epoch, steps, batch, learning_rate, seed, desc, progress, bf16_share, fused)
-
-
 @contextlib.contextmanager
 def flushed_denormals(on: bool):
     """A context in which torch flushes denormal floats to zero (``torch.set_flush_denormal``; off
@@ -170,34 +156,43 @@ def flushed_denormals(on: bool):
         torch.set_flush_denormal(False)
 
 
-def _adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str, progress: bool,
-              bf16_share: float, fused: bool) -> float:
+def adam_fit(params, epoch, steps: int, batch: int, learning_rate: float, seed: int, desc: str,
+             progress: bool = True, bf16_share: float = 0.0, fused: bool = False,
+             flush_denormal: bool = False) -> float:
+    """``steps`` Adam steps, the learning rate decaying linearly to zero; every epoch ``epoch()``
+    gives ``(n, loss_of)``: its sample count and the loss of a minibatch of sample indices, visited
+    in a shuffled order. The first ``bf16_share`` of the steps compute the loss under bfloat16
+    autocast (matrix products in bfloat16, the weights and the optimiser in float32), the rest in
+    float32; ``fused``: torch's fused Adam; ``flush_denormal``: the fit runs with denormal floats
+    flushed to zero (``torch.set_flush_denormal``; turned off again after it). Returns the last
+    epoch's mean loss."""
     import torch
 
-    opt = torch.optim.Adam(list(params), lr=learning_rate, fused=True if fused else None)
-    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: max(1.0 - s / steps, 0.0))
-    gen = torch.Generator().manual_seed(seed)
-    low_precision_steps = int(round(bf16_share * steps))
-    done, total, seen = 0, 0.0, 0
-    bar = tqdm(total=steps, desc=desc, unit="step", disable=not progress, mininterval=2.0)
-    while done < steps:
-        n, loss_of = epoch()
-        perm = torch.randperm(n, generator=gen)
-        total, seen = 0.0, 0
-        for i in range(0, n, batch):
-            if done >= steps:
-                break
-            idx = perm[i:i + batch]
-            with bf16_products(done < low_precision_steps):
-                loss = loss_of(idx)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            sched.step()
-            total, seen, done = total + float(loss.detach()) * len(idx), seen + len(idx), done + 1
-            bar.update()
-        bar.set_postfix(loss=f"{total / max(seen, 1):.2e}")
-    bar.close()
+    with flushed_denormals(flush_denormal):
+        opt = torch.optim.Adam(list(params), lr=learning_rate, fused=True if fused else None)
+        sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: max(1.0 - s / steps, 0.0))
+        gen = torch.Generator().manual_seed(seed)
+        low_precision_steps = int(round(bf16_share * steps))
+        done, total, seen = 0, 0.0, 0
+        bar = tqdm(total=steps, desc=desc, unit="step", disable=not progress, mininterval=2.0)
+        while done < steps:
+            n, loss_of = epoch()
+            perm = torch.randperm(n, generator=gen)
+            total, seen = 0.0, 0
+            for i in range(0, n, batch):
+                if done >= steps:
+                    break
+                idx = perm[i:i + batch]
+                with bf16_products(done < low_precision_steps):
+                    loss = loss_of(idx)
+                opt.zero_grad()
+                loss.backward()
+                opt.step()
+                sched.step()
+                total, seen, done = total + float(loss.detach()) * len(idx), seen + len(idx), done + 1
+                bar.update()
+            bar.set_postfix(loss=f"{total / max(seen, 1):.2e}")
+        bar.close()
     return total / max(seen, 1)
 
 

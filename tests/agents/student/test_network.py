@@ -97,7 +97,7 @@ def test_a_fit_with_flush_denormal_flushes_denormal_floats_only_while_it_runs():
     assert tiny == [0.0] * 4
     assert float(torch.tensor([1e-40], dtype=torch.float32) * 1.0) > 0.0  # turned off again after the fit
     adam_fit(net.parameters(), lambda: (len(x), loss_of), 2, 32, 1e-2, 0, "test", progress=False)
-    assert tiny[4:] == [tiny[5]] * 2 and tiny[5] > 0.0  # the default leaves them alone
+    assert len(tiny) == 6 and all(t > 0.0 for t in tiny[4:])  # the default leaves them alone
 
 
 def test_a_fit_runs_its_first_steps_in_bfloat16_and_the_rest_in_float32():
