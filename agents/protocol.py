@@ -37,6 +37,12 @@ from .drive import DRIVE_KEYS, PAPER_DRIVE, DriveDescription
 
 EVAL_PERIODS = 30
 AVERAGE_PERIODS = 10
+#: A drive is "below the trapezoid" when slower by more than this (m/s) where either moves.
+BELOW_TOLERANCE = 0.05e-3
+#: A drive's fraction of the best drive counts only where the best drive moves at least this fast (m/s).
+MOVING_THRESHOLD = 2e-3
+#: The env of a drive that does not know its k, load and friction (hidden, drawn per episode).
+SENSOR_ID = "MDRDriveSensor-v0"
 #: The paper drive's action map (the env's default).
 ACTION_MAP = ActionMap()
 #: The env's default time quantum of rises and the z phase (s): the action units every search and
@@ -195,22 +201,25 @@ def actions_of(policy):
 
 
 def policy_rollout(policy, points, periods: int = EVAL_PERIODS, drive: DriveDescription = PAPER_DRIVE):
-    """Run ``policy`` (``act(obs) -> Box actions``) closed loop at each (k, cargo mass) point, in the
-    batched env it expects (:func:`play_kwargs_of`, on its own drive: :func:`drive_of`); returns (displacements (periods, n) m, actions
-    (periods, n, 5) in the default action units (``ACTION_MAP``, whatever the policy's
-    ``z_phase_origin``), runaway (n,) bool)."""
+    """Run ``policy`` (``act(obs) -> Box actions``) closed loop at each (k, cargo mass) or (k, cargo mass,
+    mu, mu1) point, in the batched env it expects (:func:`play_kwargs_of`, on its own drive:
+    :func:`drive_of`); returns (displacements (periods, n) m, actions (periods, n, 5) in the default
+    action units (``ACTION_MAP``, whatever the policy's ``z_phase_origin``), runaway (n,) bool)."""
     n = len(points)
     play, act, drive = play_kwargs_of(policy), actions_of(policy), drive_of(policy, drive)
     venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods,
                         **{**drive.env_kwargs, **play})
-    obs, _ = venv.reset(seed=0, options={"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]})
+    options = {"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]}
+    if points and len(points[0]) == 4:  # (k, cargo mass, mu, mu1)
+        options.update(friction_coefficient=[p[2] for p in points], base_friction_coefficient=[p[3] for p in points])
+    obs, _ = venv.reset(seed=0, options=options)
     disp, acts = [], []
     for _ in range(periods):
         a = np.asarray(act(obs), dtype=np.float32).reshape(n, ActionMap.SIZE)
         obs, _, _, _, info = venv.step(a)
         disp.append(info["displacement"])
         acts.append(a)
-    params = [drive.params(k, m) for k, m in points]
+    params = [point_params(p, drive) for p in points]
     acts = shift_phase_origin(np.array(acts), play.get("z_phase_origin", 0.0), ACTION_MAP.z_phase_origin)
     return np.array(disp), acts.astype(np.float32), runaway_of(np.array(disp), info["peak_normal_force"], params,
                                                                drive)
@@ -297,8 +306,34 @@ def trapezoid_critical_load(ks, drive: DriveDescription = PAPER_DRIVE) -> np.nda
     return np.array([crit[k] for k in ks])
 
 
-__all__ = ["ACTION_MAP", "AVERAGE_PERIODS", "actions_of", "CRITICAL_GRID", "EVAL_PERIODS", "TIME_QUANTUM",
-           "critical_loads", "csv_velocity", "drive_of", "play_drive", "env_rollout", "first_stall", "format_velocity", "open_loop_displacements",
+# ------------------------------------------------------------------------------- hidden parameters
+def draw_hidden(n: int, seed: int, step_period: int | None = None) -> list[dict]:
+    """``n`` draws of ``MDRDriveSensor-v0``'s hidden parameters (its own sampling, the first reset
+    seeded ``seed``): k, cargo_mass (kg), friction_coefficient, base_friction_coefficient, load_ratio
+    (load / (mu F_ref)) and, with ``step_period``, step_cargo_mass (kg): the cargo of a load step
+    before that period."""
+    env = gym.make(SENSOR_ID, max_periods=max(EVAL_PERIODS, (step_period or 0) + 1),
+                   load_step_period=None if step_period is None else (step_period, step_period))
+    draws = []
+    for i in range(n):
+        _, info = env.reset(seed=seed if i == 0 else None)
+        u = env.unwrapped
+        d = {key: float(info[key]) for key in ("k", "cargo_mass", "friction_coefficient", "base_friction_coefficient")}
+        d["load_ratio"] = info["load_force"] / (d["friction_coefficient"] * u.force_ref)
+        if step_period is not None:
+            d["step_cargo_mass"] = float(u.load_step[1])
+        draws.append(d)
+    return draws
+
+
+def hidden_point(d: dict) -> tuple[float, float, float, float]:
+    """A draw of :func:`draw_hidden` (or a report's ``points`` entry) as a (k, cargo mass kg, mu, mu1)
+    point, as :func:`open_loop_velocity` takes it."""
+    return d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]
+
+
+__all__ = ["ACTION_MAP", "AVERAGE_PERIODS", "BELOW_TOLERANCE", "actions_of", "CRITICAL_GRID", "EVAL_PERIODS", "TIME_QUANTUM",
+           "critical_loads", "csv_velocity", "MOVING_THRESHOLD", "draw_hidden", "drive_of", "hidden_point", "SENSOR_ID", "play_drive", "env_rollout", "first_stall", "format_velocity", "open_loop_displacements",
            "open_loop_velocity", "play_kwargs_of", "play_time_quantum", "point_params", "policy_rollout",
            "policy_velocity", "runaway_of", "steady_velocity_of", "trapezoid_action", "trapezoid_critical_load",
            "upper_mass"]

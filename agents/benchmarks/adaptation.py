@@ -39,9 +39,9 @@ from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from ..policy import load_policy
-from ..protocol import ACTION_MAP, AVERAGE_PERIODS, EVAL_PERIODS, env_rollout, format_velocity, steady_velocity_of
+from ..protocol import (ACTION_MAP, AVERAGE_PERIODS, EVAL_PERIODS, SENSOR_ID, draw_hidden, env_rollout,
+                        format_velocity, hidden_point, steady_velocity_of)
 from ..search import CMA_BUDGET, CYCLE_SEARCH, cma_optimize
-from ..student.estimator import SENSOR_ID
 from .blind import QUICK
 from .point_search import PointTask, best_drive
 from .targets import MOVING_THRESHOLD, velocity_statistics
@@ -74,30 +74,6 @@ def drive_labels(sensor_policies: list) -> list[str]:
         raise ValueError(f"the sensor policies {[str(p.folder) for p in sensor_policies]} are not told apart by "
                          "tier and folder name")
     return [*labels, *BASELINES]
-
-
-def draw_hidden(n: int, seed: int, load_step: bool = False) -> list[dict]:
-    """``n`` draws of the sensor env's hidden parameters (its own sampling, the first reset seeded
-    ``seed``): k, cargo_mass (kg), friction_coefficient, base_friction_coefficient, load_ratio
-    (load / (mu F_ref)) and, with ``load_step``, step_cargo_mass (kg) for period ``STEP_PERIOD``."""
-    env = gym.make(SENSOR_ID, max_periods=STEP_EPISODE_PERIODS,
-                   load_step_period=(STEP_PERIOD, STEP_PERIOD) if load_step else None)
-    draws = []
-    for i in range(n):
-        _, info = env.reset(seed=seed if i == 0 else None)
-        u = env.unwrapped
-        d = {key: float(info[key]) for key in ("k", "cargo_mass", "friction_coefficient", "base_friction_coefficient")}
-        d["load_ratio"] = info["load_force"] / (d["friction_coefficient"] * u.force_ref)
-        if load_step:
-            d["step_cargo_mass"] = float(u.load_step[1])
-        draws.append(d)
-    return draws
-
-
-def hidden_point(d: dict) -> tuple[float, float, float, float]:
-    """A draw of :func:`draw_hidden` (or a report's ``points`` entry) as a (k, cargo mass kg, mu, mu1)
-    point, as ``evaluate.open_loop_velocity`` and ``DriveField.best`` take it."""
-    return d["k"], d["cargo_mass"], d["friction_coefficient"], d["base_friction_coefficient"]
 
 
 def tuned_once_action(budget: int = CMA_BUDGET) -> np.ndarray:
@@ -213,7 +189,7 @@ def run(sensor_policy, full_policy: str, n: int, n_steps: int, seed: int, out: s
     best = np.nanmax(np.array([[r["velocity"] for r in best_runs], *steady.values()]), axis=0)
     stats = {drive: velocity_statistics(steady["trapezoid"], best, steady[drive]) for drive in drives}
 
-    steps = draw_hidden(n_steps, seed + 1, load_step=True)
+    steps = draw_hidden(n_steps, seed + 1, step_period=STEP_PERIOD)
     series, step_actions, recovered = {}, {}, {}
     for drive in drives:
         runs = [play(drive, policies, d, STEP_EPISODE_PERIODS, (STEP_PERIOD, d["step_cargo_mass"])) for d in steps]

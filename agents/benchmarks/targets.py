@@ -8,12 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..protocol import BELOW_TOLERANCE, MOVING_THRESHOLD
 from .score import aggregate, normalized_scores
 
-#: A drive is "below the trapezoid" when slower by more than this (m/s) where either moves.
-BELOW_TOLERANCE = 0.05e-3
-#: The fraction of the best drive counts only where the best drive moves at least this fast (m/s).
-MOVING_THRESHOLD = 2e-3
 #: The targets: the fraction of the best drive at every scored point and on average, and the
 #: critical load over the best two-action cycle's at every scanned k (-).
 FRACTION_TARGET = 0.85
