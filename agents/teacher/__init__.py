@@ -1,6 +1,7 @@
 """The teacher: the best open-loop drives found on a grid of (k, load), as a field one can query
 anywhere (``DriveField``), its settings and stages (``FieldConfig``), and fields at several friction
-ratios (``FrictionField``), and a pick that holds over a band of load (``LoadBand``)."""
+ratios (``FrictionField``), a pick that holds over a band of load (``LoadBand``), and a table of
+whole drives found at hidden draws, which the sensor policies pick from (``drive_table``)."""
 
 from .config import PAPER_FRICTION, FieldConfig
 from .field import DriveField
