@@ -66,11 +66,11 @@ train: $(STAMP)
 train-friction-teacher: $(STAMP)
 	$(MDR) friction-teacher agents/configs/friction_teacher.yaml --out runs/friction_teacher --force
 
-## make train-sensor: the sensor policies of the three tiers from their teacher, agents/pretrained/ppo_sensor/teacher (runs/sensor*; about an hour)
+## make train-sensor: the sensor policies of the three tiers: a table of drives, then a network per tier that picks from it (runs/sensor*; about 3 hours)
 train-sensor: $(STAMP)
 	$(MDR) train-sensor agents/configs/sensor.yaml --out runs/sensor --force
-	$(MDR) train-sensor agents/configs/sensor.yaml --sensor-tier encoder --out runs/sensor_encoder --force
-	$(MDR) train-sensor agents/configs/sensor.yaml --sensor-tier self-sensing --out runs/sensor_self_sensing --force
+	$(MDR) train-sensor agents/configs/sensor.yaml --sensor-tier encoder --reuse runs/sensor --out runs/sensor_encoder --force
+	$(MDR) train-sensor agents/configs/sensor.yaml --sensor-tier self-sensing --reuse runs/sensor --out runs/sensor_self_sensing --force
 
 ## make benchmark: the shipped policy against the trapezoid and CMA-ES on the fixed grid (results/benchmark)
 benchmark: $(STAMP)

@@ -213,7 +213,7 @@ def episodes_of(config: IdentifiabilityConfig, drive: str) -> tuple[np.ndarray, 
 
     from mdr_drive_env import SENSOR_DEFAULTS
 
-    from ..student.estimator import SENSOR_ID
+    from ..protocol import SENSOR_ID
     from ..train.sensor_episodes import collect
 
     player = sensor_policy_player(config.sensor_policy, config) if drive.startswith("sensor") else None

@@ -233,15 +233,19 @@ def snippet(dst: Path, run: dict) -> str:
         predict = CYCLE_PREDICT
     play = dict(module=module, cls=cls, memory=memory, predict=predict)
     if run["env_id"] == "MDRDriveSensor-v0":
+        table = run["env_kwargs"].get("action_codebook")
         return SNIPPET.format(**play, env_id="MDRDriveSensor-v0", dir=dst.as_posix(),
                               seed="venv.seed(0)                                        # the sensor noise's stream, "
                                    "as reset(seed=0) seeds it\n",
                               comment="# k, the load and friction are hidden from the policy: drawn per episode, or fixed "
-                                      "here to try one drive\n",
+                                      "here to try one drive" + ("; action i plays row i of its table of drives"
+                                                                  if table else "") + "\n",
                               make_args=f'"MDRDriveSensor-v0", history={run["env_kwargs"]["history"]}, '
                                         f"{tier_arguments(run)}max_periods=30, "
                                         "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
-                                        "base_friction_coefficient=0.1")
+                                        "base_friction_coefficient=0.1"
+                                        + (f',\n                        action_codebook="{dst.as_posix()}/{table}"'
+                                           if table else ""))
     # its actions mean what they mean in an env with its seam of the z phase and its time quantum
     origin = run["env_kwargs"].get("z_phase_origin", 0.0)
     quantum = run["env_kwargs"].get("time_quantum", TIME_QUANTUM)
@@ -380,7 +384,7 @@ def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -
     res = json.loads(Path(adaptation_json).read_text())
     label = sensor_drive_label(res, src)
     dst, run = copy_policy(src, dst)
-    adapted = run["adapted_from"]
+    picks = run["picks_from"]
     s_sensor = res["statistics"][label]
     size_kb = sum((dst / n).stat().st_size for n in policy_files(dst)) / 1024
     lines = ["| drive | below trapezoid | fraction of best: mean | min | load steps recovered within 5 periods "
@@ -391,10 +395,8 @@ def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -
                      f"{st['fraction_of_best_min']:.3f} | {rec['recovered_within']} of {rec['episodes_scored']} "
                      f"({rec['upward_recovered_within']} of {rec['upward_steps_scored']}) |")
     tier = run["env_kwargs"].get("sensor_tier", "encoder")
-    told_friction = read_run(package_path(adapted["teacher"])).get("env_kwargs", {}).get("observation") == "privileged"
-    told = ("k, the load over mu F_ref, the load, and the friction ratio mu1 / mu (never mu and mu1 apart)"
-            if told_friction else "k, the load over mu F_ref and the load (not friction: a teacher trained at the "
-                                  "paper's friction)")
+    table = picks["drive_table"]
+    last = picks["history"][-1] if picks["history"] else {}
     recovery = res["load_step_recovery"][label]
     card = f"""# {dst.name}: a waveform policy that does not know its load (MDRDriveSensor-v0, `{tier}` tier)
 
@@ -417,19 +419,26 @@ With Stable-Baselines3 alone (paths from the repository's root):
 ## How it was made
 
 * Command: `{run['command']}`{recipe_commit_note(run)} (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s)
-* Teacher: the full-observation policy `{adapted['teacher']}`, told what the slider's motion can
-  tell: {told}.
-  An estimator of those entries was fitted to the sensor history on episodes the teacher drove (told
-  the true values), then, round by round, on episodes the teacher drove on the estimator's guesses
-  (RMA's adaptation module, trained on its own state distribution). This network is that composition,
-  estimator then teacher, written exactly as one MlpPolicy (`mdr_drive_agents.student.estimator.merged_policy`; largest
-  action difference {adapted['merged']['merge_max_action_difference']:.1e}). Settings: `{json.dumps(adapted['adapt'])}`
+* Its actions: {picks['drives']} whole drives (fixed actions and two-action cycles, {picks['rows']} rows in
+  `action_codebook.npy`; a cycle plays its two rows in turn) that CMA-ES found at {table['config']['points']} draws
+  of the hidden parameters, picked to cover them: the best of them reaches on average
+  {table['coverage']['mean_fraction_of_best_candidate']:.3f} (at worst {table['coverage']['min_fraction_of_best_candidate']:.3f})
+  of the best drive found at {table['coverage']['points_moving']} draws where that moves (`teacher.DriveTable`).
+* Its network predicts, from the sensor history, what each row is worth at the hidden point (its
+  steady velocity as a fraction of the table's best there, penalised below 0.85 of it and below the
+  trapezoid) and plays the row of the highest prediction: the best pick under what the sensor cannot
+  tell. Fitted by squared error on {picks['sensor']['episodes']} training draws, by DAgger: round 0 driven by the
+  table's best drive told the hidden values, rounds 1-{picks['sensor']['rounds']} by the network itself
+  (`student.DriveValueNetwork`). A second head estimates k, the load over mu F_ref, the load and mu1 / mu
+  (`estimator.npz`, for plots; standardised errors on the validation draws
+  {', '.join(f"{k[10:]} {v:.2f}" for k, v in last.items() if k.startswith('val_error_'))}).
+* Settings: `{json.dumps(picks['sensor'])}`
 * Training range: the hidden parameters of `MDRDriveSensor-v0` (k 0-0.6, load up to 0.4 of mu F_ref,
   mu 0.2-0.4, mu1 0.07-0.13), half of the episodes with a load step.
 * Versions: `{json.dumps(run['versions'])}`
 * Files: `model.zip` (SB3), `vecnormalize.npz` (observation normalisation as numbers, what
   `load_policy` reads), `vecnormalize.pkl` (the same for plain SB3: a pickle, which runs code when read),
-  `run.json`; {size_kb:.0f} KiB in all.
+  `action_codebook.npy` (its rows), `estimator.npz`, `run.json`; {size_kb:.0f} KiB in all.
 
 ## Results on blind draws (`mdr-drive adaptation --seed {res['seed']}`)
 
@@ -443,8 +452,10 @@ row "{label}".
 
 * It needs its tier's sensor: played on another sensor, or with more noise than it was trained
   with, it is untested.
-* Its drives are its teacher's on the estimated values; where the estimate is off it can be slower
-  than the trapezoid ({below_note(s_sensor, res['n'])}). Check a working point with `mdr-drive evaluate` first.
+* It plays only the table's drives, so at a point it is at best as good as the table's best drive
+  there; where the sensor cannot tell two hidden points apart it plays a drive good at both, which
+  can be slower than the best at either, and it can fall below the trapezoid
+  ({below_note(s_sensor, res['n'])}). Check a working point with `mdr-drive evaluate` first.
 * Before it has seen a few periods it plays an average drive: the first periods after a reset or a load
   step are slower than a drive told the load (median {_periods(recovery['median_periods_to_recover'])}
   periods to 0.9 of its new steady velocity after a load step).

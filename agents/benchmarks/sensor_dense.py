@@ -28,8 +28,8 @@ from mdr_drive_env import SENSOR_DEFAULTS
 from mdr_drive_env.files import json_safe, write_csv, write_text
 
 from ..policy import load_policy
-from ..protocol import AVERAGE_PERIODS, EVAL_PERIODS, open_loop_displacements, steady_velocity_of, trapezoid_action
-from ..student.estimator import SENSOR_ID
+from ..protocol import (AVERAGE_PERIODS, EVAL_PERIODS, SENSOR_ID, open_loop_displacements, steady_velocity_of,
+                        trapezoid_action)
 from .targets import below_trapezoid
 
 #: The friction coefficients of the grid: the corners and the middle of the sensor env's ranges.
@@ -63,7 +63,8 @@ def rollouts(policy, points: list[dict], periods: int = EVAL_PERIODS,
     out, masses = [], []
     for start in tqdm(range(0, len(points), CHUNK), desc="sensor dense check", unit="chunk", disable=not progress):
         chunk = points[start:start + CHUNK]
-        envs = [policy.make_env(max_periods=periods, **p) for p in chunk]
+        box = {"action_codebook": None} if policy.codebook is not None else {}  # it plays its table's rows as Box actions
+        envs = [policy.make_env(max_periods=periods, **box, **p) for p in chunk]
         first = [env.reset(seed=0) for env in envs]
         obs = np.array([o for o, _ in first])
         masses += [float(info["cargo_mass"]) for _, info in first]

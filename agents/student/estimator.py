@@ -1,22 +1,23 @@
-"""The sensor policy's network: an estimator of what the sensor hides, the teacher on its guesses,
-and both written as one SB3 ``MlpPolicy`` (RMA's adaptation module and base policy, Kumar et al. 2021).
+"""What a sensor can tell of the hidden k, load and friction: the entries a sensor policy estimates
+(``hidden_entries``), an MLP estimator of them (``Estimator``, saved as numbers), its score
+(``standardised_error``), and the full-observation policy a sensor policy is measured against
+(``sensor_teacher_policy``).
 
-Used by ``mdr_drive_agents.train.sensor``, which trains the estimator and ships the merged network.
+Used by ``mdr_drive_agents.train.sensor`` (the sensor policy's estimates, ``estimator.npz``) and
+``mdr_drive_agents.benchmarks.identifiability`` (what each sensor tier can tell).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import gymnasium as gym
 import numpy as np
 
 from mdr_drive_env.gym_envs.spaces import ObservationLayout, PrivilegedLayout
 
 from ..policy import Policy
-from .network import Student, adam_fit, edge_loss, policy_mean
+from .network import adam_fit
 
-SENSOR_ID = "MDRDriveSensor-v0"
 #: The full observation's entries the sensor observation hides (ObservationLayout.structure names);
 #: a teacher on the privileged observation is told ``"friction_ratio"`` (mu1 / mu) too. These are what
 #: the slider's motion can tell (k, the load over mu F_ref, the load, mu1 / mu), never mu and mu1
@@ -133,167 +134,5 @@ class Estimator:
         return out * ys + ym
 
 
-class SensorTeacher:
-    """The teacher told the estimator's guesses for the hidden entries, its own average for the
-    slider's motion and the contact forces (it was trained to ignore them), and, from the sensor
-    observation, the previous action and the episode's elapsed fraction: a function of the sensor
-    observation alone (RMA's base policy on its adaptation module's estimate)."""
-
-    def __init__(self, teacher: Policy, estimator: Estimator, sensor_structure: dict):
-        self.teacher, self.estimator = teacher, estimator
-        layout = teacher_layout(teacher)
-        self.n_full = len(layout.NAMES)
-        full = layout.structure
-        self.hidden = hidden_entries(layout)
-        self.dynamics = list(range(full["dynamics"].start, full["dynamics"].stop))
-        actions = sensor_structure["actions"]
-        # full-observation entries copied from the sensor observation: the newest action, the fraction
-        self.copied = [*range(full["previous_action"].start, full["previous_action"].stop),
-                       full["episode_fraction"].start]
-        self.sources = [*range(actions.start, actions.start + 5), sensor_structure["episode_fraction"].start]
-
-    def full_observation(self, sensed: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray:
-        """The full observation the teacher is given for sensor observations ``sensed`` (n, d): the
-        estimator's guesses for the hidden entries, or ``hidden`` (n, len(self.hidden)) if given."""
-        full = np.zeros((len(sensed), self.n_full), dtype=np.float32)
-        full[:, self.dynamics] = self.teacher.normalize.mean[self.dynamics]
-        full[:, self.copied] = sensed[:, self.sources]
-        full[:, self.hidden] = self.estimator(sensed) if hidden is None else hidden
-        return full
-
-    def __call__(self, sensed: np.ndarray, privileged: np.ndarray | None = None) -> np.ndarray:
-        return np.asarray(self.teacher.act(self.full_observation(sensed)), dtype=np.float32)
-
-    def told_truth(self, sensed: np.ndarray, privileged: np.ndarray) -> np.ndarray:
-        """The teacher's mean action (n, 5), before SB3's clip, told the true hidden entries of
-        ``privileged`` and otherwise what this composition tells it: the label of
-        :meth:`fit_actions`."""
-        import torch
-
-        full = self.full_observation(sensed, hidden=privileged[:, self.hidden])
-        with torch.no_grad():
-            return policy_mean(self.teacher.model.policy, torch.as_tensor(self._normalise(full))).numpy()
-
-    def _normalise(self, full: np.ndarray) -> np.ndarray:
-        return self.teacher.normalize(full)
-
-    def fit_actions(self, sensed: np.ndarray, labels: np.ndarray, steps: int, batch: int, learning_rate: float,
-                    seed: int, huber_delta: float = 0.05, progress: bool = True) -> float:
-        """Fit the estimator through the frozen teacher: ``steps`` Adam steps (``student.adam_fit``)
-        on the loss between the teacher's mean action on the estimator's guesses and ``labels`` (the
-        teacher's action told the truth, :meth:`told_truth`), Huber with ``huber_delta``
-        (``student.edge_loss``). The guesses then serve the actions rather than the hidden values:
-        an entry the sensor cannot tell apart costs what it changes in the drive, not its variance.
-        Returns the last epoch's loss."""
-        import torch
-
-        est, t = self.estimator, self.teacher
-        stats = t.normalize
-        xm, xs, ym, ys = est.scales
-        base = torch.as_tensor(self._normalise(self.full_observation(  # hidden columns replaced below
-            sensed, hidden=np.zeros((len(sensed), len(self.hidden)), dtype=np.float32))))
-        xt = torch.as_tensor((sensed - xm) / xs, dtype=torch.float32)
-        yt = torch.as_tensor(labels, dtype=torch.float32)
-        cols = torch.as_tensor(self.hidden)
-        mean = torch.as_tensor(stats.mean[self.hidden], dtype=torch.float32)
-        std = torch.as_tensor(np.sqrt(stats.var[self.hidden] + stats.epsilon), dtype=torch.float32)
-        ym_t, ys_t = torch.as_tensor(ym, dtype=torch.float32), torch.as_tensor(ys, dtype=torch.float32)
-        for param in t.model.policy.parameters():
-            param.requires_grad_(False)
-
-        def loss_of(idx):
-            guess = est.net(xt[idx]) * ys_t + ym_t
-            z = base[idx].clone()
-            z[:, cols] = torch.clamp((guess - mean) / std, -stats.clip_obs, stats.clip_obs)
-            return edge_loss(policy_mean(t.model.policy, z), yt[idx], huber_delta)
-
-        try:
-            return adam_fit(est.net.parameters(), lambda: (len(xt), loss_of), steps, batch, learning_rate, seed,
-                            "adapt: estimator through the teacher", progress)
-        finally:
-            for param in t.model.policy.parameters():
-                param.requires_grad_(True)
-
-
-def merged_policy(sensor_teacher: SensorTeacher, env_kwargs: dict, log_std: float, seed: int = 0) -> Student:
-    """One SB3 PPO ``MlpPolicy`` (ReLU) on the sensor observation that computes ``sensor_teacher``
-    exactly (as long as the teacher's normalised inputs stay inside its VecNormalize clip), over
-    ``MDRDriveSensor-v0(**env_kwargs)`` (``train.sensor.sensor_env_kwargs``); ``log_std`` for PPO:
-
-    * its ``VecNormalize`` standardises the observation as the estimator does (no clipping);
-    * its first layers are the estimator's hidden layers, widened by units that carry the entries
-      the teacher reads from the sensor observation (each as relu(x) and relu(-x));
-    * the next layer is the teacher's first layer composed with the estimator's output layer and the
-      teacher's observation normalisation (a product of linear maps);
-    * the rest is the teacher's network (its later layers and action head) as it is: for a teacher
-      that picks from an action table (``Discrete(N)``, a codebook student), its logits over the
-      same table, which the merged network then picks from (the env's ``action_codebook``).
-    """
-    import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
-
-    est, teacher = sensor_teacher.estimator, sensor_teacher.teacher
-    n_full = sensor_teacher.n_full
-    xm, xs, ym, ys = est.scales
-    est_linear = [m for m in est.net if isinstance(m, torch.nn.Linear)]
-    t_net = teacher.model.policy.mlp_extractor.policy_net
-    t_linear = [m for m in t_net if isinstance(m, torch.nn.Linear)]
-    if not all(isinstance(m, (torch.nn.Linear, torch.nn.ReLU)) for m in t_net):
-        raise ValueError("the teacher's policy network is not Linear/ReLU layers")
-    carried = sensor_teacher.sources
-    n_c = len(carried)
-    widths = [m.out_features + 2 * n_c for m in est_linear[:-1]]
-    codebook = teacher.codebook  # a codebook teacher's merged network picks among the same table
-    play_env = env_kwargs if codebook is None else {**env_kwargs, "action_codebook": codebook}
-    venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: gym.make(SENSOR_ID, **play_env)])),
-                        norm_obs=True, norm_reward=True, gamma=0.98, clip_obs=1e6)
-    venv.obs_rms.mean = xm.astype(np.float64)
-    venv.obs_rms.var = xs.astype(np.float64) ** 2 - venv.epsilon
-    venv.obs_rms.count = 1e6
-    policy_kwargs = {"net_arch": {"pi": [*widths, *(m.out_features for m in t_linear)], "vf": [64, 64]},
-                     "activation_fn": torch.nn.ReLU, "log_std_init": log_std}
-    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", policy_kwargs=policy_kwargs,
-                **{key: v for key, v in FINE_TUNE_PPO.items() if key != "n_envs"})
-    layers = [m for m in model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
-    stats = teacher.normalize
-    tm = torch.as_tensor(stats.mean, dtype=torch.float64)
-    ts = torch.sqrt(torch.as_tensor(stats.var, dtype=torch.float64) + stats.epsilon)
-    with torch.no_grad():
-        for i, (lin, src) in enumerate(zip(layers, est_linear[:-1])):  # estimator layers + carried units
-            w = torch.zeros_like(lin.weight, dtype=torch.float64)
-            b = torch.zeros_like(lin.bias, dtype=torch.float64)
-            h = src.out_features
-            w[:h, :src.in_features] = src.weight.double()
-            b[:h] = src.bias.double()
-            for j, c in enumerate(carried):
-                if i == 0:  # from the standardised observation
-                    w[h + j, c], w[h + n_c + j, c] = 1.0, -1.0
-                else:  # relu(relu(x)) = relu(x)
-                    prev_h = est_linear[i - 1].out_features
-                    w[h + j, prev_h + j], w[h + n_c + j, prev_h + n_c + j] = 1.0, 1.0
-            lin.weight.copy_(w)
-            lin.bias.copy_(b)
-        # the teacher's normalised input z = A h + B (c+ - c-) + c0, then its first layer
-        out, h = est_linear[-1], est_linear[-1].in_features
-        a_mat = torch.zeros((n_full, h), dtype=torch.float64)
-        b_mat = torch.zeros((n_full, n_c), dtype=torch.float64)
-        c0 = torch.zeros(n_full, dtype=torch.float64)
-        for j, idx in enumerate(sensor_teacher.hidden):  # estimate, in the full observation's units
-            a_mat[idx] = out.weight[j].double() * ys[j] / ts[idx]
-            c0[idx] = (out.bias[j].double() * ys[j] + ym[j] - tm[idx]) / ts[idx]
-        for j, (idx, c) in enumerate(zip(sensor_teacher.copied, carried)):  # copied entries
-            b_mat[idx, j] = xs[c] / ts[idx]
-            c0[idx] = (xm[c] - tm[idx]) / ts[idx]
-        # the dynamics entries sit at the teacher's mean: 0 after normalisation
-        first = t_linear[0]
-        w1 = first.weight.double()
-        lin = layers[len(widths)]
-        lin.weight.copy_(torch.cat([w1 @ a_mat, w1 @ b_mat, -(w1 @ b_mat)], dim=1))
-        lin.bias.copy_(first.bias.double() + w1 @ c0)
-        for lin, src in zip(layers[len(widths) + 1:], t_linear[1:]):
-            lin.weight.copy_(src.weight)
-            lin.bias.copy_(src.bias)
-        model.policy.action_net.weight.copy_(teacher.model.policy.action_net.weight)
-        model.policy.action_net.bias.copy_(teacher.model.policy.action_net.bias)
-    return Student(model, venv, codebook=codebook)
+__all__ = ["FINE_TUNE_PPO", "HIDDEN", "Estimator", "hidden_entries", "sensor_teacher_policy",
+           "standardised_error", "teacher_layout"]

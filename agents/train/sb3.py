@@ -39,7 +39,7 @@ from .hyperparameters import NOT_SB3_KEYS, WARM_STARTS, check_hyperparameters, k
 #: (k, cargo mass in kg) points off the benchmark grid, for periodic evaluation during training.
 HELD_OUT_POINTS = ((0.05, 0.4), (0.15, 0.12), (0.25, 0.04), (0.45, 0.0), (0.1, 0.25))
 #: run.json keys that say where a policy came from: a continued run keeps them.
-PROVENANCE_KEYS = ("distilled_from", "adapted_from")
+PROVENANCE_KEYS = ("distilled_from", "adapted_from", "picks_from")
 
 
 def _range(values: list[float] | None, default):

@@ -1,48 +1,36 @@
 """The sensor policy's recipe: a plain SB3 PPO MlpPolicy that drives without being told k, the load or
-friction.
+friction, by picking whole drives from a table.
 
     mdr-drive train-sensor agents/configs/sensor.yaml --out runs/sensor        # make train-sensor
 
-Teacher-student training, as controllers that must act without privileged information are trained
-(Lee et al. 2020; Kumar et al. 2021), with DAgger (Ross et al. 2011):
+1. **The drive table** (``teacher.DriveTable``): fixed actions and two-action cycles that CMA-ES finds
+   at draws of the hidden parameters, a few hundred picked to cover the hidden range; or a table built
+   before (``drive_table``, ``--reuse``).
+2. **Their values**: every drive of the table played at the hidden points of the training episodes
+   (``episodes`` draws of ``MDRDriveSensor-v0``, a share with a load step), kept as
+   ``OUT/episode_values.npz``; each row's worth at a point follows from them
+   (``student.DriveValueTargets``).
+3. **Rounds of DAgger** (Ross et al. 2011): round 0 is driven by the table's best drive told the hidden
+   point, rounds 1 ... R by the network itself, a share ``explore`` of the periods playing a random row;
+   after each round the network (``student.DriveValueNetwork``) is fitted on every episode so far: the
+   worth of every drive at each period's hidden point from the sensor observation, and the hidden entries
+   the motion can tell (k, the load over mu F_ref, the load, mu1 / mu) beside it. It plays the drive of
+   the highest predicted worth (``student.pick_rows``: a cycle's actions in turn): the best decision under
+   what the sensor cannot tell.
+4. **One network**: written as one SB3 ``MlpPolicy`` over ``Discrete(rows)`` (``OUT/policy/``, the table's
+   rows as ``action_codebook.npy``), its estimates as ``estimator.npz``.
 
-* the **teacher** is a full-observation policy (default: ``agents/pretrained/ppo_sensor/teacher``,
-  ``mdr-drive friction-teacher``), told k, the load and the friction ratio mu1 / mu through the env's
-  ``privileged_observation(friction=True)``; a teacher that picks from an action table (a codebook
-  student, ``distill.action_codebook``) gives a merged network that picks from the same table;
-* the **student** sees only ``MDRDriveSensor-v0``'s observation in its sensor tier: the last
-  ``history`` periods of slider motion (displacement, mean and end velocity; with ``trace``, positions
-  through each period; with ``self-sensing``, also the piezo-sensed forces) and the actions that
-  produced them. With
-  that history as its input, a plain MLP is the recurrent memory's frame-stacked equivalent, and it
-  loads with plain ``PPO.load`` + ``VecNormalize.load``;
-* round 0: the teacher drives random episodes (hidden k, load, mu, mu1 drawn per episode; a share
-  with a load step; in every round the actions played are perturbed by ``action_noise``); an
-  **estimator** (``mdr_drive_agents.student.estimator``) is fitted from every sensor observation to the hidden entries
-  of the teacher's observation, what the slider's motion can tell (k, the load over mu F_ref, the
-  load and, for a teacher told friction, mu1 / mu; squared error). Rounds 1 ... R: the teacher acting on
-  the estimator's guesses
-  (``SensorTeacher``) drives, so the estimator meets the states its own errors lead to, and it is
-  refitted on every episode so far (DAgger);
-* optionally (``action_steps``, ``action_rounds``), the estimator is fitted through the frozen
-  teacher to the teacher's actions told the truth instead of to the hidden values, once after the
-  rounds or in the last rounds: an entry the slider's motion hardly shows (friction, for a teacher
-  on the privileged observation, ``mdr_drive_agents.train.friction_teacher``) then costs what it changes in the
-  drive (tried; docs/adaptation.md);
-* the estimator and the teacher are then written as one ``MlpPolicy`` (``merged_policy``: RMA's
-  adaptation module and base policy in one network), checked against the pair they replace
-  (``merge_check``).
-
-Writes ``OUT/policy/`` (``model.zip``, ``vecnormalize.pkl``, ``run.json``) and ``OUT/adapt.json``
-(per-round validation, stage times). An existing ``OUT`` is refused unless ``--force``. A Ctrl-C once
-the first round's fit has finished writes the policy of the last finished stage, marked
-``"interrupted": true``; the command then exits with 130.
+Each round is validated on ``validation_seed``'s draws: the steady velocity's fraction of the table's
+best drive there, points below the trapezoid, load steps recovered, the estimates' errors. A Ctrl-C once
+round 0's fit has finished saves the policy of the last finished round (``"interrupted": true``) and exits
+with 130; the table's and the values' sweeps are kept as they finish (``--resume`` continues them).
 """
 
 from __future__ import annotations
 
-import copy
+import hashlib
 import json
+import shutil
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -50,54 +38,57 @@ from pathlib import Path
 import numpy as np
 
 from mdr_drive_env.core.params import check_int, check_range
-from mdr_drive_env.files import write_text
+from mdr_drive_env.files import atomic_path, write_text
 from mdr_drive_env.gym_envs.sensor import DEFAULT_ENCODER_NOISE, DEFAULT_TRACE_SAMPLES, SensorTier
 from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
+from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
-from ..policy import CODEBOOK_FILE, ESTIMATOR_FILE, Policy, package_path
-from ..protocol import steady_velocity_of
+from ..policy import ESTIMATOR_FILE, package_path, read_run
+from ..protocol import ACTION_MAP, SENSOR_ID, draw_hidden, hidden_point, steady_velocity_of
 from ..run_record import RunLock, command_line, versions
-from ..student.estimator import (FINE_TUNE_PPO, SENSOR_ID, Estimator, SensorTeacher, hidden_entries, merged_policy,
-                                 sensor_teacher_policy, standardised_error, teacher_layout)
-from ..student.network import Student, save_student
+from ..student.drive_values import DriveValueNetwork, DriveValueTargets, pick_rows
+from ..student.estimator import FINE_TUNE_PPO, hidden_entries, standardised_error
+from ..student.network import save_student
+from ..teacher.drive_table import DriveTable, DriveTableConfig, build, drive_values
 from ..yaml_config import from_yaml
-from .sensor_episodes import (ProbeFirst, collect, probe_actions, sensor_env_kwargs, sensor_envs, sensor_structure_of,
-                              with_probe)
+from .sensor_episodes import collect_rows, episode_points, sensor_env_kwargs, sensor_envs
 
 DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "sensor.yaml"
+TABLE_FILE = "drive_table.npz"
+VALUES_FILE = "episode_values.npz"
+#: The privileged observation's entries the network estimates beside the worth of its rows.
+ESTIMATED = tuple(PrivilegedLayout.NAMES[i] for i in hidden_entries(PrivilegedLayout))
+#: Validation: hidden draws without a load step (30 periods), and load-step episodes (40 periods, the
+#: step before period 20), as the report (``benchmarks.adaptation``) plays them.
+VALIDATION_POINTS = 64
+VALIDATION_STEPS = 32
 
 
 @dataclass(frozen=True)
-class AdaptConfig:
+class SensorConfig:
     """Training of the sensor policy (module docstring).
 
     Attributes:
-        teacher: folder of the full-observation teacher policy (``model.zip``, ``vecnormalize.pkl``).
         history: periods of the sensor observation (-).
-        episodes: episodes driven per round (-).
+        episodes: training episodes, each a draw of the hidden parameters, driven again in every round (-).
         periods: periods per episode (-).
         load_step_share: share of the episodes with a load step (-).
         load_step_periods: (first, last) period index at which a load step may fall (-).
-        action_noise: std of the Gaussian noise added to every action played (-), so the episodes
-            show the estimator how the slider answers other actions than the teacher's.
-        estimator_arch: hidden layer sizes of the estimator of the hidden entries (-).
-        rounds: rounds after round 0, each driven by the estimator-informed teacher (-).
-        estimator_steps: gradient steps of the estimator's fit after each round (-).
+        explore: share of the periods in which a random row is played instead (-), so that the episodes
+            show the network the slider's answer to other drives than its own.
+        arch: hidden layer sizes of the network (-).
+        rounds: rounds driven by the network, after round 0 (-).
+        steps: Adam steps of the fit after each round (-).
         batch: minibatch size (-).
         learning_rate: Adam step size, decaying linearly to zero over each fit (-).
-        log_std: the shipped policy's log standard deviation (for PPO fine-tuning) (-).
+        estimate_weight: weight of the estimates' squared error beside the worth's in the fit (-).
+        continuation: ``student.pick_rows``' weight: a row costs this times the squared distance between the
+            previous action and its partner, so that a cycle's actions alternate and another drive is started
+            only where it is worth more by that margin (-).
+        knee: ``DriveValueTargets.knee`` (-).
+        shortfall_weight: ``DriveValueTargets.shortfall_weight`` (-).
+        below_weight: ``DriveValueTargets.below_weight`` (-).
         torch_threads: torch threads of the fits (-).
-        action_steps: after the rounds, Adam steps that fit the estimator through the frozen teacher
-            to the teacher's actions told the truth, on every episode (``SensorTeacher.fit_actions``;
-            0: none) (-).
-        action_learning_rate: Adam step size of that fit, decaying linearly to zero (-).
-        action_rounds: 0: that fit once after the rounds; N: instead, the last N rounds fit the
-            estimator on the actions only (warm), so the rounds after the first of them drive with an
-            estimator fitted on actions (DAgger for that fit) (-).
-        probe_periods: periods at the start of every episode in which the drive plays the deliberate
-            probe (``probe_actions``, in turn) instead of the teacher, so the estimator reads the drive
-            from answers to varied waveforms (0: no probe). A measurement: the merged network does not
-            play the probe (``ProbeFirst`` does, in Python) (-).
         sensor_tier: what the drive measures, ``MDRDriveSensor-v0(sensor_tier=...)``: ``"encoder"``
             (per-period summaries), ``"trace"`` (also positions through each period) or
             ``"self-sensing"`` (also the piezo-sensed peak forces).
@@ -105,175 +96,48 @@ class AdaptConfig:
         encoder_noise: standard deviation of each position sample (m).
     """
 
-    teacher: str = "agents/pretrained/ppo_sensor/teacher"
-    history: int = 6
-    episodes: int = 512
+    history: int = 4
+    episodes: int = 6000
     periods: int = 40
     load_step_share: float = 0.5
     load_step_periods: tuple[int, int] = (5, 30)
-    action_noise: float = 0.15
-    estimator_arch: tuple[int, ...] = (256, 256)
-    rounds: int = 4
-    estimator_steps: int = 4000
-    batch: int = 256
+    explore: float = 0.05
+    arch: tuple[int, ...] = (512, 512)
+    rounds: int = 6
+    steps: int = 15000
+    batch: int = 512
     learning_rate: float = 1e-3
-    log_std: float = -3.0
+    estimate_weight: float = 0.2
+    continuation: float = 0.02
+    knee: float = 0.85
+    shortfall_weight: float = 1.0
+    below_weight: float = 5.0
     torch_threads: int = 1
-    action_steps: int = 0
-    action_learning_rate: float = 3e-4
-    action_rounds: int = 0
-    probe_periods: int = 0
     sensor_tier: str = "encoder"
     trace_samples: int = DEFAULT_TRACE_SAMPLES
     encoder_noise: float = DEFAULT_ENCODER_NOISE
 
     def __post_init__(self) -> None:
-        for name in ("history", "episodes", "periods", "estimator_steps", "batch", "torch_threads"):
+        for name in ("history", "episodes", "periods", "steps", "batch", "torch_threads"):
             check_int(name, getattr(self, name), 1)
         check_int("rounds", self.rounds, 0)
-        check_int("action_steps", self.action_steps, 0)
-        check_int("action_rounds", self.action_rounds, 0)
-        check_int("probe_periods", self.probe_periods, 0)
-        if self.action_rounds > self.rounds:
-            raise ValueError(f"action_rounds={self.action_rounds!r} is outside the allowed range [0, rounds = {self.rounds}]")
-        check_range("action_learning_rate", self.action_learning_rate, 0.0, 1.0, low_open=True)
-        if not self.estimator_arch or not all(isinstance(n, int) and n >= 1 for n in self.estimator_arch):
-            raise ValueError(f"estimator_arch={self.estimator_arch!r} must be positive layer sizes")
+        if not self.arch or not all(isinstance(n, int) and n >= 1 for n in self.arch):
+            raise ValueError(f"arch={self.arch!r} must be positive layer sizes")
         lo, hi = self.load_step_periods
         if not (isinstance(lo, int) and isinstance(hi, int) and 1 <= lo <= hi <= self.periods - 1):
             raise ValueError(f"load_step_periods={self.load_step_periods!r} is outside the allowed range "
                              f"1 <= first <= last <= periods - 1 = {self.periods - 1}")
-        check_range("load_step_share", self.load_step_share, 0.0, 1.0)
-        check_range("action_noise", self.action_noise, 0.0, 1.0)
+        for name in ("load_step_share", "explore", "continuation", "knee"):
+            check_range(name, getattr(self, name), 0.0, 1.0)
+        for name in ("estimate_weight", "shortfall_weight", "below_weight"):
+            check_range(name, getattr(self, name), 0.0, 100.0)
         check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         SensorTier(self.sensor_tier, self.trace_samples, self.encoder_noise)  # its own checks
 
-
-class Validation:
-    """A driver's steady velocity (mean of the last 10 of 30 periods, no load step) as a fraction of
-    the teacher's on the same ``n`` hidden draws of ``seed``, where the teacher moves >= 2 mm/s (the
-    teacher's velocities are computed once); for a ``SensorTeacher``, also its estimator's error on
-    each hidden entry over the periods after the first ``history`` (root mean square over the
-    entry's standard deviation on the draws: 0 exact, 1 no better than the mean)."""
-
-    def __init__(self, teacher: Policy, config: AdaptConfig, seed: int, n: int = 64):
-        self.config = AdaptConfig(**{**asdict(config), "periods": 30, "load_step_share": 0.0,
-                                     "load_step_periods": (1, 1)})
-        self.seed, self.n = seed, n
-        self.friction = teacher_layout(teacher) is PrivilegedLayout
-        self.v_teacher = self.steady(lambda s, p: teacher.act(p))[0]
-
-    def steady(self, driver) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``driver``'s steady velocities (m/s) on the draws, and its episodes' sensor and privileged
-        observations from period ``history`` on."""
-        envs, first = sensor_envs(self.config, self.n, self.seed)
-        sensed, privileged, disp = collect(envs, first, with_probe(driver, self.config, envs), friction=self.friction)
-        settled = slice(self.config.history * self.n, None)  # rows are period-major
-        return steady_velocity_of(disp), sensed[settled], privileged[settled]
-
-    def __call__(self, driver) -> dict:
-        v, sensed, privileged = self.steady(driver)
-        keep = self.v_teacher >= 2e-3
-        frac = v[keep] / self.v_teacher[keep]
-        record = {"val_mean_fraction_of_teacher": float(frac.mean()), "val_min_fraction_of_teacher": float(frac.min()),
-                  "val_points_scored": int(keep.sum())}
-        if isinstance(driver, SensorTeacher):
-            record.update(estimate_errors(driver, sensed, privileged))
-        return record
-
-
-def estimate_errors(sensor_teacher: SensorTeacher, sensed: np.ndarray, privileged: np.ndarray) -> dict:
-    """The estimator's standardised error on each hidden entry (``val_error_<name>``: root mean
-    square error over the entry's standard deviation in ``privileged``)."""
-    names = teacher_layout(sensor_teacher.teacher).NAMES
-    err = standardised_error(sensor_teacher.estimator(sensed), privileged[:, sensor_teacher.hidden])
-    return {f"val_error_{names[i]}": float(e) for i, e in zip(sensor_teacher.hidden, err)}
-
-
-def _log(record: dict) -> None:
-    print(" ".join(f"{key}={value:.4g}" if isinstance(value, float) else f"{key}={value}"
-                   for key, value in record.items()), flush=True)
-
-
-def train(config: AdaptConfig, seed: int = 0, validate: Validation | None = None,
-          progress: bool = True, teacher: Policy | None = None) -> tuple[SensorTeacher, list[dict], bool]:
-    """Round 0: the privileged teacher drives; rounds 1 ... R: the estimator-informed teacher
-    (``SensorTeacher``) drives, on its own state distribution. After every round the estimator is
-    refitted on every episode so far. ``teacher``: ``config.teacher`` already loaded
-    (``sensor_teacher_policy``), or None to load it here. Returns the final ``SensorTeacher``, the
-    per-round records and whether it was interrupted: a Ctrl-C once a stage has finished keeps the
-    estimator of the last finished stage (before that, the Ctrl-C is raised)."""
-    import torch
-
-    torch.set_num_threads(config.torch_threads)
-    if teacher is None:
-        teacher = sensor_teacher_policy(config.teacher)
-    rng = np.random.default_rng(seed)
-    layout = teacher_layout(teacher)
-    hidden = hidden_entries(layout)
-    sensor_structure = sensor_structure_of(config)
-    sensed, privileged, history = [], [], []
-    estimator = sensor_teacher = kept = None  # kept: the estimator's weights after the last finished stage
-
-    def finish(record: dict, t0: float) -> None:  # validate, time, keep and print a stage's record
-        nonlocal kept
-        if validate is not None:
-            record.update(validate(sensor_teacher))
-        record["wall_time_s"] = round(time.perf_counter() - t0, 1)
-        history.append(record)
-        kept = copy.deepcopy(estimator.net.state_dict())
-        _log(record)
-
-    try:
-        for r in range(config.rounds + 1):
-            t0 = time.perf_counter()
-            envs, first = sensor_envs(config, config.episodes, seed + 1_000_003 * (r + 1))
-            driver = with_probe((lambda s, p: teacher.act(p)) if r == 0 else sensor_teacher, config, envs)
-            s, p, _ = collect(envs, first, driver, config.action_noise, rng, friction=layout is PrivilegedLayout)
-            sensed.append(s)
-            privileged.append(p)
-            x, full = np.concatenate(sensed), np.concatenate(privileged)
-            if estimator is None:
-                estimator = Estimator(x.shape[1], config.estimator_arch, seed, n_out=len(hidden),
-                                      names=tuple(layout.NAMES[i] for i in hidden))
-                sensor_teacher = SensorTeacher(teacher, estimator, sensor_structure)
-            if config.action_steps and config.action_rounds and r > config.rounds - config.action_rounds:
-                record = {"round": r, "samples": len(x), "action_fit": config.action_steps,  # on the actions only
-                          "loss": fit_on_actions(sensor_teacher, x, full, config, seed + r, progress)}
-            else:
-                record = {"round": r, "samples": len(x),
-                          "loss": estimator.fit(x, full[:, hidden], config.estimator_steps, config.batch,
-                                                config.learning_rate, seed + r, progress)}
-            finish(record, t0)
-        if config.action_steps and not config.action_rounds:  # x, full: every episode, from the last round
-            t0 = time.perf_counter()
-            finish({"action_fit": config.action_steps, "samples": len(x),
-                    "loss": fit_on_actions(sensor_teacher, x, full, config, seed + 99, progress)}, t0)
-    except KeyboardInterrupt:
-        if kept is None:
-            raise
-        estimator.net.load_state_dict(kept)
-        print(f"adapt: interrupted; the estimator of the last finished stage ({len(history)} finished) is kept",
-              flush=True)
-        return sensor_teacher, history, True
-    return sensor_teacher, history, False
-
-
-def fit_on_actions(sensor_teacher: SensorTeacher, sensed: np.ndarray, privileged: np.ndarray, config: AdaptConfig,
-                   seed: int, progress: bool) -> float:
-    """``config.action_steps`` steps of the estimator's fit through the teacher to the teacher's
-    actions told the truth of ``privileged`` (``SensorTeacher.fit_actions``); its last epoch's loss."""
-    return sensor_teacher.fit_actions(sensed, sensor_teacher.told_truth(sensed, privileged), config.action_steps,
-                                      config.batch, config.action_learning_rate, seed, progress=progress)
-
-
-def merge_check(student: Student, sensor_teacher: SensorTeacher, config: AdaptConfig, seed: int) -> dict:
-    """The largest difference between the merged policy's actions and the ``SensorTeacher``'s over
-    the sensor observations of 64 episodes it drives itself."""
-    sensed, _, _ = collect(*sensor_envs(config, 64, seed + 7), lambda s, p: student.act(s))
-    merged = np.clip(student.act(sensed), -1.0, 1.0)
-    composed = np.clip(sensor_teacher(sensed), -1.0, 1.0)
-    return {"merge_max_action_difference": float(np.abs(merged - composed).max())}
+    def targets(self, velocities: np.ndarray) -> DriveValueTargets:
+        """Each drive's worth at the hidden points of ``velocities`` (points, drives) m/s."""
+        return DriveValueTargets(velocities, knee=self.knee, shortfall_weight=self.shortfall_weight,
+                                 below_weight=self.below_weight)
 
 
 @dataclass(frozen=True)
@@ -281,78 +145,251 @@ class SensorRecipeConfig:
     """The sensor recipe's YAML (``agents/configs/sensor.yaml``).
 
     Attributes:
-        seed: seed of the episodes, the estimator and the merged network (-).
-        adapt: the training (``AdaptConfig``).
+        seed: seed of the training episodes and the network (-).
+        sensor: the training (``SensorConfig``).
+        table: how the drive table is made (``teacher.DriveTableConfig``), unless ``drive_table`` is given.
+        drive_table: a drive table saved before (``DriveTable.save``), used instead of building one.
         validation_seed: seed of the hidden draws each round is validated on (-); None: no validation.
     """
 
     seed: int
-    adapt: AdaptConfig
+    sensor: SensorConfig
+    table: DriveTableConfig = DriveTableConfig()
+    drive_table: str | None = None
     validation_seed: int | None = None
 
     def __post_init__(self) -> None:
-        teacher = package_path(self.adapt.teacher)
-        if not (teacher / "model.zip").is_file():
-            raise ValueError(f"teacher={self.adapt.teacher!r} is not a policy folder (no model.zip)")
-        if (teacher / CODEBOOK_FILE).is_file() and self.adapt.action_steps:
-            raise ValueError(f"teacher={self.adapt.teacher!r} picks from an action table (Discrete actions): its "
-                             f"estimator cannot be fitted through its actions (action_steps={self.adapt.action_steps}"
-                             "; allowed with it: 0)")
+        check_int("seed", self.seed, 0)
+        if self.drive_table is not None and not package_path(self.drive_table).is_file():
+            raise ValueError(f"drive_table={self.drive_table!r} is not a file")
+        polish = self.table.polish_from
+        if self.drive_table is None and polish is not None:
+            if not (package_path(polish) / "model.zip").is_file():
+                raise ValueError(f"polish_from={polish!r} is not a policy folder (no model.zip)")
+            if read_run(package_path(polish)).get("env_kwargs", {}).get("observation") == "sensor":
+                raise ValueError(f"polish_from={polish!r} is not a full-observation policy (its run.json: "
+                                 "observation='sensor'): the searches start from its drive told the hidden values")
 
 
-def load_config(path: str | Path) -> tuple[int, int | None, AdaptConfig]:
-    """(seed, validation seed, AdaptConfig) of the YAML at ``path`` (``SensorRecipeConfig``)."""
-    config = from_yaml(SensorRecipeConfig, path)
-    return config.seed, config.validation_seed, config.adapt
+class Validation:
+    """How the network does on ``seed``'s hidden draws (``VALIDATION_POINTS`` without a load step,
+    ``VALIDATION_STEPS`` with one before period 20 of 40, as the report plays them): its steady
+    velocity's fraction of the table's best drive there (where that moves >= 2 mm/s), points below the
+    trapezoid, load steps recovered (``benchmarks.adaptation.recovery``), and its estimates'
+    standardised errors over the periods after the first ``history``."""
+
+    def __init__(self, config: SensorConfig, table: DriveTable, seed: int):
+        from ..benchmarks.adaptation import STEP_EPISODE_PERIODS, STEP_PERIOD
+
+        self.config, self.table, self.seed = config, table, seed
+        self.points = draw_hidden(VALIDATION_POINTS, seed)
+        self.steps = draw_hidden(VALIDATION_STEPS, seed + 1, step_period=STEP_PERIOD)
+        self.step_period, self.step_periods = STEP_PERIOD, STEP_EPISODE_PERIODS
+        self.velocities = drive_values([hidden_point(d) for d in self.points], table.drives,
+                                       Executor(workers=1, progress=False))
+
+    def play(self, network: DriveValueNetwork, draws: list[dict], periods: int):
+        """``collect_rows`` of the network at ``draws`` (one episode each)."""
+        import gymnasium as gym
+
+        kwargs = {**sensor_env_kwargs(self.config), "max_periods": periods, "action_codebook": self.table.rows}
+        envs = [gym.make(SENSOR_ID, **kwargs) for _ in draws]
+        obs = []
+        for env, d in zip(envs, draws):
+            options = {key: d[key] for key in ("k", "cargo_mass", "friction_coefficient", "base_friction_coefficient")}
+            if "step_cargo_mass" in d:
+                options["load_step"] = (self.step_period, d["step_cargo_mass"])
+            obs.append(env.reset(seed=0, options=options)[0])
+        n = len(draws)
+        return collect_rows(envs, np.array(obs), np.zeros((n, 2), dtype=np.int64), -np.ones(n, dtype=np.int64),
+                            lambda o, point, previous: network.act(o), hidden=hidden_entries(PrivilegedLayout))
+
+    def __call__(self, network: DriveValueNetwork) -> dict:
+        from ..benchmarks.adaptation import recovery
+        from ..benchmarks.targets import velocity_statistics
+
+        sensed, _, _, privileged, disp = self.play(network, self.points, 30)
+        stats = velocity_statistics(self.velocities[:, 0], self.velocities.max(axis=1), steady_velocity_of(disp))
+        step_disp = self.play(network, self.steps, self.step_periods)[4]
+        scored = [r[2] for r in (recovery(d / ACTION_MAP.period) for d in step_disp.T) if r[2] is not None]
+        settled = slice(self.config.history * len(self.points), None)  # rows are period-major
+        err = standardised_error(network.estimates(sensed[settled]), privileged[settled])
+        return {"val_mean_fraction_of_table": stats["fraction_of_best_mean"],
+                "val_min_fraction_of_table": stats["fraction_of_best_min"], "val_points_scored": stats["points_scored"],
+                "val_points_below_trapezoid": stats["points_below_trapezoid"],
+                "val_load_steps_recovered": int(sum(scored)), "val_load_steps_scored": len(scored),
+                **{f"val_error_{name}": float(e) for name, e in zip(ESTIMATED, err)}}
+
+
+def _log(record: dict) -> None:
+    print(" ".join(f"{key}={value:.4g}" if isinstance(value, float) else f"{key}={value}"
+                   for key, value in record.items()), flush=True)
+
+
+def values_fingerprint(table: DriveTable, config: SensorConfig, seed: int) -> str:
+    """What the training episodes' values depend on: the table's drives, the episodes' draws and seed."""
+    draws = {key: getattr(config, key) for key in ("episodes", "load_step_share", "load_step_periods")}
+    payload = np.asarray(table.drives, dtype=np.float64).tobytes() + json.dumps([draws, seed]).encode()
+    return hashlib.sha256(payload).hexdigest()
+
+
+def episode_values(table: DriveTable, config: SensorConfig, seed: int, out: Path, executor: Executor, tasks: Path,
+                   reuse: Path | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The training episodes' hidden points (``episode_points``' index and step) and every drive's steady
+    velocity at them (points, drives) m/s: from ``reuse``'s ``VALUES_FILE`` if it holds them for the same
+    table and episodes, else computed (a sweep) and written to ``out``."""
+    key = values_fingerprint(table, config, seed)
+    for folder in (out, reuse):
+        path = None if folder is None else Path(folder) / VALUES_FILE
+        if path is not None and path.is_file():
+            with np.load(path, allow_pickle=False) as f:
+                if str(f["fingerprint"]) == key:
+                    if folder != out:
+                        shutil.copyfile(path, out / VALUES_FILE)
+                    return f["index"], f["step"], f["velocities"]
+    envs, _ = sensor_envs(config, config.episodes, seed)
+    points, index, step = episode_points(envs)
+    velocities = drive_values(points, table.drives, executor, TaskStore(tasks / "episode_values"),
+                              "sensor: drive values at the episodes' hidden points")
+    with atomic_path(out / VALUES_FILE) as tmp:
+        with open(tmp, "wb") as f:
+            np.savez(f, fingerprint=np.array(key), index=index, step=step, velocities=velocities)
+    return index, step, velocities
+
+
+def train(config: SensorConfig, table: DriveTable, index: np.ndarray, step: np.ndarray, velocities: np.ndarray,
+          seed: int = 0, validate: Validation | None = None, progress: bool = True):
+    """Round 0, driven by the table's best drive told the hidden point, then ``config.rounds`` rounds
+    driven by the network, each followed by a fit on every episode so far (module docstring). Returns
+    the network, the per-round records and whether a Ctrl-C cut it short (the network of the last
+    finished round is kept; before round 0's fit had finished, the Ctrl-C is raised)."""
+    import copy
+
+    import torch
+
+    torch.set_num_threads(config.torch_threads)
+    targets = config.targets(velocities)
+    hidden = hidden_entries(PrivilegedLayout)
+    partners = table.partners
+    rng = np.random.default_rng(seed)
+    data, history = [], []
+    network = kept = None
+    try:
+        for r in range(config.rounds + 1):
+            t0 = time.perf_counter()
+            envs, first = sensor_envs(config, config.episodes, seed, codebook=table.rows)
+            structure = envs[0].unwrapped.observation_structure
+            newest = slice(structure["actions"].start, structure["actions"].start + 5)  # the previous action
+            if r == 0:  # the table's best drive, told the hidden point
+                driver = lambda obs, point, _: pick_rows(targets.worth[point], obs[:, newest], partners,  # noqa: E731
+                                                         config.continuation)
+            else:
+                driver = lambda obs, point, _: network.act(obs)  # noqa: E731
+            data.append(collect_rows(envs, first, index, step, driver, config.explore, rng, hidden)[:4])
+            x, point, _, estimates = (np.concatenate(d) for d in zip(*data))
+            if network is None:
+                network = DriveValueNetwork(x.shape[1], partners, newest, config.continuation, ESTIMATED, config.arch,
+                                            seed, ignored=(structure["episode_fraction"].start,))
+                network.standardise_with(x, estimates)
+            loss = network.fit(x, point, estimates, targets, config.steps, config.batch, config.learning_rate,
+                               seed + r, config.estimate_weight, progress)
+            record = {"round": r, "samples": len(x), "loss": loss}
+            if validate is not None:
+                record.update(validate(network))
+            record["wall_time_s"] = round(time.perf_counter() - t0, 1)
+            history.append(record)
+            kept = copy.deepcopy(network.state())
+            _log(record)
+    except KeyboardInterrupt:
+        if kept is None:
+            raise
+        network.load_state(kept)
+        print(f"sensor: interrupted; the network of the last finished round ({len(history)} finished) is kept",
+              flush=True)
+        return network, history, True
+    return network, history, False
+
+
+def merge_check(student, network: DriveValueNetwork, config: SensorConfig, table: DriveTable, seed: int) -> dict:
+    """How many of the actions the SB3 policy plays differ from the network's, over the sensor
+    observations of 16 episodes the network drives (none should)."""
+    envs, first = sensor_envs(config, 16, seed + 7, codebook=table.rows)
+    n = len(envs)
+    sensed = collect_rows(envs, first, np.zeros((n, 2), dtype=np.int64), -np.ones(n, dtype=np.int64),
+                          lambda obs, point, previous: network.act(obs))[0]
+    differ = np.any(student.act(sensed) != table.rows[network.act(sensed)], axis=1)  # a fixed drive's rows are equal
+    return {"merge_rows_differ": int(differ.sum()), "merge_rows_checked": len(sensed)}
+
+
+def load_config(path: str | Path) -> SensorRecipeConfig:
+    """The sensor recipe of the YAML at ``path`` (``SensorRecipeConfig``)."""
+    return from_yaml(SensorRecipeConfig, path)
 
 
 def run(config_path: str | Path, out: str | Path, force: bool = False, progress: bool = True,
-        sensor_tier: str | None = None) -> dict:
-    """Train the sensor student from ``config_path`` (its ``sensor_tier`` replaced by
-    ``sensor_tier`` if given) into ``out``; returns what ``adapt.json`` holds. A Ctrl-C once a stage
-    has finished saves the policy of the last finished stage (``"interrupted": true`` in ``adapt.json``
-    and ``run.json``)."""
-    seed, validation_seed, config = load_config(config_path)
-    if sensor_tier is not None:
-        config = replace(config, sensor_tier=sensor_tier)
+        sensor_tier: str | None = None, reuse: str | Path | None = None, resume: bool = False,
+        executor: Executor | None = None) -> dict:
+    """Train the sensor policy of ``config_path`` (its ``sensor_tier`` replaced by ``sensor_tier`` if
+    given) into ``out``; returns what ``adapt.json`` holds. ``reuse``: an earlier run's folder whose drive
+    table (and training episodes' values, where they match) are used instead of building them.
+    ``resume``: continue the table's and the values' sweeps of an interrupted run in ``out``."""
+    recipe = load_config(config_path)
+    config = recipe.sensor if sensor_tier is None else replace(recipe.sensor, sensor_tier=sensor_tier)
     out = Path(out)
-    if out.exists() and any(out.iterdir()) and not force:
+    if reuse is not None and not (Path(reuse) / TABLE_FILE).is_file():
+        raise ValueError(f"--reuse {reuse}: no {TABLE_FILE} in it")
+    if out.exists() and any(p.name != ".tasks" for p in out.iterdir()) and not (force or resume):
         raise ValueError(f"{out} is not empty: overwrite with --force")
     with RunLock(out):
-        return _run(config_path, out, seed, validation_seed, config, progress)
+        return _run(config_path, out, recipe, config, progress, reuse, resume, executor or Executor())
 
 
-def _run(config_path, out: Path, seed: int, validation_seed, config: AdaptConfig, progress: bool) -> dict:
+def _run(config_path, out: Path, recipe: SensorRecipeConfig, config: SensorConfig, progress: bool, reuse, resume: bool,
+         executor: Executor) -> dict:
     command = command_line()
     t0 = time.perf_counter()
-    teacher = sensor_teacher_policy(config.teacher)  # checked before anything is built
-    validate = None if validation_seed is None else Validation(teacher, config, validation_seed)
-    sensor_teacher, history, interrupted = train(config, seed, validate, progress, teacher)
-    student = merged_policy(sensor_teacher, sensor_env_kwargs(config), config.log_std, seed)
-    check = merge_check(student, sensor_teacher, config, seed)
-    if validate is not None and not interrupted:
-        check.update(validate(lambda s, p: student.act(s)))
+    tasks = task_folder(out, resume)
+    times = {}
+    if reuse is not None:
+        table = DriveTable.load(Path(reuse) / TABLE_FILE)
+    elif recipe.drive_table is not None:
+        table = DriveTable.load(package_path(recipe.drive_table))
+    else:
+        table = build(recipe.table, executor, tasks / "table")
+    table.save(out / TABLE_FILE)
+    times["table_s"] = round(time.perf_counter() - t0, 1)
+    index, step, velocities = episode_values(table, config, recipe.seed, out, executor, tasks, reuse)
+    times["values_s"] = round(time.perf_counter() - t0 - times["table_s"], 1)
+    validate = None if recipe.validation_seed is None else Validation(config, table, recipe.validation_seed)
+    network, history, interrupted = train(config, table, index, step, velocities, recipe.seed, validate, progress)
+    env_kwargs = sensor_env_kwargs(config)
+    student = network.policy(env_kwargs, table.rows, recipe.seed)
+    check = merge_check(student, network, config, table, recipe.seed)
     _log(check)
     wall = round(time.perf_counter() - t0, 1)
-    env_kwargs = sensor_env_kwargs(config)
     record = {
-        "algo": "ppo", "seed": seed, "env_id": SENSOR_ID, "env_kwargs": env_kwargs,
+        "algo": "ppo", "seed": recipe.seed, "env_id": SENSOR_ID, "env_kwargs": env_kwargs,
         "hyperparameters": {**FINE_TUNE_PPO, "normalize": True, "warm_start": "none",
-                            "policy_kwargs": {"net_arch": {"pi": student.model.policy.net_arch["pi"], "vf": [64, 64]},
-                                              "activation_fn": "relu", "log_std_init": config.log_std}},
-        "adapted_from": {"teacher": config.teacher, "config": str(config_path), "adapt": asdict(config),
-                         "validation_seed": validation_seed, "history": history, "merged": check},
+                            "policy_kwargs": {"net_arch": {"pi": list(config.arch), "vf": [64, 64]},
+                                              "activation_fn": "relu"}},
+        "picks_from": {"config": str(config_path), "sensor": asdict(config), "drive_table": table.record,
+                       "drives": len(table.drives), "rows": len(table.rows), "validation_seed": recipe.validation_seed,
+                       "history": history, "merged": check},
         "command": command, "versions": versions(), "torch_threads": config.torch_threads,
         "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall, "steps_per_s_this_run": 0.0, "resumes": 0,
         "interrupted": interrupted,
     }
     save_student(student, out / "policy", record)
-    sensor_teacher.estimator.save(out / "policy" / ESTIMATOR_FILE)  # what the report plots the estimates with
-    summary = {"config": str(config_path), "command": command, "seed": seed, "wall_time_s": wall,
-               "rounds": history, "merged": check, "interrupted": interrupted}
+    network.estimator().save(out / "policy" / ESTIMATOR_FILE)  # what the report plots the estimates with
+    summary = {"config": str(config_path), "command": command, "seed": recipe.seed, "wall_time_s": wall,
+               "stage_times_s": times, "drives": len(table.drives), "rows": len(table.rows),
+               "table_coverage": table.record.get("coverage"), "rounds": history, "merged": check,
+               "interrupted": interrupted}
     write_text(out / "adapt.json", json.dumps(summary, indent=2))
-    print(f"adapt: {wall:.0f} s; policy in {out / 'policy'}", flush=True)
+    shutil.rmtree(tasks, ignore_errors=True)
+    print(f"sensor: {wall:.0f} s; policy in {out / 'policy'}", flush=True)
     return summary
 
 
-__all__ = ["AdaptConfig", "DEFAULT_CONFIG", "SensorRecipeConfig", "Validation", "collect", "estimate_errors", "load_config", "merge_check", "probe_actions", "ProbeFirst", "run", "sensor_env_kwargs", "with_probe", "sensor_envs", "sensor_structure_of", "train"]
+__all__ = ["DEFAULT_CONFIG", "ESTIMATED", "SensorConfig", "SensorRecipeConfig", "TABLE_FILE", "VALUES_FILE",
+           "Validation", "episode_values", "load_config", "merge_check", "run", "train", "values_fingerprint"]

@@ -1,5 +1,7 @@
-"""The sensor policy's training episodes: envs with hidden parameters drawn per episode, the
-deliberate probe, and episodes driven by a driver of the sensor and privileged observations.
+"""The sensor policy's training episodes: envs with hidden parameters drawn per episode, the hidden
+points of each episode, the deliberate probe, and episodes driven by a driver of the sensor and
+privileged observations (Box actions, ``collect``) or of the sensor observation and the hidden point
+(the rows of an action table, ``collect_rows``).
 
 Used by ``mdr_drive_agents.train.sensor``, which re-exports them.
 """
@@ -13,20 +15,76 @@ import numpy as np
 
 from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
 
-from ..student.estimator import SENSOR_ID
+from ..protocol import SENSOR_ID
 
 if TYPE_CHECKING:
-    from .sensor import AdaptConfig
+    from .sensor import SensorConfig
 
 
-def sensor_envs(config: AdaptConfig, n: int, seed: int) -> tuple[list, np.ndarray]:
+def sensor_envs(config: SensorConfig, n: int, seed: int, codebook: np.ndarray | None = None) -> tuple[list, np.ndarray]:
     """``n`` sensor envs (hidden parameters drawn per episode), the first ``load_step_share`` of
-    them with a load step, reset with seeds ``seed, seed + 1, ...``; and their first observations."""
+    them with a load step, reset with seeds ``seed, seed + 1, ...``; and their first observations.
+    ``codebook``: the (m, 5) action table they play rows of (``Discrete(m)`` actions), or None (Box)."""
     n_step = int(round(config.load_step_share * n))
     kwargs = sensor_env_kwargs(config)
+    if codebook is not None:
+        kwargs["action_codebook"] = np.asarray(codebook)
     envs = [gym.make(SENSOR_ID, **kwargs, load_step_period=config.load_step_periods if i < n_step else None)
             for i in range(n)]
     return envs, np.array([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)])
+
+
+def episode_points(envs: list) -> tuple[list, np.ndarray, np.ndarray]:
+    """The hidden points of freshly reset ``envs``: every distinct (k, cargo mass kg, mu, mu1) point in
+    order, each episode's (point before its load step, point after it) indices (n, 2) (the same
+    twice without a step) and its load step's period (n,) (-1: none)."""
+    points, index, step = [], [], []
+    for env in envs:
+        u = env.unwrapped
+        contact = u.params.contact
+        first = (float(u.k), float(u.cargo_mass), float(contact.friction_coefficient),
+                 float(contact.base_friction_coefficient))
+        points.append(first)
+        if u.load_step is None:
+            index.append((len(points) - 1, len(points) - 1))
+            step.append(-1)
+        else:
+            points.append((first[0], float(u.load_step[1]), first[2], first[3]))
+            index.append((len(points) - 2, len(points) - 1))
+            step.append(int(u.load_step[0]))
+    return points, np.array(index, dtype=np.int64), np.array(step, dtype=np.int64)
+
+
+def collect_rows(envs: list, obs: np.ndarray, index: np.ndarray, step: np.ndarray, driver, explore: float = 0.0,
+                 rng: np.random.Generator | None = None, hidden: list[int] | None = None):
+    """One episode in every env (reset, first observations ``obs``) that plays rows of an action
+    table: each period's rows ``driver(sensor_obs, point, previous_row)``, where ``point`` is the index
+    of each episode's hidden point in that period (``episode_points``' ``index`` and ``step``) and
+    ``previous_row`` the row played the period before (-1 in the first); with probability
+    ``explore`` a period plays a row drawn uniformly from ``rng`` instead. Returns the sensor
+    observations (periods * n, d), the hidden points' indices and the previous rows (periods * n,),
+    the privileged observations' entries ``hidden`` (periods * n, len(hidden); None without) and the
+    displacements (periods, n) m."""
+    n = len(envs)
+    n_rows = envs[0].action_space.n
+    previous = -np.ones(n, dtype=np.int64)
+    sensed, points, previous_rows, privileged, disp = [], [], [], [], []
+    for t in range(envs[0].unwrapped.max_periods):
+        point = np.where((step >= 0) & (t >= step), index[:, 1], index[:, 0])
+        rows = np.asarray(driver(obs, point, previous), dtype=np.int64).reshape(n)
+        if explore > 0.0:
+            rows = np.where(rng.random(n) < explore, rng.integers(0, n_rows, n), rows)
+        if hidden is not None:
+            privileged.append(np.array([env.unwrapped.privileged_observation(friction=True)[hidden] for env in envs]))
+        sensed.append(obs)
+        points.append(point)
+        previous_rows.append(previous)
+        steps = [env.step(int(row)) for env, row in zip(envs, rows)]
+        obs = np.array([s[0] for s in steps])
+        disp.append([s[4]["displacement"] for s in steps])
+        previous = rows
+    return (np.concatenate(sensed), np.concatenate(points), np.concatenate(previous_rows),
+            np.concatenate(privileged) if hidden is not None else None, np.array(disp))
 
 
 def probe_actions(env) -> np.ndarray:
@@ -60,13 +118,6 @@ class ProbeFirst:
         return action
 
 
-def with_probe(driver, config: AdaptConfig, envs: list):
-    """``driver`` after ``config.probe_periods`` periods of the probe (``ProbeFirst``), or itself."""
-    if not config.probe_periods:
-        return driver
-    return ProbeFirst(driver, probe_actions(envs[0]), config.probe_periods, envs[0].unwrapped.max_periods)
-
-
 def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.random.Generator | None = None,
             friction: bool = False):
     """One episode in every env (reset, first observations ``obs``), each period's actions
@@ -87,7 +138,7 @@ def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.ran
     return np.concatenate(sensed), np.concatenate(privileged), np.array(disp)
 
 
-def sensor_env_kwargs(config: AdaptConfig) -> dict:
+def sensor_env_kwargs(config: SensorConfig) -> dict:
     """The env the sensor policy is trained and acts in, as ``MDRDriveSensor-v0`` keywords: its trained
     range (run.json: what ``evaluate`` warns outside) and its observation."""
     tier = {} if config.sensor_tier == "encoder" else {
@@ -96,6 +147,6 @@ def sensor_env_kwargs(config: AdaptConfig) -> dict:
             "history": config.history, "max_periods": config.periods, **tier}
 
 
-def sensor_structure_of(config: AdaptConfig) -> dict[str, slice]:
+def sensor_structure_of(config: SensorConfig) -> dict[str, slice]:
     """Where each group of entries sits in the sensor observation ``config`` trains on."""
     return gym.make(SENSOR_ID, **sensor_env_kwargs(config)).unwrapped.observation_structure

@@ -4,16 +4,14 @@ from __future__ import annotations
 
 import json
 import pickle
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
-import yaml
 
 import mdr_drive_env  # noqa: F401
 from mdr_drive_env.cli import main
-from mdr_drive_agents.train.sensor import AdaptConfig
+from mdr_drive_agents.train.sensor import SensorConfig
 from tests import DATA
 
 TINY = DATA / "sensor_tiny.yaml"
@@ -23,103 +21,96 @@ TINY = DATA / "sensor_tiny.yaml"
 def sensor_run(tmp_path_factory):
     """The tiny recipe in the trace tier (the shipped sensor policy's; the config says encoder), by the CLI."""
     out = tmp_path_factory.mktemp("sensor")
-    assert main(["train-sensor", str(TINY), "--out", str(out), "--force", "--no-progress", "--sensor-tier", "trace"]) == 0
+    assert main(["train-sensor", str(TINY), "--out", str(out), "--force", "--no-progress", "--sensor-tier", "trace",
+                 "--workers", "1"]) == 0
     return out, json.loads((out / "adapt.json").read_text())
 
 
-@pytest.mark.parametrize("tier, width", [("encoder", 17), ("trace", 17 + 2 * 3), ("self-sensing", 17 + 2 * 5)])
-def test_the_merged_network_is_the_estimator_informed_teacher(tier, width):
-    from mdr_drive_agents.train.sensor import sensor_env_kwargs, sensor_envs, sensor_structure_of
-    from mdr_drive_agents.student.estimator import (Estimator, SensorTeacher, hidden_entries, merged_policy,
-                                                    teacher_layout)
-    from mdr_drive_agents.policy import load_policy
-
-    config = AdaptConfig(history=2, episodes=4, periods=6, load_step_periods=(1, 4), estimator_arch=(8, 8, 8),
-                         sensor_tier=tier, trace_samples=3)
-    envs, first = sensor_envs(config, 4, seed=2)
-    assert first.shape[1] == width
-    assert sensor_env_kwargs(config).get("sensor_tier", "encoder") == tier  # what evaluation plays it in
-    assert envs[0].unwrapped.sensor.tier.name == tier
-    sensed = np.vstack([first, np.random.default_rng(0).normal(size=(50, first.shape[1])).astype(np.float32)])
-    teacher = load_policy(config.teacher)  # the default: the shipped teacher told mu1 / mu too
-    n_hidden = len(hidden_entries(teacher_layout(teacher)))
-    assert n_hidden == 4
-    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0, n_out=n_hidden)
-    estimator.fit(sensed, np.random.default_rng(1).uniform(size=(len(sensed), n_hidden)), 5, 16, 1e-3, 0, False)
-    composed = SensorTeacher(teacher, estimator, sensor_structure_of(config))
-    merged = merged_policy(composed, sensor_env_kwargs(config), config.log_std)
-    assert merged.model.observation_space.shape == first.shape[1:]
-    stats = composed.teacher.normalize  # exact where the teacher's normalised inputs stay inside its clip
-    z = (composed.full_observation(sensed) - stats.mean) / np.sqrt(stats.var + stats.epsilon)
-    inside = np.all(np.abs(z) < stats.clip_obs, axis=1)
-    assert inside.sum() >= 40
-    assert np.abs(merged.act(sensed) - np.clip(composed(sensed), -1, 1))[inside].max() < 1e-4
-
-
-def test_the_sensor_student_is_a_plain_sb3_policy_on_the_sensor_observation(sensor_run):
+def test_the_sensor_policy_is_a_plain_sb3_policy_that_picks_the_rows_of_its_drive_table(sensor_run):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
+    from mdr_drive_agents.teacher.drive_table import DriveTable
+    from mdr_drive_agents.train.sensor import ESTIMATED
+
     out, summary = sensor_run
     assert [r["round"] for r in summary["rounds"]] == [0, 1] and summary["interrupted"] is False
-    assert summary["rounds"][1]["samples"] == 2 * 8 * 12
-    assert "val_mean_fraction_of_teacher" in summary["rounds"][0]
-    from mdr_drive_agents.policy import load_policy
-    from mdr_drive_agents.student.estimator import hidden_entries, teacher_layout
-
+    assert summary["rounds"][1]["samples"] == 2 * 8 * 12  # every episode of both rounds
+    assert summary["merged"]["merge_rows_differ"] == 0 and summary["merged"]["merge_rows_checked"] == 16 * 12
     errors = {key: v for key, v in summary["rounds"][-1].items() if key.startswith("val_error_")}
-    layout = teacher_layout(load_policy(yaml.safe_load(TINY.read_text())["adapt"]["teacher"]))
-    assert set(errors) == {f"val_error_{layout.NAMES[i]}" for i in hidden_entries(layout)}  # the identifiable entries
-    assert set(errors) >= {"val_error_k", "val_error_load_over_friction", "val_error_load_over_10N"}
+    assert set(errors) == {f"val_error_{name}" for name in ESTIMATED}  # what the motion can tell, never mu, mu1 apart
+    assert ESTIMATED == ("k", "load_over_friction", "load_over_10N", "friction_ratio")
     assert all(0.0 < v < 10.0 for v in errors.values())
-    assert "action_fit" not in summary["rounds"][0] and summary["rounds"][1]["action_fit"] == 10  # action_rounds: 1
-    assert summary["merged"]["merge_max_action_difference"] < 1e-4  # one MlpPolicy = estimator + teacher
+    record = summary["rounds"][0]
+    assert 0 < record["val_points_scored"] <= 64 and record["val_load_steps_scored"] <= 32
+    assert -1.0 <= record["val_min_fraction_of_table"] <= record["val_mean_fraction_of_table"] <= 1.0 + 1e-9
+    table = DriveTable.load(out / "drive_table.npz")
+    assert summary["drives"] == len(table.drives) <= 5 and summary["rows"] == len(table.rows)
+    np.testing.assert_array_equal(np.load(out / "policy" / "action_codebook.npy"), table.rows)
     run = json.loads((out / "policy" / "run.json").read_text())
     assert run["env_id"] == "MDRDriveSensor-v0" and run["env_kwargs"]["history"] == 3
+    assert run["env_kwargs"]["action_codebook"] == "action_codebook.npy"
     tier = {key: run["env_kwargs"][key] for key in ("sensor_tier", "trace_samples", "encoder_noise")}
     assert tier == {"sensor_tier": "trace", "trace_samples": 4, "encoder_noise": 2e-9}
-    assert run["adapted_from"]["adapt"]["sensor_tier"] == "trace"
-    venv = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"),
-                             DummyVecEnv([lambda: gym.make("MDRDriveSensor-v0", history=3, **tier)]))
+    assert run["picks_from"]["sensor"]["sensor_tier"] == "trace"
+    env = gym.make("MDRDriveSensor-v0", history=3, action_codebook=table.rows, **tier)
+    venv = VecNormalize.load(str(out / "policy" / "vecnormalize.pkl"), DummyVecEnv([lambda: env]))
     venv.training, venv.norm_reward = False, False
     model = PPO.load(out / "policy" / "model.zip", device="cpu")
     obs = venv.reset()
     for _ in range(3):
         action, _ = model.predict(obs, deterministic=True)
         obs, *_ = venv.step(action)
-    assert action.shape == (1, 5) and np.all(np.abs(action) <= 1.0)
+    assert action.shape == (1,) and 0 <= action[0] < len(table.rows)
     assert main(["train-sensor", str(TINY), "--out", str(out), "--no-progress"]) == 2  # no overwrite without --force
 
 
-@pytest.mark.parametrize("kwargs, name", [({"history": 0}, "history"), ({"action_noise": 2.0}, "action_noise"),
+def test_another_tier_reuses_the_drive_table_and_the_episode_values(sensor_run, tmp_path, monkeypatch):
+    import mdr_drive_agents.train.sensor as sensor
+
+    out, _ = sensor_run
+
+    def no_values(*args, **kwargs):
+        raise AssertionError("the episodes' values were computed again")
+
+    monkeypatch.setattr(sensor, "drive_values", no_values)
+    monkeypatch.setattr(sensor, "Validation", lambda *args: None)  # its own values are not the episodes'
+    other = tmp_path / "encoder"
+    assert main(["train-sensor", str(TINY), "--out", str(other), "--no-progress", "--sensor-tier", "encoder",
+                 "--reuse", str(out)]) == 0
+    assert (other / "drive_table.npz").read_bytes() == (out / "drive_table.npz").read_bytes()
+    assert (other / "episode_values.npz").read_bytes() == (out / "episode_values.npz").read_bytes()
+    run = json.loads((other / "policy" / "run.json").read_text())
+    assert run["env_kwargs"].get("sensor_tier", "encoder") == "encoder"
+
+
+def test_reuse_needs_a_folder_with_a_drive_table(tmp_path, capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["train-sensor", str(TINY), "--out", str(tmp_path / "out"), "--reuse", str(tmp_path)])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "has no drive_table.npz" in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("kwargs, name", [({"history": 0}, "history"), ({"explore": 2.0}, "explore"),
                                           ({"load_step_periods": (5, 40)}, "load_step_periods"),
-                                          ({"estimator_arch": ()}, "estimator_arch"),
-                                          ({"action_rounds": 9}, "action_rounds"),
-                                          ({"action_learning_rate": 0.0}, "action_learning_rate")])
-def test_bad_adapt_settings_name_themselves(kwargs, name):
+                                          ({"arch": ()}, "arch"), ({"rounds": -1}, "rounds"),
+                                          ({"continuation": 1.5}, "continuation"),
+                                          ({"learning_rate": 0.0}, "learning_rate")])
+def test_bad_sensor_settings_name_themselves(kwargs, name):
     with pytest.raises(ValueError, match=name):
-        AdaptConfig(**kwargs)
+        SensorConfig(**kwargs)
 
 
-def test_a_config_with_a_missing_teacher_is_one_line(tmp_path, capsys):
+@pytest.mark.parametrize("folder, says", [("no/such/folder", "is not a policy folder"),
+                                          ("agents/pretrained/ppo_sensor_encoder", "is not a full-observation policy")])
+def test_a_table_searched_from_a_policy_that_cannot_be_told_the_truth_is_refused_in_one_line(tmp_path, capsys, folder,
+                                                                                            says):
     bad = tmp_path / "bad.yaml"
-    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_sensor/teacher", "teacher: no/such/folder"))
-    assert main(["train-sensor", str(bad), "--out", str(tmp_path / "out")]) == 2
+    bad.write_text(TINY.read_text().replace("polish_from: agents/pretrained/ppo_sensor/teacher", f"polish_from: {folder}"))
+    assert main(["train-sensor", str(bad), "--out", str(tmp_path / "out"), "--no-progress"]) == 2
     err = capsys.readouterr().err
-    assert "teacher='no/such/folder'" in err and err.count("\n") == 1
-
-
-def test_a_codebook_teacher_with_action_steps_is_refused_in_one_line(tmp_path, capsys):
-    import shutil
-
-    teacher = tmp_path / "picks"  # a policy folder with an action table: Discrete actions (TINY fits through actions)
-    shutil.copytree("agents/pretrained/ppo_sensor/teacher", teacher)
-    np.save(teacher / "action_codebook.npy", np.zeros((3, 5)))
-    bad = tmp_path / "bad.yaml"
-    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_sensor/teacher", f"teacher: {teacher}"))
-    assert main(["train-sensor", str(bad), "--out", str(tmp_path / "out")]) == 2
-    err = capsys.readouterr().err
-    assert "picks from an action table" in err and "action_steps=10" in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
+    assert f"polish_from={folder!r}" in err and says in err and err.count("\n") == 1
 
 
 def test_the_sensor_policy_fine_tunes_with_ppo_through_train_resume(sensor_run, tmp_path):
@@ -139,43 +130,6 @@ def test_the_sensor_policy_fine_tunes_with_ppo_through_train_resume(sensor_run, 
     np.testing.assert_array_equal(after.var, before.var)
 
 
-def test_fitting_the_estimator_through_the_teacher_brings_its_actions_to_the_told_truth():
-    import torch
-
-    from mdr_drive_agents.train.sensor import collect, sensor_envs
-    from mdr_drive_agents.student.network import edge_loss
-    from mdr_drive_agents.student.estimator import Estimator, SensorTeacher, hidden_entries, teacher_layout
-    from mdr_drive_agents.policy import load_policy
-    from mdr_drive_env.gym_envs.spaces import PrivilegedLayout, SensorLayout
-
-    from mdr_drive_agents.policy import SENSOR_PRETRAINED
-
-    # the sensor recipe's own pinned teacher, so the check does not move with the shipped generalist
-    config = AdaptConfig(history=2, episodes=8, periods=6, load_step_periods=(1, 4), estimator_arch=(16,),
-                         teacher=str(Path(SENSOR_PRETRAINED) / "teacher"))
-    teacher = load_policy(config.teacher)
-    layout = teacher_layout(teacher)
-    sensed, privileged, _ = collect(*sensor_envs(config, 8, seed=4), lambda s, p: teacher.act(p),
-                                    friction=layout is PrivilegedLayout)
-    hidden = hidden_entries(layout)
-    estimator = Estimator(sensed.shape[1], config.estimator_arch, seed=0, n_out=len(hidden))
-    estimator.fit(sensed, privileged[:, hidden], 3, 16, 1e-3, 0, False)  # a poor estimate to start from
-    composed = SensorTeacher(teacher, estimator, SensorLayout(2).structure)
-    labels = composed.told_truth(sensed, privileged)
-    told = composed.full_observation(sensed)
-    told[:, hidden] = privileged[:, hidden]
-    assert np.allclose(np.clip(labels, -1, 1), teacher.act(told), atol=1e-5)  # the teacher's action told the truth
-
-    def loss() -> float:
-        with torch.no_grad():
-            return float(edge_loss(torch.as_tensor(composed(sensed)), torch.as_tensor(labels), 0.05))
-
-    before = loss()
-    composed.fit_actions(sensed, labels, 300, 16, 1e-3, 0, progress=False)
-    assert loss() < 0.85 * before
-    assert all(p.requires_grad for p in teacher.model.policy.parameters())  # the teacher is left as it was
-
-
 def test_mdr_drive_evaluate_plays_a_sensor_policy_in_its_own_tier(sensor_run, capsys):
     out, _ = sensor_run
     code = main(["evaluate", "--policy", str(out / "policy"), "--k", "0.3", "--cargo-mass", "0.02", "--periods", "12",
@@ -191,7 +145,7 @@ def test_mdr_drive_evaluate_plays_a_sensor_policy_in_its_own_tier(sensor_run, ca
 
 
 def test_the_probe_plays_its_varied_waveforms_first_then_the_driver():
-    from mdr_drive_agents.train.sensor import ProbeFirst, probe_actions
+    from mdr_drive_agents.train.sensor_episodes import ProbeFirst, probe_actions
 
     env = gym.make("MDRDriveSensor-v0", history=2)
     amap = env.unwrapped.action_map
@@ -241,18 +195,19 @@ def test_ctrl_c_keeps_the_policy_of_the_last_finished_round(tmp_path, monkeypatc
     from mdr_drive_agents.policy import load_policy
 
     calls = []
-    collect = sensor.collect
+    collect_rows = sensor.collect_rows
 
-    def interrupted_collect(envs, *args, **kwargs):
-        if len(envs) == 8:  # the tiny config's episodes per round (validation and the merge check play 64)
+    def interrupted(envs, *args, **kwargs):
+        if len(envs) == 8:  # the tiny config's episodes per round (validation and the merge check play others)
             calls.append(1)
             if len(calls) == interrupt_at:
                 raise KeyboardInterrupt
-        return collect(envs, *args, **kwargs)
+        return collect_rows(envs, *args, **kwargs)
 
-    monkeypatch.setattr(sensor, "collect", interrupted_collect)
+    monkeypatch.setattr(sensor, "collect_rows", interrupted)
     out = tmp_path / "sensor"
-    assert main(["train-sensor", str(TINY), "--out", str(out), "--no-progress", "--sensor-tier", "trace"]) == 130
+    assert main(["train-sensor", str(TINY), "--out", str(out), "--no-progress", "--sensor-tier", "trace",
+                 "--workers", "1"]) == 130
     err = capsys.readouterr().err
     if kept is None:
         assert "nothing was saved" in err and not (out / "policy" / "model.zip").exists()
@@ -260,18 +215,9 @@ def test_ctrl_c_keeps_the_policy_of_the_last_finished_round(tmp_path, monkeypatc
     assert "last finished round" in err
     summary = json.loads((out / "adapt.json").read_text())
     assert summary["interrupted"] and [r["round"] for r in summary["rounds"]] == kept
-    assert summary["merged"]["merge_max_action_difference"] < 1e-4
+    assert summary["merged"]["merge_rows_differ"] == 0
     assert json.loads((out / "policy" / "run.json").read_text())["interrupted"] is True
     policy = load_policy(out / "policy")
     env = policy.make_env()
     obs, _ = env.reset(seed=0)
-    assert np.all(np.abs(policy.predict(obs)) <= 1.0)
-
-
-def test_a_sensor_policy_as_teacher_is_refused_in_one_line(tmp_path, capsys):
-    bad = tmp_path / "bad.yaml"  # a policy that sees only the sensor observation cannot be told the truth
-    bad.write_text(TINY.read_text().replace("teacher: agents/pretrained/ppo_sensor/teacher",
-                                            "teacher: agents/pretrained/ppo_sensor_encoder"))
-    assert main(["train-sensor", str(bad), "--out", str(tmp_path / "out"), "--no-progress"]) == 2
-    err = capsys.readouterr().err
-    assert "is not a full-observation policy" in err and err.count("\n") == 1
+    assert 0 <= policy.predict(obs) < env.action_space.n
