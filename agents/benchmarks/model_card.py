@@ -378,6 +378,12 @@ fresh drive, computed by `mdr-drive model-card {Path(src).as_posix()} {dst.as_po
     return dst / "MODEL_CARD.md"
 
 
+def reused_note(command: str) -> str:
+    """What a sensor build's wall time leaves out when its command took earlier work (``--reuse``, ``--resume``)."""
+    return ("; the work an earlier run did for it (the drive table, values already computed) is not counted"
+            if "--reuse" in command or "--resume" in command else "")
+
+
 def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -> Path:
     """Copy the sensor policy in ``src`` to ``dst`` (as :func:`ship`) and write its card, which
     quotes its results from ``adaptation_json`` (``mdr-drive adaptation``)."""
@@ -418,15 +424,15 @@ With Stable-Baselines3 alone (paths from the repository's root):
 
 ## How it was made
 
-* Command: `{run['command']}`{recipe_commit_note(run)} (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s)
+* Command: `{run['command']}`{recipe_commit_note(run)} (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s{reused_note(run['command'])})
 * Its actions: {picks['drives']} whole drives (fixed actions and two-action cycles, {picks['rows']} rows in
   `action_codebook.npy`; a cycle plays its two rows in turn) that CMA-ES found at {table['config']['points']} draws
   of the hidden parameters, picked to cover them: the best of them reaches on average
   {table['coverage']['mean_fraction_of_best_candidate']:.3f} (at worst {table['coverage']['min_fraction_of_best_candidate']:.3f})
   of the best drive found at {table['coverage']['points_moving']} draws where that moves (`teacher.DriveTable`).
 * Its network predicts, from the sensor history, what each row is worth at the hidden point (its
-  steady velocity as a fraction of the table's best there, penalised below 0.85 of it and below the
-  trapezoid) and plays the row of the highest prediction: the best pick under what the sensor cannot
+  steady velocity as a fraction of the table's best there, penalised below {picks['sensor']['knee']} of it and below
+  the trapezoid) and plays the row of the highest prediction: the best pick under what the sensor cannot
   tell. Fitted by squared error on {picks['sensor']['episodes']} training draws, by DAgger: round 0 driven by the
   table's best drive told the hidden values, rounds 1-{picks['sensor']['rounds']} by the network itself
   (`student.DriveValueNetwork`). A second head estimates k, the load over mu F_ref, the load and mu1 / mu

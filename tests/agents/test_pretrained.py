@@ -82,20 +82,27 @@ def test_an_env_without_the_policys_action_table_is_refused_naming_the_fix():
         policy.play(gym.make("MDRDrive-v0", k=0.2, cargo_mass=0.1))
 
 
-def test_the_sensor_recipe_reads_the_shipped_teacher_told_friction():
+def test_the_sensor_policies_pick_from_one_table_built_as_the_config_says():
+    """Each tier: the config's settings in its own tier (--sensor-tier), rows from the same table, which
+    polished the shipped full-observation teacher's drives (``polish_from``)."""
+    import numpy as np
     import yaml
 
     from mdr_drive_agents.student.estimator import teacher_layout
     from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 
     config = yaml.safe_load((ROOT / "agents" / "configs" / "sensor.yaml").read_text())
-    assert (ROOT / config["adapt"]["teacher"]).resolve() == (SENSOR_PRETRAINED / "teacher").resolve()
+    assert (ROOT / config["table"]["polish_from"]).resolve() == (SENSOR_PRETRAINED / "teacher").resolve()
     assert teacher_layout(load_policy(SENSOR_PRETRAINED / "teacher")) is PrivilegedLayout
-    for folder, tier in SENSOR_TIERS.items():  # each tier: the config's settings, in its own tier (--sensor-tier)
+    rows = np.load(SENSOR_PRETRAINED / "action_codebook.npy")
+    for folder, tier in SENSOR_TIERS.items():
         run = json.loads((folder / "run.json").read_text())
-        built = run["adapted_from"]["adapt"]
-        assert {**built, **config["adapt"], "sensor_tier": tier} == built
+        picks = run["picks_from"]
+        assert {**picks["sensor"], **config["sensor"], "sensor_tier": tier} == picks["sensor"]
+        assert {**picks["drive_table"]["config"], **config["table"]} == picks["drive_table"]["config"]
         assert run["env_kwargs"].get("sensor_tier", "encoder") == tier
+        assert np.array_equal(np.load(folder / "action_codebook.npy"), rows)
+        assert picks["rows"] == len(rows) == 2 * picks["drives"] and picks["merged"]["merge_rows_differ"] == 0
 
 
 def test_each_policy_sees_the_observation_it_was_trained_on():

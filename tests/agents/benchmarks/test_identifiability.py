@@ -9,6 +9,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from mdr_drive_agents.benchmarks import identifiability as ident  # noqa: E402
+from mdr_drive_agents.policy import load_policy  # noqa: E402
 from mdr_drive_env import SENSOR_DEFAULTS  # noqa: E402
 from mdr_drive_env.cli import main  # noqa: E402
 from mdr_drive_env.gym_envs.spaces import SensorLayout  # noqa: E402
@@ -60,8 +61,9 @@ def test_the_teacher_drives_need_a_full_observation_policy_and_play_the_generali
         ident.sensor_policy_player("agents/pretrained/ppo_generalist", ident.IdentifiabilityConfig(**TINY))
     with pytest.raises(ValueError, match="senses 40 positions"):
         ident.sensor_policy_player("agents/pretrained/ppo_sensor", ident.IdentifiabilityConfig(**{**TINY, "trace_samples": 8}))
-    assert ident.sensor_policy_player("agents/pretrained/ppo_sensor_encoder",
-                                      ident.IdentifiabilityConfig(**{**TINY, "trace_samples": 8}))[0] == 6
+    encoder = load_policy("agents/pretrained/ppo_sensor_encoder")  # any trace length: it senses no positions
+    assert ident.sensor_policy_player("agents/pretrained/ppo_sensor_encoder", ident.IdentifiabilityConfig(
+        **{**TINY, "trace_samples": 8}))[0] == encoder.play_kwargs["history"]
     argv = ["identifiability", "--seed", "3", "--out", str(tmp_path), "--drives", "teacher",
             "--teacher", "agents/pretrained/ppo_sensor"]
     assert main(argv) == 2 and len(capsys.readouterr().err.strip().splitlines()) == 1
@@ -77,7 +79,8 @@ def test_every_drive_plays_the_same_draws_and_the_truth_is_what_the_env_hides():
     x_sensor, y_sensor, layout = ident.episodes_of(config, "sensor-steady")
     n = config.episodes + config.test_episodes
     assert x_trap.shape == x_steady.shape == (n, SensorLayout(2, forces=True, trace_samples=40).low.size)
-    assert layout.history == 6 and x_sensor.shape == (n, layout.low.size)  # as deep as the sensor policy sees
+    assert layout.history == load_policy(config.sensor_policy).play_kwargs["history"]  # as deep as the policy sees
+    assert x_sensor.shape == (n, layout.low.size)
     np.testing.assert_array_equal(y_trap, y_steady)  # paired: the drives differ, the draws do not
     np.testing.assert_array_equal(y_trap, y_sensor)
     k, ratio, mu, mu1 = y_trap[:, 0], y_trap[:, 3], y_trap[:, 4], y_trap[:, 5]
