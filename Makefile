@@ -66,7 +66,7 @@ train: $(STAMP)
 train-friction-teacher: $(STAMP)
 	$(MDR) friction-teacher agents/configs/friction_teacher.yaml --out runs/friction_teacher --force
 
-## make train-sensor: the sensor policies of the three tiers: a table of drives, then a network per tier that picks from it (runs/sensor*; about 3 hours)
+## make train-sensor: the sensor policies of the three tiers: a table of drives, then a network per tier that picks from it (runs/sensor*; about 4 hours)
 train-sensor: $(STAMP)
 	$(MDR) train-sensor agents/configs/sensor.yaml --out runs/sensor --force
 	$(MDR) train-sensor agents/configs/sensor.yaml --sensor-tier encoder --reuse runs/sensor --out runs/sensor_encoder --force
