@@ -160,8 +160,11 @@ class DriveValueNetwork:
         return adam_fit(self.parameters(), lambda: (len(xt), loss_of), steps, batch, learning_rate, seed,
                         "sensor: value network", progress)
 
+    def _trunk_layers(self) -> list:
+        return [m for m in self.trunk if hasattr(m, "weight")]
+
     def _linear(self) -> list:
-        return [m for m in self.trunk if hasattr(m, "weight")] + [self.worth, self.estimate_head]
+        return self._trunk_layers() + [self.worth, self.estimate_head]
 
     def state(self) -> dict:
         """Weights and standardisation as numbers (``load_state``)."""
@@ -185,9 +188,9 @@ class DriveValueNetwork:
         weights zeroed): what ``estimator.npz`` holds."""
         import torch
 
-        arch = tuple(m.out_features for m in self.trunk if hasattr(m, "weight"))
+        arch = tuple(m.out_features for m in self._trunk_layers())
         est = Estimator(len(self.mask), arch, seed=0, n_out=len(self.estimate_names), names=self.estimate_names)
-        src = [m for m in self.trunk if hasattr(m, "weight")] + [self.estimate_head]
+        src = self._trunk_layers() + [self.estimate_head]
         dst = [m for m in est.net if hasattr(m, "weight")]
         with torch.no_grad():
             for i, (a, b) in enumerate(zip(src, dst)):
@@ -214,7 +217,7 @@ class DriveValueNetwork:
         venv.obs_rms.mean = mean.astype(np.float64)
         venv.obs_rms.var = std.astype(np.float64) ** 2 - venv.epsilon
         venv.obs_rms.count = 1e6
-        src = [m for m in self.trunk if hasattr(m, "weight")]
+        src = self._trunk_layers()
         k = len(self.previous)
         model = PPO("MlpPolicy", venv, seed=seed, device="cpu",
                     policy_kwargs={"net_arch": {"pi": [m.out_features + 2 * k for m in src], "vf": [64, 64]},

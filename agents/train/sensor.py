@@ -200,17 +200,16 @@ class Validation:
             if "step_cargo_mass" in d:
                 options["load_step"] = (self.step_period, d["step_cargo_mass"])
             obs.append(env.reset(seed=0, options=options)[0])
-        n = len(draws)
-        return collect_rows(envs, np.array(obs), np.zeros((n, 2), dtype=np.int64), -np.ones(n, dtype=np.int64),
-                            lambda o, point, previous: network.act(o), hidden=hidden_entries(PrivilegedLayout))
+        return collect_rows(envs, np.array(obs), lambda o, point: network.act(o),
+                            hidden=hidden_entries(PrivilegedLayout))
 
     def __call__(self, network: DriveValueNetwork) -> dict:
         from ..benchmarks.adaptation import recovery
         from ..benchmarks.targets import velocity_statistics
 
-        sensed, _, _, privileged, disp = self.play(network, self.points, 30)
+        sensed, _, privileged, disp = self.play(network, self.points, 30)
         stats = velocity_statistics(self.velocities[:, 0], self.velocities.max(axis=1), steady_velocity_of(disp))
-        step_disp = self.play(network, self.steps, self.step_periods)[4]
+        step_disp = self.play(network, self.steps, self.step_periods)[3]
         scored = [r[2] for r in (recovery(d / ACTION_MAP.period) for d in step_disp.T) if r[2] is not None]
         settled = slice(self.config.history * len(self.points), None)  # rows are period-major
         err = standardised_error(network.estimates(sensed[settled]), privileged[settled])
@@ -281,12 +280,12 @@ def train(config: SensorConfig, table: DriveTable, index: np.ndarray, step: np.n
             structure = envs[0].unwrapped.observation_structure
             newest = slice(structure["actions"].start, structure["actions"].start + 5)  # the previous action
             if r == 0:  # the table's best drive, told the hidden point
-                driver = lambda obs, point, _: pick_rows(targets.worth[point], obs[:, newest], partners,  # noqa: E731
-                                                         config.continuation)
+                driver = lambda obs, point: pick_rows(targets.worth[point], obs[:, newest], partners,  # noqa: E731
+                                                      config.continuation)
             else:
-                driver = lambda obs, point, _: network.act(obs)  # noqa: E731
-            data.append(collect_rows(envs, first, index, step, driver, config.explore, rng, hidden)[:4])
-            x, point, _, estimates = (np.concatenate(d) for d in zip(*data))
+                driver = lambda obs, point: network.act(obs)  # noqa: E731
+            data.append(collect_rows(envs, first, driver, index, step, config.explore, rng, hidden)[:3])
+            x, point, estimates = (np.concatenate(d) for d in zip(*data))
             if network is None:
                 network = DriveValueNetwork(x.shape[1], partners, newest, config.continuation, ESTIMATED, config.arch,
                                             seed, ignored=(structure["episode_fraction"].start,))
@@ -314,9 +313,7 @@ def merge_check(student, network: DriveValueNetwork, config: SensorConfig, table
     """How many of the actions the SB3 policy plays differ from the network's, over the sensor
     observations of 16 episodes the network drives (none should)."""
     envs, first = sensor_envs(config, 16, seed + 7, codebook=table.rows)
-    n = len(envs)
-    sensed = collect_rows(envs, first, np.zeros((n, 2), dtype=np.int64), -np.ones(n, dtype=np.int64),
-                          lambda obs, point, previous: network.act(obs))[0]
+    sensed = collect_rows(envs, first, lambda obs, point: network.act(obs))[0]
     differ = np.any(student.act(sensed) != table.rows[network.act(sensed)], axis=1)  # a fixed drive's rows are equal
     return {"merge_rows_differ": int(differ.sum()), "merge_rows_checked": len(sensed)}
 

@@ -55,35 +55,31 @@ def episode_points(envs: list) -> tuple[list, np.ndarray, np.ndarray]:
     return points, np.array(index, dtype=np.int64), np.array(step, dtype=np.int64)
 
 
-def collect_rows(envs: list, obs: np.ndarray, index: np.ndarray, step: np.ndarray, driver, explore: float = 0.0,
-                 rng: np.random.Generator | None = None, hidden: list[int] | None = None):
+def collect_rows(envs: list, obs: np.ndarray, driver, index: np.ndarray | None = None, step: np.ndarray | None = None,
+                 explore: float = 0.0, rng: np.random.Generator | None = None, hidden: list[int] | None = None):
     """One episode in every env (reset, first observations ``obs``) that plays rows of an action
-    table: each period's rows ``driver(sensor_obs, point, previous_row)``, where ``point`` is the index
-    of each episode's hidden point in that period (``episode_points``' ``index`` and ``step``) and
-    ``previous_row`` the row played the period before (-1 in the first); with probability
-    ``explore`` a period plays a row drawn uniformly from ``rng`` instead. Returns the sensor
-    observations (periods * n, d), the hidden points' indices and the previous rows (periods * n,),
-    the privileged observations' entries ``hidden`` (periods * n, len(hidden); None without) and the
-    displacements (periods, n) m."""
+    table: each period's rows ``driver(sensor_obs, point)``, where ``point`` is the index of each
+    episode's hidden point in that period (``episode_points``' ``index`` and ``step``; None without
+    them); with probability ``explore`` a period plays a row drawn uniformly from ``rng`` instead.
+    Returns the sensor observations (periods * n, d), the hidden points' indices (periods * n,; None
+    without ``index``), the privileged observations' entries ``hidden`` (periods * n, len(hidden); None
+    without) and the displacements (periods, n) m."""
     n = len(envs)
     n_rows = envs[0].action_space.n
-    previous = -np.ones(n, dtype=np.int64)
-    sensed, points, previous_rows, privileged, disp = [], [], [], [], []
+    sensed, points, privileged, disp = [], [], [], []
     for t in range(envs[0].unwrapped.max_periods):
-        point = np.where((step >= 0) & (t >= step), index[:, 1], index[:, 0])
-        rows = np.asarray(driver(obs, point, previous), dtype=np.int64).reshape(n)
+        point = None if index is None else np.where((step >= 0) & (t >= step), index[:, 1], index[:, 0])
+        rows = np.asarray(driver(obs, point), dtype=np.int64).reshape(n)
         if explore > 0.0:
             rows = np.where(rng.random(n) < explore, rng.integers(0, n_rows, n), rows)
         if hidden is not None:
             privileged.append(np.array([env.unwrapped.privileged_observation(friction=True)[hidden] for env in envs]))
         sensed.append(obs)
         points.append(point)
-        previous_rows.append(previous)
         steps = [env.step(int(row)) for env, row in zip(envs, rows)]
         obs = np.array([s[0] for s in steps])
         disp.append([s[4]["displacement"] for s in steps])
-        previous = rows
-    return (np.concatenate(sensed), np.concatenate(points), np.concatenate(previous_rows),
+    return (np.concatenate(sensed), None if index is None else np.concatenate(points),
             np.concatenate(privileged) if hidden is not None else None, np.array(disp))
 
 
