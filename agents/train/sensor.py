@@ -179,7 +179,7 @@ class Validation:
     standardised errors over the periods after the first ``history``."""
 
     def __init__(self, config: SensorConfig, table: DriveTable, seed: int):
-        from ..benchmarks.adaptation import STEP_EPISODE_PERIODS, STEP_PERIOD
+        from ..benchmarks.load_steps import STEP_EPISODE_PERIODS, STEP_PERIOD
 
         self.config, self.table, self.seed = config, table, seed
         self.points = draw_hidden(VALIDATION_POINTS, seed)
@@ -204,7 +204,7 @@ class Validation:
                             hidden=hidden_entries(PrivilegedLayout))
 
     def __call__(self, network: DriveValueNetwork) -> dict:
-        from ..benchmarks.adaptation import recovery
+        from ..benchmarks.load_steps import recovery
         from ..benchmarks.targets import velocity_statistics
 
         sensed, _, privileged, disp = self.play(network, self.points, 30)
