@@ -48,6 +48,7 @@ def test_the_adaptation_report_runs_in_quick_mode(tmp_path):
     card = ship_sensor(adaptation.SENSOR_POLICY, tmp_path / "shipped", tmp_path / "again" / "adaptation.json").read_text()
     assert 'This policy is the\nrow "sensor policy (trace)"' in card and "`trace` tier" in card
     assert "| sensor policy (encoder) |" in card  # the report's other drives beside it
+    assert "(of those some drive could recover)" in card
     with pytest.raises(ValueError, match="none of the sensor policies"):
         ship_sensor("agents/pretrained/ppo_generalist", tmp_path / "other", tmp_path / "again" / "adaptation.json")
     assert not (tmp_path / "other").exists()  # refused before anything is copied
