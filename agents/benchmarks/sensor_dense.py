@@ -13,8 +13,10 @@ played closed loop in the policy's own env (30 periods, mean of 21-30) beside th
 Counts the points where the policy is slower than the trapezoid by more than 0.05 mm/s (where
 either moves; ``targets.below_trapezoid``) and the points where its period velocity swings
 (``SWING``: over periods 21-30 the largest minus the smallest period's mean velocity exceeds
-``SWING_MM_S`` and the policy is below the trapezoid's own velocity there). Writes
-``sensor_dense.json``, ``sensor_dense.md`` and ``below.csv``.
+``SWING_MM_S`` and the policy is below the trapezoid's own velocity there), and, apart, the points
+where neither moves forward and the policy slides back faster than the trapezoid by more than 0.05
+mm/s (a runaway load it does not brake). Writes ``sensor_dense.json``, ``sensor_dense.md`` and
+``below.csv``.
 """
 
 from __future__ import annotations
@@ -28,8 +30,8 @@ from mdr_drive_env import SENSOR_DEFAULTS
 from mdr_drive_env.files import json_safe, write_csv, write_text
 
 from ..policy import load_policy
-from ..protocol import (AVERAGE_PERIODS, EVAL_PERIODS, SENSOR_ID, open_loop_displacements, steady_velocity_of,
-                        trapezoid_action)
+from ..protocol import (AVERAGE_PERIODS, BELOW_TOLERANCE, EVAL_PERIODS, SENSOR_ID, open_loop_displacements,
+                        steady_velocity_of, trapezoid_action)
 from .targets import below_trapezoid
 
 #: The friction coefficients of the grid: the corners and the middle of the sensor env's ranges.
@@ -95,6 +97,9 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     below, gap, _ = below_trapezoid(trap, learned)
     swing = (v[-AVERAGE_PERIODS:].max(axis=0) - v[-AVERAGE_PERIODS:].min(axis=0)) * 1e3
     unstable = (swing > SWING_MM_S) & (learned < trap)
+    backward = ~((learned > 0) | (trap > 0))  # neither moves forward: below_trapezoid does not count these
+    with np.errstate(invalid="ignore"):
+        back_faster = backward & ~(learned >= trap - BELOW_TOLERANCE)  # a runaway (NaN) counts too
     res = json_safe({"policy": str(policy_path), "command": command, "points": points, "cargo_mass_kg": masses,
                      "policy_m_s": np.round(learned, 8), "trapezoid_m_s": np.round(trap, 8),
                      "swing_mm_s": np.round(swing, 4)})
@@ -111,7 +116,10 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
              + (f"{finite.min() * 1e3:.2f} mm/s" if finite.size else "none"),
              f"* points where its period velocity swings by more than {SWING_MM_S:g} mm/s over periods "
              f"{EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS} and it is slower than the trapezoid: "
-             f"**{int(unstable.sum())}**", ""]
+             f"**{int(unstable.sum())}**",
+             f"* points where neither moves forward and it slides back faster than the trapezoid by more than "
+             f"0.05 mm/s: **{int(back_faster.sum())}**; worst "
+             + (f"{np.nanmin((learned - trap)[back_faster]) * 1e3:.2f} mm/s" if back_faster.any() else "none"), ""]
     if rows:
         lines += ["| k | load / (mu F_ref) | mu | mu1 | trapezoid (mm/s) | policy (mm/s) | swing (mm/s) |",
                   "|---|---|---|---|---|---|---|"]

@@ -28,6 +28,8 @@ def test_mdr_drive_dense_checks_a_sensor_policy_over_its_hidden_values(tmp_path,
     learned, trap = np.array(res["policy_m_s"]), np.array(res["trapezoid_m_s"])
     below = int(((learned < trap - 5e-5) & ((learned > 0) | (trap > 0))).sum())
     assert f"(where either moves): **{below}**" in text  # the count is the statistic's
+    back = int(((learned < trap - 5e-5) & (learned <= 0) & (trap <= 0)).sum())
+    assert f"slides back faster than the trapezoid by more than 0.05 mm/s: **{back}**" in text
     assert len((tmp_path / "below.csv").read_text().splitlines()) >= below + 1
     # the trapezoid's column is the trapezoid played at each point's hidden values
     from mdr_drive_agents.benchmarks.adaptation import play
