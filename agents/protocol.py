@@ -232,6 +232,17 @@ def policy_velocity(policy, points, periods: int = EVAL_PERIODS, average: int = 
     return steady_velocity_of(disp, average, runaway if mark_runaway else None, drive_of(policy, drive).period)
 
 
+def rollout_env(policy, k: float, cargo_mass: float, periods: int, load_step=None, seed: int = 0,
+                drive: DriveDescription = PAPER_DRIVE, **env_kwargs):
+    """``MDRDrive-v0`` at (k, cargo mass kg) on ``drive`` as ``policy`` plays in it (its ``play_kwargs``
+    under ``env_kwargs``), reset with ``seed`` and the optional ``load_step`` (period, cargo mass kg):
+    (env, first observation). ``drive`` as given: :func:`env_rollout` passes the policy's own."""
+    env = gym.make("MDRDrive-v0", k=k, cargo_mass=cargo_mass, max_periods=periods,
+                   **{**drive.env_kwargs, **play_kwargs_of(policy), **env_kwargs})
+    obs, _ = env.reset(seed=seed, options={"load_step": load_step} if load_step else None)
+    return env, obs
+
+
 def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS, load_step=None,
                 seed: int = 0, drive: DriveDescription = PAPER_DRIVE, **env_kwargs):
     """One run of the single env ``MDRDrive-v0`` at (k, cargo mass) on ``drive`` (a policy: on its
@@ -241,9 +252,7 @@ def env_rollout(policy, k: float, cargo_mass: float, periods: int = EVAL_PERIODS
     actions (periods, 5) in the default action units (``ACTION_MAP``, whatever ``z_phase_origin``
     the env has), whether the load ran away)."""
     drive = drive if policy is None else drive_of(policy, drive)
-    env = gym.make("MDRDrive-v0", k=k, cargo_mass=cargo_mass, max_periods=periods,
-                   **{**drive.env_kwargs, **play_kwargs_of(policy), **env_kwargs})
-    obs, _ = env.reset(seed=seed, options={"load_step": load_step} if load_step else None)
+    env, obs = rollout_env(policy, k, cargo_mass, periods, load_step, seed, drive, **env_kwargs)
     trapezoid = env.unwrapped.trapezoid_action()
     act = None if policy is None else actions_of(policy)
     velocities, actions = [], []
@@ -333,7 +342,7 @@ def hidden_point(d: dict) -> tuple[float, float, float, float]:
 
 
 __all__ = ["ACTION_MAP", "AVERAGE_PERIODS", "BELOW_TOLERANCE", "actions_of", "CRITICAL_GRID", "EVAL_PERIODS", "TIME_QUANTUM",
-           "critical_loads", "csv_velocity", "MOVING_THRESHOLD", "draw_hidden", "drive_of", "hidden_point", "SENSOR_ID", "play_drive", "env_rollout", "first_stall", "format_velocity", "open_loop_displacements",
+           "critical_loads", "csv_velocity", "MOVING_THRESHOLD", "draw_hidden", "drive_of", "hidden_point", "SENSOR_ID", "play_drive", "env_rollout", "rollout_env", "first_stall", "format_velocity", "open_loop_displacements",
            "open_loop_velocity", "play_kwargs_of", "play_time_quantum", "point_params", "policy_rollout",
            "policy_velocity", "runaway_of", "steady_velocity_of", "trapezoid_action", "trapezoid_critical_load",
            "upper_mass"]

@@ -16,10 +16,9 @@ from __future__ import annotations
 
 import copy
 
-import gymnasium as gym
 import numpy as np
 
-from ..protocol import AVERAGE_PERIODS, actions_of, drive_of, play_kwargs_of
+from ..protocol import AVERAGE_PERIODS, actions_of, drive_of, rollout_env
 from .targets import MOVING_THRESHOLD
 
 STEP_PERIOD = 20
@@ -64,11 +63,10 @@ def fastest_recovery(drives: np.ndarray, full_policy, d: dict) -> float:
     """The highest ``recovery_window`` velocity (m/s) any of ``drives`` (n, 2, 5) reaches when played from
     the step on, from the state ``full_policy`` (told the hidden values) leaves at the step of the
     load-step episode ``d`` (a ``draw_hidden`` draw with ``step_cargo_mass``); -inf without drives."""
-    drive = drive_of(full_policy)
-    hidden = {key: d[key] for key in ("k", "cargo_mass", "friction_coefficient", "base_friction_coefficient")}
-    env = gym.make("MDRDrive-v0", max_periods=STEP_EPISODE_PERIODS,
-                   **{**drive.env_kwargs, **play_kwargs_of(full_policy), **hidden})  # as protocol.env_rollout
-    obs, _ = env.reset(seed=0, options={"load_step": (STEP_PERIOD, d["step_cargo_mass"])})
+    step = (STEP_PERIOD, d["step_cargo_mass"])
+    env, obs = rollout_env(full_policy, d["k"], d["cargo_mass"], STEP_EPISODE_PERIODS, step,
+                           drive=drive_of(full_policy), friction_coefficient=d["friction_coefficient"],
+                           base_friction_coefficient=d["base_friction_coefficient"])
     act = actions_of(full_policy)
     for _ in range(STEP_PERIOD):
         obs, *_ = env.step(np.asarray(act(obs[None]), dtype=np.float32).reshape(5))

@@ -94,12 +94,10 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     disp, _ = open_loop_displacements(hidden, trapezoid_action())
     trap = steady_velocity_of(disp)
     learned = v[-AVERAGE_PERIODS:].mean(axis=0)
-    below, gap, _ = below_trapezoid(trap, learned)
+    below, gap, moving = below_trapezoid(trap, learned)
     swing = (v[-AVERAGE_PERIODS:].max(axis=0) - v[-AVERAGE_PERIODS:].min(axis=0)) * 1e3
     unstable = (swing > SWING_MM_S) & (learned < trap)
-    backward = ~((learned > 0) | (trap > 0))  # neither moves forward: below_trapezoid does not count these
-    with np.errstate(invalid="ignore"):
-        back_faster = backward & ~(learned >= trap - BELOW_TOLERANCE)  # a runaway (NaN) counts too
+    back_faster = ~moving & (gap < -BELOW_TOLERANCE)  # neither moves forward: below_trapezoid does not count these
     res = json_safe({"policy": str(policy_path), "command": command, "points": points, "cargo_mass_kg": masses,
                      "policy_m_s": np.round(learned, 8), "trapezoid_m_s": np.round(trap, 8),
                      "swing_mm_s": np.round(swing, 4)})
@@ -119,7 +117,7 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
              f"**{int(unstable.sum())}**",
              f"* points where neither moves forward and it slides back faster than the trapezoid by more than "
              f"0.05 mm/s: **{int(back_faster.sum())}**; worst "
-             + (f"{np.nanmin((learned - trap)[back_faster]) * 1e3:.2f} mm/s" if back_faster.any() else "none"), ""]
+             + (f"{gap[back_faster].min() * 1e3:.2f} mm/s" if back_faster.any() else "none"), ""]
     if rows:
         lines += ["| k | load / (mu F_ref) | mu | mu1 | trapezoid (mm/s) | policy (mm/s) | swing (mm/s) |",
                   "|---|---|---|---|---|---|---|"]
