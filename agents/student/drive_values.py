@@ -9,7 +9,8 @@ of one of them (decision-focused learning; a contextual bandit with every arm's 
 
 * ``DriveValueTargets``: what each drive of the table is worth at each hidden point, from their steady
   velocities there: the velocity's fraction of the table's best there, penalised below ``knee`` and
-  below the trapezoid (``worth``).
+  below the trapezoid (``worth``); where every drive slides back under the load (a runaway load), how
+  little it slides back against the best, so that the network learns to brake there.
 * ``pick_rows``: how a drive is played. The env's action table holds each drive's two actions in turn
   (``DriveTable.rows``; a fixed action twice), and each period the policy plays the row that maximises
   its drive's worth less ``continuation`` times the squared distance between the previous action and
@@ -59,8 +60,14 @@ class DriveValueTargets:
         fraction = v / self.scale[:, None]
         below = np.maximum((v[:, [trapezoid]] - BELOW_TOLERANCE - v) / self.scale[:, None], 0.0)
         worth = np.minimum(fraction, 1.0) - shortfall_weight * np.maximum(knee - fraction, 0.0) - below_weight * below
+        backward = self.best < 0.0  # every drive slides back under the load: worth is how little, in [-1, 0]
+        if backward.any():
+            vb, best = v[backward], self.best[backward, None]
+            below_b = np.maximum(vb[:, [trapezoid]] - BELOW_TOLERANCE - vb, 0.0) / -best
+            worth[backward] = best / vb - 1.0 - below_weight * below_b  # best / vb in (0, 1], 1 for the best
         #: (points, drives) in [-1, 1]: the velocity's fraction of the best (at least ``MOVING_THRESHOLD``),
-        #: at most 1, less the shortfall and below-trapezoid costs.
+        #: at most 1, less the shortfall and below-trapezoid costs; where every drive slides back, the
+        #: best's velocity over the drive's, less 1 and the below-trapezoid cost (the best 0).
         self.worth = np.clip(worth, -1.0, 1.0).astype(np.float32)
 
 

@@ -28,6 +28,15 @@ def test_a_drive_is_worth_its_fraction_of_the_best_less_its_shortfall_and_a_fall
     assert slow[0, 1] == pytest.approx(0.5 - 0.35)
 
 
+def test_where_every_drive_slides_back_the_one_that_slides_back_least_is_worth_most():
+    v = np.array([[-0.081, -0.060, -0.395]])  # a runaway load: the trapezoid, a drive that brakes, one that does not
+    worth = DriveValueTargets(v, knee=0.85, shortfall_weight=1.0, below_weight=5.0).worth
+    assert worth[0, 1] == pytest.approx(0.0)  # the least backward: 0, never the worth of a drive that moves
+    assert worth[0, 0] == pytest.approx(0.060 / 0.081 - 1.0)
+    assert worth[0, 2] == -1.0  # slides back far faster than the trapezoid
+    assert worth[0, 1] > worth[0, 0] > worth[0, 2]
+
+
 def test_the_pick_plays_a_cycles_actions_in_turn_and_switches_only_for_a_margin():
     worth = DriveValueTargets(VELOCITIES).worth
     played, previous = [], np.zeros((1, 5))
