@@ -114,4 +114,4 @@ def test_the_sensor_cards_below_trapezoid_note_says_none_plainly():
     none = below_note({"points_below_trapezoid": 0, "worst_difference_to_trapezoid_mm_s": 0.179}, 48)
     assert none == "this policy at none of 48 blind points; the dense check finds such points"
     some = below_note({"points_below_trapezoid": 2, "worst_difference_to_trapezoid_mm_s": -1.971}, 48)
-    assert some == "this policy at 2 of 48 blind points, by up to 2.0 mm/s"
+    assert some == "this policy at 2 of 48 blind points, by up to 1.97 mm/s; the dense check finds more"
