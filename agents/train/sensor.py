@@ -20,8 +20,9 @@ friction, by picking whole drives from a table.
 4. **One network**: written as one SB3 ``MlpPolicy`` over ``Discrete(rows)`` (``OUT/policy/``, the table's
    rows as ``action_codebook.npy``), its estimates as ``estimator.npz``.
 
-Each round is validated on ``validation_seed``'s draws: the steady velocity's fraction of the table's
-best drive there, points below the trapezoid, load steps recovered, the estimates' errors. A Ctrl-C once
+Each round is validated on ``validation_seed``'s draws (``validation_points`` of them, and
+``validation_load_steps`` load-step episodes): the steady velocity's fraction of the table's best drive
+there, points below the trapezoid, load steps recovered, the estimates' errors. A Ctrl-C once
 round 0's fit has finished saves the policy of the last finished round (``"interrupted": true``) and exits
 with 130; the table's and the values' sweeps are kept as they finish (``--resume`` continues them).
 """
@@ -150,6 +151,8 @@ class SensorRecipeConfig:
         table: how the drive table is made (``teacher.DriveTableConfig``), unless ``drive_table`` is given.
         drive_table: a drive table saved before (``DriveTable.save``), used instead of building one.
         validation_seed: seed of the hidden draws each round is validated on (-); None: no validation.
+        validation_points: draws without a load step each round is validated on (>= 1).
+        validation_load_steps: load-step episodes each round is validated on (>= 1).
     """
 
     seed: int
@@ -157,9 +160,13 @@ class SensorRecipeConfig:
     table: DriveTableConfig = DriveTableConfig()
     drive_table: str | None = None
     validation_seed: int | None = None
+    validation_points: int = VALIDATION_POINTS
+    validation_load_steps: int = VALIDATION_STEPS
 
     def __post_init__(self) -> None:
         check_int("seed", self.seed, 0)
+        check_int("validation_points", self.validation_points, 1)
+        check_int("validation_load_steps", self.validation_load_steps, 1)
         if self.drive_table is not None and not package_path(self.drive_table).is_file():
             raise ValueError(f"drive_table={self.drive_table!r} is not a file")
         polish = self.table.polish_from
@@ -172,18 +179,19 @@ class SensorRecipeConfig:
 
 
 class Validation:
-    """How the network does on ``seed``'s hidden draws (``VALIDATION_POINTS`` without a load step,
-    ``VALIDATION_STEPS`` with one before period 20 of 40, as the report plays them): its steady
+    """How the network does on ``seed``'s hidden draws (``points`` without a load step, ``load_steps``
+    with one before period 20 of 40, as the report plays them): its steady
     velocity's fraction of the table's best drive there (where that moves >= 2 mm/s), points below the
     trapezoid, load steps recovered (``benchmarks.adaptation.recovery``), and its estimates'
     standardised errors over the periods after the first ``history``."""
 
-    def __init__(self, config: SensorConfig, table: DriveTable, seed: int):
+    def __init__(self, config: SensorConfig, table: DriveTable, seed: int, points: int = VALIDATION_POINTS,
+                 load_steps: int = VALIDATION_STEPS):
         from ..benchmarks.load_steps import STEP_EPISODE_PERIODS, STEP_PERIOD
 
         self.config, self.table, self.seed = config, table, seed
-        self.points = draw_hidden(VALIDATION_POINTS, seed)
-        self.steps = draw_hidden(VALIDATION_STEPS, seed + 1, step_period=STEP_PERIOD)
+        self.points = draw_hidden(points, seed)
+        self.steps = draw_hidden(load_steps, seed + 1, step_period=STEP_PERIOD)
         self.step_period, self.step_periods = STEP_PERIOD, STEP_EPISODE_PERIODS
         self.velocities = drive_values([hidden_point(d) for d in self.points], table.drives,
                                        Executor(workers=1, progress=False))
@@ -357,7 +365,8 @@ def _run(config_path, out: Path, recipe: SensorRecipeConfig, config: SensorConfi
     times["table_s"] = round(time.perf_counter() - t0, 1)
     index, step, velocities = episode_values(table, config, recipe.seed, out, executor, tasks, reuse)
     times["values_s"] = round(time.perf_counter() - t0 - times["table_s"], 1)
-    validate = None if recipe.validation_seed is None else Validation(config, table, recipe.validation_seed)
+    validate = None if recipe.validation_seed is None else Validation(
+        config, table, recipe.validation_seed, recipe.validation_points, recipe.validation_load_steps)
     network, history, interrupted = train(config, table, index, step, velocities, recipe.seed, validate, progress)
     env_kwargs = sensor_env_kwargs(config)
     student = network.policy(env_kwargs, table.rows, recipe.seed)
@@ -371,7 +380,8 @@ def _run(config_path, out: Path, recipe: SensorRecipeConfig, config: SensorConfi
                                               "activation_fn": "relu"}},
         "picks_from": {"config": str(config_path), "sensor": asdict(config), "drive_table": table.record,
                        "drives": len(table.drives), "rows": len(table.rows), "validation_seed": recipe.validation_seed,
-                       "history": history, "merged": check},
+                       "validation_points": recipe.validation_points,
+                       "validation_load_steps": recipe.validation_load_steps, "history": history, "merged": check},
         "command": command, "versions": versions(), "torch_threads": config.torch_threads,
         "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall, "steps_per_s_this_run": 0.0, "resumes": 0,
         "interrupted": interrupted,

@@ -102,6 +102,27 @@ def test_bad_sensor_settings_name_themselves(kwargs, name):
         SensorConfig(**kwargs)
 
 
+@pytest.mark.parametrize("name", ["validation_points", "validation_load_steps"])
+def test_the_validation_sizes_are_set_in_the_recipe_and_checked(sensor_run, name):
+    from mdr_drive_agents.train.sensor import SensorRecipeConfig, load_config
+
+    from mdr_drive_agents.teacher.drive_table import DriveTable
+    from mdr_drive_agents.train.sensor import Validation
+
+    recipe = load_config(TINY)
+    out, res = sensor_run
+    assert (recipe.validation_points, recipe.validation_load_steps) == (6, 4)
+    picks = json.loads((out / "policy" / "run.json").read_text())["picks_from"]
+    assert (picks["validation_points"], picks["validation_load_steps"]) == (6, 4)
+    assert res["rounds"][0]["val_load_steps_scored"] <= 4
+    table = DriveTable.load(out / "drive_table.npz")
+    validation = Validation(recipe.sensor, table, recipe.validation_seed, 6, 4)
+    assert len(validation.points) == 6 and len(validation.steps) == 4
+    assert validation.velocities.shape == (6, len(table.drives))
+    with pytest.raises(ValueError, match=f"{name}=0 is outside"):
+        SensorRecipeConfig(seed=0, sensor=SensorConfig(), **{name: 0})
+
+
 @pytest.mark.parametrize("folder, says", [("no/such/folder", "is not a policy folder"),
                                           ("agents/pretrained/ppo_sensor_encoder", "is not a full-observation policy")])
 def test_a_table_searched_from_a_policy_that_cannot_be_told_the_truth_is_refused_in_one_line(tmp_path, capsys, folder,
