@@ -109,14 +109,14 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     lines = [f"Dense check of the sensor policy `{policy_path}`: {n_k} k values in [0, 0.6] x {n_loads} loads from 0 "
              f"to 0.4 of mu F_ref x {len(FRICTIONS)} friction pairs ({len(points)} points); closed loop in its own "
              f"env, mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}.", f"Command: `{command}`", "",
-             f"* points below the trapezoid by more than 0.05 mm/s (where either moves): **{int(below.sum())}** "
+             f"* points below the trapezoid by more than {BELOW_TOLERANCE * 1e3:g} mm/s (where either moves): **{int(below.sum())}** "
              f"({100.0 * below.mean():.2f} % of the grid); worst "
              + (f"{finite.min() * 1e3:.2f} mm/s" if finite.size else "none"),
              f"* points where its period velocity swings by more than {SWING_MM_S:g} mm/s over periods "
              f"{EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS} and it is slower than the trapezoid: "
              f"**{int(unstable.sum())}**",
              f"* points where neither moves forward and it slides back faster than the trapezoid by more than "
-             f"0.05 mm/s: **{int(back_faster.sum())}**; worst "
+             f"{BELOW_TOLERANCE * 1e3:g} mm/s: **{int(back_faster.sum())}**; worst "
              + (f"{gap[back_faster].min() * 1e3:.2f} mm/s" if back_faster.any() else "none"), ""]
     if rows:
         lines += ["| k | load / (mu F_ref) | mu | mu1 | trapezoid (mm/s) | policy (mm/s) | swing (mm/s) |",

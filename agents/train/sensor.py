@@ -185,8 +185,7 @@ class Validation:
     trapezoid, load steps recovered (``benchmarks.adaptation.recovery``), and its estimates'
     standardised errors over the periods after the first ``history``."""
 
-    def __init__(self, config: SensorConfig, table: DriveTable, seed: int, points: int = VALIDATION_POINTS,
-                 load_steps: int = VALIDATION_STEPS):
+    def __init__(self, config: SensorConfig, table: DriveTable, seed: int, points: int, load_steps: int):
         from ..benchmarks.load_steps import STEP_EPISODE_PERIODS, STEP_PERIOD
 
         self.config, self.table, self.seed = config, table, seed

@@ -102,12 +102,9 @@ def test_bad_sensor_settings_name_themselves(kwargs, name):
         SensorConfig(**kwargs)
 
 
-@pytest.mark.parametrize("name", ["validation_points", "validation_load_steps"])
-def test_the_validation_sizes_are_set_in_the_recipe_and_checked(sensor_run, name):
-    from mdr_drive_agents.train.sensor import SensorRecipeConfig, load_config
-
+def test_the_validation_sizes_of_the_recipe_reach_the_rounds_and_the_record(sensor_run):
     from mdr_drive_agents.teacher.drive_table import DriveTable
-    from mdr_drive_agents.train.sensor import Validation
+    from mdr_drive_agents.train.sensor import Validation, load_config
 
     recipe = load_config(TINY)
     out, res = sensor_run
@@ -119,6 +116,12 @@ def test_the_validation_sizes_are_set_in_the_recipe_and_checked(sensor_run, name
     validation = Validation(recipe.sensor, table, recipe.validation_seed, 6, 4)
     assert len(validation.points) == 6 and len(validation.steps) == 4
     assert validation.velocities.shape == (6, len(table.drives))
+
+
+@pytest.mark.parametrize("name", ["validation_points", "validation_load_steps"])
+def test_bad_validation_sizes_name_themselves(name):
+    from mdr_drive_agents.train.sensor import SensorRecipeConfig
+
     with pytest.raises(ValueError, match=f"{name}=0 is outside"):
         SensorRecipeConfig(seed=0, sensor=SensorConfig(), **{name: 0})
 
