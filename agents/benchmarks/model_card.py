@@ -384,6 +384,15 @@ def reused_note(command: str) -> str:
             if "--reuse" in command or "--resume" in command else "")
 
 
+
+def switch_note(sensor: dict) -> str:
+    """How a sensor policy's pick prices leaving its drive (``student.pick_rows``), from its settings."""
+    text = f" ({sensor['continuation']} x the squared distance from its previous action to the row's partner"
+    cost = sensor.get("play_switch_cost", 0.0)
+    if cost:
+        text += f", and {cost} for any row that does not continue the drive, added to the written policy after the rounds"
+    return text + ")"
+
 def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -> Path:
     """Copy the sensor policy in ``src`` to ``dst`` (as :func:`ship`) and write its card, which
     quotes its results from ``adaptation_json`` (``mdr-drive adaptation``)."""
@@ -435,7 +444,8 @@ With Stable-Baselines3 alone (paths from the repository's root):
   of the best drive found at {table['coverage']['points_moving']} draws where that moves (`teacher.DriveTable`).
 * Its network predicts, from the sensor history, what each row is worth at the hidden point (its
   steady velocity as a fraction of the table's best there, penalised below {picks['sensor']['knee']} of it and below
-  the trapezoid) and plays the row of the highest prediction: the best pick under what the sensor cannot
+  the trapezoid) and plays the row of the highest prediction, less the cost of leaving the drive it
+  plays{switch_note(picks['sensor'])}: the best pick under what the sensor cannot
   tell. Fitted by squared error on {picks['sensor']['episodes']} training draws, by DAgger: round 0 driven by the
   table's best drive told the hidden values, rounds 1-{picks['sensor']['rounds']} by the network itself
   (`student.DriveValueNetwork`). A second head estimates k, the load over mu F_ref, the load and mu1 / mu

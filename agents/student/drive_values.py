@@ -37,6 +37,8 @@ from .network import Student, adam_fit
 #: The action net's output is the pick's score over this: SB3's Categorical then picks the row of the
 #: highest score all but surely when it samples, as ``predict(deterministic=True)`` always does.
 TEMPERATURE = 0.01
+#: Two actions this close in every component are the same (the observation holds them as float32).
+SAME_ACTION = 1e-6
 
 
 class DriveValueTargets:
@@ -71,12 +73,36 @@ class DriveValueTargets:
         self.worth = np.clip(worth, -1.0, 1.0).astype(np.float32)
 
 
-def pick_rows(worth: np.ndarray, previous: np.ndarray, partners: np.ndarray, continuation: float) -> np.ndarray:
+def pick_rows(worth: np.ndarray, previous: np.ndarray, partners: np.ndarray, continuation: float,
+              switch_cost: float = 0.0) -> np.ndarray:
     """The rows (n,) played given each drive's worth (n, drives), the previous actions (n, 5) (zeros
     before the first) and each row's partner (2 drives, 5) (``DriveTable.partners``): the row of the
-    highest ``worth[drive] - continuation * |previous - partner|^2``."""
-    distance = ((np.asarray(previous, dtype=np.float64)[:, None, :] - partners[None, :, :]) ** 2).sum(axis=-1)
-    return np.argmax(np.repeat(worth, 2, axis=1) - continuation * distance, axis=1)
+    highest ``worth[drive] - continuation * |previous - partner|^2``, less ``switch_cost`` unless the
+    previous action is the row's partner (the row continues the drive just played)."""
+    previous = np.asarray(previous, dtype=np.float64)
+    distance = ((previous[:, None, :] - partners[None, :, :]) ** 2).sum(axis=-1)
+    score = np.repeat(worth, 2, axis=1) - continuation * distance
+    if switch_cost > 0.0:
+        score = score + switch_cost * continues(previous, partners)
+    return np.argmax(score, axis=1)
+
+
+def continues(previous: np.ndarray, partners: np.ndarray) -> np.ndarray:
+    """(n, rows) whether each row continues the drive of each previous action (n, 5): the previous
+    action is the row's partner (to float32's precision, as the observation holds it)."""
+    return np.all(np.abs(np.asarray(previous, dtype=np.float64)[:, None, :] - partners[None, :, :])
+                  <= SAME_ACTION, axis=-1)
+
+
+def row_key(partners: np.ndarray, tries: int = 2000) -> np.ndarray:
+    """A direction w (5,) that tells the distinct partner actions apart on one axis: of ``tries`` seeded
+    random directions (|w|_1 = 1), the one whose projections of the partners and of the zero action
+    (the previous action before the first period) are furthest apart at their closest pair."""
+    points = np.unique(np.vstack([np.asarray(partners, dtype=np.float64), np.zeros((1, partners.shape[1]))]), axis=0)
+    directions = np.random.default_rng(0).normal(size=(tries, points.shape[1]))
+    directions /= np.abs(directions).sum(axis=1, keepdims=True)
+    gaps = np.diff(np.sort(points @ directions.T, axis=0), axis=0).min(axis=0)
+    return directions[int(np.argmax(gaps))]
 
 
 class DriveValueNetwork:
@@ -107,6 +133,9 @@ class DriveValueNetwork:
         self.estimate_head = torch.nn.Linear(width, len(estimate_names))
         self.previous = list(range(obs_dim))[previous]
         self.continuation = float(continuation)
+        #: ``pick_rows``' switch cost: 0 while the rounds drive; the recipe sets its ``play_switch_cost``
+        #: before the network is merged.
+        self.switch_cost = 0.0
         self.estimate_names = tuple(estimate_names)
         self.mask = np.ones(obs_dim, dtype=np.float32)
         self.mask[list(ignored)] = 0.0
@@ -137,7 +166,8 @@ class DriveValueNetwork:
 
     def act(self, x: np.ndarray) -> np.ndarray:
         """The rows (n,) it plays: ``pick_rows`` on its predicted worth and the observed previous action."""
-        return pick_rows(self.predicted_worth(x), x[:, self.previous], self.partners, self.continuation)
+        return pick_rows(self.predicted_worth(x), x[:, self.previous], self.partners, self.continuation,
+                         self.switch_cost)
 
     def estimates(self, x: np.ndarray) -> np.ndarray:
         """The estimates (n, e) of the hidden entries, in the privileged observation's units."""
@@ -206,13 +236,34 @@ class DriveValueNetwork:
         est.scales = self.scales
         return est
 
+    def _switch_units(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What the merged policy adds for the switch cost (none without one): a direction ``key`` (5,)
+        that tells the distinct partners apart (``row_key``), the knots of its hat functions (the sorted
+        projections of the partners and of the zero action, and one beyond each end), and each row's
+        weights (rows, knots) on the units relu(key . a - knot): the hat that is 1 where the previous
+        action a projects onto the row's partner and 0 from the neighbouring projections on."""
+        if self.switch_cost == 0.0:
+            return np.zeros(len(self.previous)), np.zeros(0), np.zeros((len(self.partners), 0))
+        key = row_key(self.partners)
+        centres = np.unique(np.append(self.partners @ key, 0.0))
+        knots = np.concatenate([[centres[0] - 1.0], centres, [centres[-1] + 1.0]])
+        hats = np.zeros((len(self.partners), len(knots)))
+        for r, v in enumerate(self.partners @ key):
+            i = int(np.argmin(np.abs(knots - v)))
+            left, right = knots[i] - knots[i - 1], knots[i + 1] - knots[i]
+            hats[r, i - 1], hats[r, i], hats[r, i + 1] = 1.0 / left, -1.0 / left - 1.0 / right, 1.0 / right
+        return key, knots, hats
+
     def policy(self, env_kwargs: dict, rows: np.ndarray, seed: int = 0) -> Student:
         """One SB3 PPO ``MlpPolicy`` over ``MDRDriveSensor-v0(**env_kwargs, action_codebook=rows)`` whose
         most likely action is :meth:`act`'s row: its ``VecNormalize`` standardises as the network does;
         its policy layers are the trunk (the ignored entries' weights zeroed), each with ten more units
         that carry the previous action (relu(a) and relu(-a)); its action net gives each row its drive's
         worth less the continuation term, over ``TEMPERATURE`` (the previous action's own square, the same
-        for every row, left out)."""
+        for every row, left out). With a ``switch_cost``, the layers also carry the previous action's
+        projection on a key direction, and the last holds units that tell which row it was
+        (``_switch_units``); the action net adds the cost to the rows that continue it (the same pick as
+        the cost taken from every other row)."""
         import torch
         from stable_baselines3 import PPO
         from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
@@ -226,8 +277,14 @@ class DriveValueNetwork:
         venv.obs_rms.count = 1e6
         src = self._trunk_layers()
         k = len(self.previous)
+        key, knots, hats = self._switch_units()
+        n_knots = len(knots)
+        # the switch cost's units: the key's projection of the previous action, relu(s) and relu(-s), carried
+        # to the last layer, which holds relu(s - knot) for every knot
+        extra = [(2 if i < len(src) - 1 else n_knots) if n_knots else 0 for i in range(len(src))]
         model = PPO("MlpPolicy", venv, seed=seed, device="cpu",
-                    policy_kwargs={"net_arch": {"pi": [m.out_features + 2 * k for m in src], "vf": [64, 64]},
+                    policy_kwargs={"net_arch": {"pi": [m.out_features + 2 * k + e for m, e in zip(src, extra)],
+                                                "vf": [64, 64]},
                                    "activation_fn": torch.nn.ReLU},
                     **{key: v for key, v in FINE_TUNE_PPO.items() if key != "n_envs"})
         dst = [m for m in model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
@@ -249,6 +306,17 @@ class DriveValueNetwork:
                     else:
                         prev_h = src[i - 1].out_features
                         w[h + j, prev_h + j] = w[h + k + j, prev_h + k + j] = 1.0
+                last = i == len(src) - 1
+                for q in range(extra[i]):  # relu(+-s) or, in the last layer, relu(s - knot q)
+                    sign, shift = (1.0, knots[q]) if last else ((1.0, -1.0)[q], 0.0)
+                    if i == 0:  # s = key . a, from the standardised observation
+                        for j in range(k):
+                            w[h + 2 * k + q, self.previous[j]] = sign * key[j] * s_prev[j]
+                        bias[h + 2 * k + q] = sign * float(np.dot(key, m_prev.numpy())) - shift
+                    else:  # from the carried relu(s) and relu(-s)
+                        col = src[i - 1].out_features + 2 * k
+                        w[h + 2 * k + q, col:col + 2] = torch.tensor([1.0, -1.0]) if last else torch.eye(2)[q]
+                        bias[h + 2 * k + q] = -shift
                 b.weight.copy_(w)
                 b.bias.copy_(bias)
             drive = np.repeat(np.arange(len(self.partners) // 2), 2)
@@ -259,10 +327,12 @@ class DriveValueNetwork:
             w[:, :h] = self.worth.weight.double()[drive]
             w[:, h:h + k] = 2.0 * c * partners  # -c |a - p|^2 = 2c a.p - c |p|^2 - c |a|^2
             w[:, h + k:h + 2 * k] = -2.0 * c * partners
+            if n_knots:  # the switch cost, as a bonus for the row whose partner is the previous action
+                w[:, h + 2 * k:] = self.switch_cost * torch.as_tensor(hats, dtype=torch.float64)
             bias = self.worth.bias.double()[drive] - c * (partners ** 2).sum(dim=1)
             model.policy.action_net.weight.copy_(w / TEMPERATURE)
             model.policy.action_net.bias.copy_(bias / TEMPERATURE)
         return Student(model, venv, codebook=np.asarray(rows))
 
 
-__all__ = ["DriveValueNetwork", "DriveValueTargets", "TEMPERATURE", "pick_rows"]
+__all__ = ["DriveValueNetwork", "DriveValueTargets", "SAME_ACTION", "TEMPERATURE", "continues", "pick_rows", "row_key"]

@@ -86,7 +86,11 @@ class SensorConfig:
         continuation: ``student.pick_rows``' weight: a row costs this times the squared distance between the
             previous action and its partner, so that a cycle's actions alternate and another drive is started
             only where it is worth more by that margin (-).
-        knee: ``DriveValueTargets.knee`` (-).
+        play_switch_cost: ``student.pick_rows``' switch cost in the policy as written (the rounds drive
+            without it): a row that does not continue the drive just played costs this besides (-). The
+            continuation term prices a switch by how far the actions are apart, so between two good drives
+            whose actions lie close it costs almost nothing; yet each switch breaks a cycle, and a pick that
+            hops between such drives every period can drive far below either.
         shortfall_weight: ``DriveValueTargets.shortfall_weight`` (-).
         below_weight: ``DriveValueTargets.below_weight`` (-).
         torch_threads: torch threads of the fits (-).
@@ -110,6 +114,7 @@ class SensorConfig:
     learning_rate: float = 1e-3
     estimate_weight: float = 0.2
     continuation: float = 0.02
+    play_switch_cost: float = 0.0
     knee: float = 0.85
     shortfall_weight: float = 1.0
     below_weight: float = 5.0
@@ -128,7 +133,7 @@ class SensorConfig:
         if not (isinstance(lo, int) and isinstance(hi, int) and 1 <= lo <= hi <= self.periods - 1):
             raise ValueError(f"load_step_periods={self.load_step_periods!r} is outside the allowed range "
                              f"1 <= first <= last <= periods - 1 = {self.periods - 1}")
-        for name in ("load_step_share", "explore", "continuation", "knee"):
+        for name in ("load_step_share", "explore", "continuation", "knee", "play_switch_cost"):
             check_range(name, getattr(self, name), 0.0, 1.0)
         for name in ("estimate_weight", "shortfall_weight", "below_weight"):
             check_range(name, getattr(self, name), 0.0, 100.0)
@@ -368,6 +373,7 @@ def _run(config_path, out: Path, recipe: SensorRecipeConfig, config: SensorConfi
         config, table, recipe.validation_seed, recipe.validation_points, recipe.validation_load_steps)
     network, history, interrupted = train(config, table, index, step, velocities, recipe.seed, validate, progress)
     env_kwargs = sensor_env_kwargs(config)
+    network.switch_cost = config.play_switch_cost
     student = network.policy(env_kwargs, table.rows, recipe.seed)
     check = merge_check(student, network, config, table, recipe.seed)
     _log(check)

@@ -51,6 +51,14 @@ def test_the_pick_plays_a_cycles_actions_in_turn_and_switches_only_for_a_margin(
     assert pick_rows(close, ROWS[[2]], PARTNERS, 0.0)[0] == 2  # no continuation: the better drive, either action
 
 
+def test_a_switch_cost_keeps_the_drive_just_played_unless_another_is_worth_more_by_it():
+    worth = np.array([[0.55, 0.5, 0.0]])  # the trapezoid a little better than the cycle, whose push was just played
+    assert pick_rows(worth, ROWS[[2]], PARTNERS, 0.0)[0] == 0
+    assert pick_rows(worth, ROWS[[2]], PARTNERS, 0.0, switch_cost=0.1)[0] == 3  # the cycle goes on: its clamp
+    assert pick_rows(worth, ROWS[[2]], PARTNERS, 0.0, switch_cost=0.01)[0] == 0  # not worth 0.05 less
+    assert pick_rows(worth, np.full((1, 5), 0.5), PARTNERS, 0.0, switch_cost=0.1)[0] == 0  # nothing to continue
+
+
 def network(obs_dim, seed=0) -> DriveValueNetwork:
     return DriveValueNetwork(obs_dim, PARTNERS, slice(1, 6), 0.002, ("k", "friction_ratio"), (16, 16), seed=seed,
                              ignored=(obs_dim - 1,))
@@ -79,7 +87,8 @@ def test_the_network_learns_each_drives_worth_from_observations_and_ignores_the_
     assert np.abs(net.estimates(x)[:, 0] - point * 0.3).mean() < 0.05
 
 
-def test_the_sb3_policy_and_the_estimator_compute_the_network_exactly(tmp_path):
+@pytest.mark.parametrize("switch_cost, arch", [(0.0, (8, 8)), (0.3, (8, 8)), (0.3, (8,)), (0.3, (8, 8, 8))])
+def test_the_sb3_policy_and_the_estimator_compute_the_network_exactly(tmp_path, switch_cost, arch):
     import gymnasium as gym
 
     import mdr_drive_env  # noqa: F401
@@ -89,13 +98,16 @@ def test_the_sb3_policy_and_the_estimator_compute_the_network_exactly(tmp_path):
     structure = env.unwrapped.observation_structure
     d = env.observation_space.shape[0]
     newest = slice(structure["actions"].start, structure["actions"].start + 5)
-    net = DriveValueNetwork(d, PARTNERS, newest, 0.05, ("k", "friction_ratio"), (8, 8), seed=1,
+    net = DriveValueNetwork(d, PARTNERS, newest, 0.05, ("k", "friction_ratio"), arch, seed=1,
                             ignored=(structure["episode_fraction"].start,))
     rng = np.random.default_rng(4)
     x = rng.normal(size=(400, d)).astype(np.float32)
     x[:, newest] = ROWS[rng.integers(0, 6, 400)]  # previous actions from the table, as the env shows them
     x[:100, newest] = 0.0  # and none, in an episode's first period
     net.standardise_with(x, rng.normal(size=(400, 2)))
+    net.switch_cost = switch_cost
+    if switch_cost:  # the cost decides some picks here
+        assert np.any(net.act(x) != pick_rows(net.predicted_worth(x), x[:, newest], PARTNERS, 0.05))
     student = net.policy({"history": 2}, ROWS)
     assert student.model.action_space.n == 6
     np.testing.assert_array_equal(student.codebook_index(student.act(x)) // 2, net.act(x) // 2)  # the same drive
@@ -103,6 +115,6 @@ def test_the_sb3_policy_and_the_estimator_compute_the_network_exactly(tmp_path):
     est = net.estimator()
     est.save(tmp_path / "e.npz")
     np.testing.assert_allclose(Estimator.load(tmp_path / "e.npz")(x), net.estimates(x), rtol=1e-5, atol=1e-5)
-    again = DriveValueNetwork(d, PARTNERS, newest, 0.05, ("k", "friction_ratio"), (8, 8), seed=2)
+    again = DriveValueNetwork(d, PARTNERS, newest, 0.05, ("k", "friction_ratio"), arch, seed=2)
     again.load_state(net.state())
     np.testing.assert_array_equal(again.predicted_worth(x), net.predicted_worth(x))

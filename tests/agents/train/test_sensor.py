@@ -96,7 +96,8 @@ def test_reuse_needs_a_folder_with_a_drive_table(tmp_path, capsys):
                                           ({"load_step_periods": (5, 40)}, "load_step_periods"),
                                           ({"arch": ()}, "arch"), ({"rounds": -1}, "rounds"),
                                           ({"continuation": 1.5}, "continuation"),
-                                          ({"learning_rate": 0.0}, "learning_rate")])
+                                          ({"learning_rate": 0.0}, "learning_rate"),
+                                          ({"play_switch_cost": -0.1}, "play_switch_cost")])
 def test_bad_sensor_settings_name_themselves(kwargs, name):
     with pytest.raises(ValueError, match=name):
         SensorConfig(**kwargs)
@@ -245,3 +246,13 @@ def test_ctrl_c_keeps_the_policy_of_the_last_finished_round(tmp_path, monkeypatc
     env = policy.make_env()
     obs, _ = env.reset(seed=0)
     assert 0 <= policy.predict(obs) < env.action_space.n
+
+
+def test_the_play_switch_cost_reaches_the_merged_policy_and_its_record(tmp_path):
+    tiny = tmp_path / "switch.yaml"
+    tiny.write_text(TINY.read_text().replace("  rounds: 1\n", "  rounds: 1\n  play_switch_cost: 0.2\n"))
+    out = tmp_path / "out"
+    assert main(["train-sensor", str(tiny), "--out", str(out), "--no-progress", "--workers", "1"]) == 0
+    run = json.loads((out / "policy" / "run.json").read_text())
+    assert run["picks_from"]["sensor"]["play_switch_cost"] == 0.2
+    assert run["picks_from"]["merged"]["merge_rows_differ"] == 0  # the SB3 policy picks as the network with the cost
