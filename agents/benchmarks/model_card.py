@@ -384,7 +384,6 @@ def reused_note(command: str) -> str:
             if "--reuse" in command or "--resume" in command else "")
 
 
-
 def switch_note(sensor: dict) -> str:
     """How a sensor policy's pick prices leaving its drive (``student.pick_rows``), from its settings."""
     text = f" ({sensor['continuation']} x the squared distance from its previous action to the row's partner"
@@ -392,6 +391,7 @@ def switch_note(sensor: dict) -> str:
     if cost:
         text += f", and {cost} for any row that does not continue the drive, added to the written policy after the rounds"
     return text + ")"
+
 
 def ship_sensor(src: str | Path, dst: str | Path, adaptation_json: str | Path) -> Path:
     """Copy the sensor policy in ``src`` to ``dst`` (as :func:`ship`) and write its card, which

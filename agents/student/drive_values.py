@@ -79,19 +79,11 @@ def pick_rows(worth: np.ndarray, previous: np.ndarray, partners: np.ndarray, con
     before the first) and each row's partner (2 drives, 5) (``DriveTable.partners``): the row of the
     highest ``worth[drive] - continuation * |previous - partner|^2``, less ``switch_cost`` unless the
     previous action is the row's partner (the row continues the drive just played)."""
-    previous = np.asarray(previous, dtype=np.float64)
-    distance = ((previous[:, None, :] - partners[None, :, :]) ** 2).sum(axis=-1)
-    score = np.repeat(worth, 2, axis=1) - continuation * distance
-    if switch_cost > 0.0:
-        score = score + switch_cost * continues(previous, partners)
+    gap = np.asarray(previous, dtype=np.float64)[:, None, :] - partners[None, :, :]
+    score = np.repeat(worth, 2, axis=1) - continuation * (gap ** 2).sum(axis=-1)
+    if switch_cost > 0.0:  # the rows whose partner is the previous action (to float32's precision) continue
+        score = score + switch_cost * np.all(np.abs(gap) <= SAME_ACTION, axis=-1)
     return np.argmax(score, axis=1)
-
-
-def continues(previous: np.ndarray, partners: np.ndarray) -> np.ndarray:
-    """(n, rows) whether each row continues the drive of each previous action (n, 5): the previous
-    action is the row's partner (to float32's precision, as the observation holds it)."""
-    return np.all(np.abs(np.asarray(previous, dtype=np.float64)[:, None, :] - partners[None, :, :])
-                  <= SAME_ACTION, axis=-1)
 
 
 def row_key(partners: np.ndarray, tries: int = 2000) -> np.ndarray:
@@ -245,11 +237,11 @@ class DriveValueNetwork:
         if self.switch_cost == 0.0:
             return np.zeros(len(self.previous)), np.zeros(0), np.zeros((len(self.partners), 0))
         key = row_key(self.partners)
-        centres = np.unique(np.append(self.partners @ key, 0.0))
+        projections = self.partners @ key
+        centres = np.unique(np.append(projections, 0.0))
         knots = np.concatenate([[centres[0] - 1.0], centres, [centres[-1] + 1.0]])
         hats = np.zeros((len(self.partners), len(knots)))
-        for r, v in enumerate(self.partners @ key):
-            i = int(np.argmin(np.abs(knots - v)))
+        for r, i in enumerate(np.searchsorted(knots, projections)):  # each projection is a knot
             left, right = knots[i] - knots[i - 1], knots[i + 1] - knots[i]
             hats[r, i - 1], hats[r, i], hats[r, i + 1] = 1.0 / left, -1.0 / left - 1.0 / right, 1.0 / right
         return key, knots, hats
@@ -335,4 +327,4 @@ class DriveValueNetwork:
         return Student(model, venv, codebook=np.asarray(rows))
 
 
-__all__ = ["DriveValueNetwork", "DriveValueTargets", "SAME_ACTION", "TEMPERATURE", "continues", "pick_rows", "row_key"]
+__all__ = ["DriveValueNetwork", "DriveValueTargets", "SAME_ACTION", "TEMPERATURE", "pick_rows", "row_key"]

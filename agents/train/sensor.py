@@ -91,6 +91,7 @@ class SensorConfig:
             continuation term prices a switch by how far the actions are apart, so between two good drives
             whose actions lie close it costs almost nothing; yet each switch breaks a cycle, and a pick that
             hops between such drives every period can drive far below either.
+        knee: ``DriveValueTargets.knee`` (-).
         shortfall_weight: ``DriveValueTargets.shortfall_weight`` (-).
         below_weight: ``DriveValueTargets.below_weight`` (-).
         torch_threads: torch threads of the fits (-).
