@@ -204,6 +204,15 @@ class DriveDescription:
         return dataclasses.replace(params, contact=dataclasses.replace(
             params.contact, friction_coefficient=float(friction[0]), base_friction_coefficient=float(friction[1])))
 
+    @property
+    def nominal_friction(self) -> tuple[float, float]:
+        """(mu, mu1), the friction coefficients the drive is evaluated at unless told otherwise (-): each
+        as the drive sets it, the middle of its range where it is drawn per episode (a sensor policy's
+        drive: ``MDRDriveSensor-v0``'s ranges are centred on the paper's 0.3 and 0.1)."""
+        env = template(self.settings)
+        return (round(float(np.mean(env.friction_range)), 12),
+                round(float(np.mean(env.base_friction_range)), 12))
+
     def reference_force(self, k: float, friction_coefficient: float | None = None) -> float:
         """mu F_ref (N) at k: the largest friction force the contact transmits at the full z stroke."""
         env = template(self.settings)

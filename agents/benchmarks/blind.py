@@ -159,9 +159,10 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     if reference not in REFERENCES:
         raise ValueError(f"reference={reference!r} is not one of {list(REFERENCES)}")
     strong = REFERENCES[reference] if not quick or REFERENCES[reference] is None else QUICK_STRONG
-    if quick:
-        fixed_budget, cycle_budget, scan_ks, iterations = (QUICK[key] for key in
-                                                           ("fixed_budget", "cycle_budget", "scan_ks", "iterations"))
+    if quick:  # a scan turned off (scan_ks 0) stays off
+        fixed_budget, cycle_budget, quick_ks, iterations = (QUICK[key] for key in
+                                                            ("fixed_budget", "cycle_budget", "scan_ks", "iterations"))
+        scan_ks = min(scan_ks, quick_ks)
     executor = executor or Executor(workers=workers)
     out = Path(out)
     tasks = task_folder(out, resume)
@@ -205,6 +206,8 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
     if previous:
         old = previous["critical_load_kg"]
         ks, crit_trap, crit_cycle = old["k"], np.array(old["trapezoid"]), old["best cycle"]
+    elif scan_ks == 0:  # no critical-load scan: the points alone
+        ks, crit_trap, crit_cycle = [], np.array([]), []
     else:
         ks = scan_k_values(scan_ks, seed if scan_draw else None, drive.k_range)
         crit_trap = trapezoid_critical_load(ks, drive)
@@ -256,10 +259,13 @@ def markdown(res: dict) -> str:
         lines.append(f"| {k:.3f} | {m:.4f} | {format_velocity(res['trapezoid'][i])} | "
                      f"{format_velocity(b['velocity'])} ({b['kind']}) | " + " | ".join(cells) + " |")
     crit = res["critical_load_kg"]
-    lines += ["", f"Critical load (kg) per k (k {res.get('scan', EVEN_SCAN)}; best cycle: bisection with CMA-ES at "
-              "every trial load):", "",
-              "| k | trapezoid | best cycle | " + " | ".join(f"policy {i + 1}" for i in range(len(res["policies"])))
-              + " |", "|---|---|---|" + "---|" * len(res["policies"])]
+    if crit["k"]:
+        lines += ["", f"Critical load (kg) per k (k {res.get('scan', EVEN_SCAN)}; best cycle: bisection with CMA-ES "
+                  "at every trial load):", "",
+                  "| k | trapezoid | best cycle | " + " | ".join(f"policy {i + 1}" for i in range(len(res["policies"])))
+                  + " |", "|---|---|---|" + "---|" * len(res["policies"])]
+    else:
+        lines += ["", "No critical-load scan (--scan-ks 0)."]
     for i, k in enumerate(crit["k"]):
         lines.append(f"| {k:g} | {crit['trapezoid'][i]:.4f} | {crit['best cycle'][i]:.4f} | "
                      + " | ".join(f"{crit[p][i]:.4f}" for p in res["policies"]) + " |")
@@ -273,14 +279,20 @@ def markdown(res: dict) -> str:
                      f"({s['points_scored']} points): mean {_f(s['fraction_of_best_mean'])}, min "
                      f"{_f(s['fraction_of_best_min'])}, {s['points_under_fraction_target']} under "
                      f"{FRACTION_TARGET:g}; normalised score (0 the trapezoid, 1 the best drive; 95 % bootstrap "
-                     f"intervals): {format_aggregate(s.get('normalized_score'))}; critical load / best cycle's: min "
-                     f"{_f(s['critical_load_over_best_cycle_min'])}, >= {CRITICAL_LOAD_TARGET:g} at "
-                     f"{s['k_values_at_critical_load_target']} of {len(s['critical_load_over_best_cycle'])} k; "
-                     f"/ trapezoid's: "
-                     f"{min(ratios) if ratios else float('nan'):.3f}-{max(ratios) if ratios else float('nan'):.3f}; "
-                     f"targets missed: {', '.join(missed_targets(s)) or 'none'}")
+                     f"intervals): {format_aggregate(s.get('normalized_score'))}; " + _critical_text(s, ratios)
+                     + f"; targets missed: {', '.join(missed_targets(s)) or 'none'}")
     lines += ["", f"wall time {res['wall_time_s']} s"]
     return "\n".join(lines) + "\n"
+
+
+def _critical_text(s: dict, ratios: list[float]) -> str:
+    """The critical-load part of a policy's statistics line (``markdown``)."""
+    if not s["critical_load_over_best_cycle"]:
+        return "critical load: not scanned"
+    return (f"critical load / best cycle's: min {_f(s['critical_load_over_best_cycle_min'])}, >= "
+            f"{CRITICAL_LOAD_TARGET:g} at {s['k_values_at_critical_load_target']} of "
+            f"{len(s['critical_load_over_best_cycle'])} k; / trapezoid's: "
+            + (f"{min(ratios):.3f}-{max(ratios):.3f}" if ratios else "-"))
 
 
 def _f(x) -> str:

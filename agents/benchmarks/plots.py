@@ -128,7 +128,16 @@ def plot_blind(res: dict, out: str | Path, moving_threshold: float) -> None:
     out = Path(out)
     names = [f"policy {i + 1}" for i in range(len(res["policies"]))]
     crit = res["critical_load_kg"]
+    if crit["k"]:  # no scan (--scan-ks 0): no critical-load figure
+        plot_blind_critical_loads(res, names, out)
+    plot_fraction_of_best(res, names, out, moving_threshold)
 
+
+def plot_blind_critical_loads(res: dict, names: list[str], out: Path) -> None:
+    """A blind benchmark's critical loads against the scanned k (``critical_load_vs_k.png``)."""
+    import matplotlib.pyplot as plt
+
+    crit = res["critical_load_kg"]
     fig, ax = plt.subplots(figsize=(7, 4.2))
     ax.plot(crit["k"], crit["best cycle"], "-s", ms=3, color="k", label="best two-action cycle found")
     ax.plot(crit["k"], crit["trapezoid"], "-o", ms=3, color="0.5", label="trapezoid")
@@ -141,6 +150,11 @@ def plot_blind(res: dict, out: str | Path, moving_threshold: float) -> None:
     fig.tight_layout()
     save_figure(fig, out / "critical_load_vs_k.png")
     plt.close(fig)
+
+
+def plot_fraction_of_best(res: dict, names: list[str], out: Path, moving_threshold: float) -> None:
+    """A blind benchmark's velocities as fractions of the best drive at its points (``fraction_of_best.png``)."""
+    import matplotlib.pyplot as plt
 
     best = nan_array([b["velocity"] for b in res["best"]])
     fig, ax = plt.subplots(figsize=(7, 4.2))

@@ -39,8 +39,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     b.add_argument("--blind", type=positive_int, default=None, metavar="N",
                    help="draw N (k, load) points with --seed instead of the fixed grid (-)")
     b.add_argument("--seed", type=int, default=None, help="seed of the blind points (-); required with --blind")
-    b.add_argument("--scan-ks", type=int_range(2), default=25,
-                   help="k values of the critical-load scan, evenly spaced in [0, 0.6] (-)")
+    b.add_argument("--scan-ks", type=int_range(0), default=25,
+                   help="k values of the critical-load scan, evenly spaced over the drive's k range (-); 0: no scan, "
+                        "the points alone (a 4-point run then takes seconds)")
     b.add_argument("--scan-draw", action="store_true",
                    help="draw the scan's k values with --seed, one uniform k in each of --scan-ks equal cells of "
                         "[0, 0.6], instead of spacing them evenly (the same for every seed): the critical-load "

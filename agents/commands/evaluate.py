@@ -33,10 +33,16 @@ from ..protocol import (
     upper_mass,
 )
 
+#: The options (and env keywords) of the friction pair: indenter-slider mu, slider-base mu1.
+FRICTION_OPTIONS = ("friction_coefficient", "base_friction_coefficient")
+
 HELP = "a trained policy against the trapezoid at given points"
 DESCRIPTION = ("Steady velocities (or critical loads) of a policy and of the paper's trapezoid at given points, by the "
                "evaluation protocol (30 periods, the mean of the last 10): text, or JSON in SI units. A policy plays "
-               "on the drive it was built for (its run.json), and so does the trapezoid it is compared with.")
+               "on the drive it was built for (its run.json), and so does the trapezoid it is compared with, at the "
+               "drive's nominal friction pair unless --friction-coefficient or --base-friction-coefficient names "
+               "another (a sensor policy trained on drawn friction included). Points, load steps and friction "
+               "outside what the policy was trained on are played, with a warning.")
 
 
 def load_step_type(text: str) -> tuple[int, float]:
@@ -80,9 +86,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import int_range
 
     p.add_argument("--friction-coefficient", type=float, default=None,
-                   help="indenter-slider friction mu, > 0 (-); default: the paper's 0.3")
+                   help="indenter-slider friction mu, > mu1 (-); default: the drive's nominal value (the paper "
+                        "drive's 0.3; the middle of a trained range), whatever the policy was trained on")
     p.add_argument("--base-friction-coefficient", type=float, default=None,
-                   help="slider-base friction mu1, >= 0 (-); default: the paper's 0.1")
+                   help="slider-base friction mu1, >= 0 and < mu (-); default: the drive's nominal value (the "
+                        "paper drive's 0.1; the middle of a trained range)")
     p.add_argument("--periods", type=int_range(AVERAGE_PERIODS, 100_000), default=EVAL_PERIODS,
                    help=f"periods per run; the steady velocity is the mean of the last {AVERAGE_PERIODS} (-)")
     p.add_argument("--load-step", type=load_step_type, default=None, metavar="PERIOD:MASS",
@@ -95,12 +103,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def trained_range_warnings(run: dict, points, friction: dict | None = None,
                            drive: DriveDescription = PAPER_DRIVE) -> list[str]:
-    """Warnings for points outside the k and load-ratio ranges the policy was trained on (run.json),
-    and for friction coefficients (``friction``: option name -> value) it was not trained with, on ``drive``."""
+    """Warnings for (k, cargo mass kg) ``points`` outside the k and load ranges the policy was trained
+    on (run.json), and for friction coefficients (``friction``: option name -> value) it was not
+    trained with, on ``drive``. Its loads are fractions of mu F_ref (``load_ratio``), so the largest
+    trained mass at a point is taken at the mu played there (``friction``, else the drive's nominal)."""
     env = run.get("env_kwargs", {})
     k_range = env.get("k")
     warnings = []
-    defaults = {"friction_coefficient": 0.3, "base_friction_coefficient": 0.1}  # the env's
+    defaults = dict(zip(FRICTION_OPTIONS, PAPER_DRIVE.nominal_friction))  # the env's
     for name, value in (friction or {}).items():
         trained = env.get(name, defaults[name])
         low, high = (trained, trained) if np.ndim(trained) == 0 else trained
@@ -114,12 +124,30 @@ def trained_range_warnings(run: dict, points, friction: dict | None = None,
                             f"[{k_range[0]:g}, {k_range[1]:g}]")
     ratio = env.get("load_ratio")
     if isinstance(ratio, (list, tuple)) and len(ratio) == 2:
+        mu = (friction or {}).get("friction_coefficient", drive.nominal_friction[0])
         for k, m in points:
-            hi = ratio[1] * upper_mass(k, drive) / 0.8  # upper_mass is 0.8 of mu F_ref / g
+            hi = ratio[1] * drive.reference_force(k, mu) / drive.params(k, 0.0).drive.gravity
             if m > hi * (1 + 1e-9):
                 warnings.append(f"m = {m:g} kg at k = {k:g} is above the trained loads (load ratio <= "
-                                f"{ratio[1]:g}, i.e. m <= {hi:.4g} kg)")
+                                f"{ratio[1]:g} of mu F_ref at mu {mu:g}, i.e. m <= {hi:.4g} kg)")
     return warnings
+
+
+def friction_played(args: argparse.Namespace, drive: DriveDescription) -> dict:
+    """The friction pair a run plays (option name -> value): each coefficient as given, else the drive's
+    nominal one (``DriveDescription.nominal_friction``). ``ValueError`` for a pair no drive moves
+    under (mu <= mu1), as a drive file refuses it."""
+    given = {name: getattr(args, name) for name in FRICTION_OPTIONS if getattr(args, name) is not None}
+    friction = {**dict(zip(FRICTION_OPTIONS, drive.nominal_friction)), **given}
+    mu, mu1 = (friction[name] for name in FRICTION_OPTIONS)
+    if not (np.isfinite(mu) and np.isfinite(mu1) and mu1 >= 0.0):
+        raise ValueError(f"--friction-coefficient {mu:g} and --base-friction-coefficient {mu1:g} must be finite, "
+                         "mu1 >= 0")
+    if mu <= mu1:
+        raise ValueError(f"--friction-coefficient {mu:g} must exceed --base-friction-coefficient {mu1:g}: the base "
+                         "holds the slider with mu1 times the normal force and the contact pulls it with at most mu "
+                         "times it, so no drive moves it forward")
+    return friction
 
 
 def _velocity_record(k, m, drive: DriveDescription, learned, trapezoid, last_action,
@@ -165,14 +193,17 @@ def main(args: argparse.Namespace) -> int:
     if args.variant != "as-specified":
         drive = drive.with_settings(variant=args.variant)
     env_kwargs = policy.play_kwargs
-    friction = {name: getattr(args, name) for name in ("friction_coefficient", "base_friction_coefficient")
-                if getattr(args, name) is not None}
-    for warning in trained_range_warnings(policy.run, points if not args.critical_load else [], friction, drive):
-        print(f"mdr-drive evaluate: warning: {warning}", file=sys.stderr)
+    friction = friction_played(args, drive)  # as given, else the drive's nominal pair: never drawn
+    explicit = any(getattr(args, name) is not None for name in FRICTION_OPTIONS)
     if args.load_step is not None and args.load_step[0] >= args.periods:
         raise ValueError(f"--load-step period {args.load_step[0]} is not before the last of --periods {args.periods}")
+    stepped = [] if args.load_step is None else [(k, args.load_step[1]) for k, _ in points]
+    for warning in trained_range_warnings(policy.run, ([] if args.critical_load else points) + stepped, friction,
+                                          drive):
+        print(f"mdr-drive evaluate: warning: {warning}", file=sys.stderr)
+    pair = f"mu {friction['friction_coefficient']:g}, mu1 {friction['base_friction_coefficient']:g}"
     shaped = [key for key in env_kwargs if key in OBSERVATION_KEYS]  # a sensor or privileged observation
-    single_env = bool(shaped or friction or args.load_step or args.periods != EVAL_PERIODS)
+    single_env = bool(shaped or explicit or args.load_step or args.periods != EVAL_PERIODS)
     if args.critical_load and single_env:
         raise ValueError("--critical-load uses the fixed protocol: without --friction-coefficient, "
                          "--base-friction-coefficient, --load-step, --periods, and for full-observation policies")
@@ -180,9 +211,9 @@ def main(args: argparse.Namespace) -> int:
         learned = critical_loads(ks, lambda pts: policy_velocity(policy, pts, drive=drive), drive)
         trap = trapezoid_critical_load(ks, drive)
         records = [{"k": k, "critical_load_learned": learned[k], "critical_load_trapezoid": float(t),
-                    "variant": args.variant, "drive": drive.name} for k, t in zip(ks, trap)]
-        text = [f"k = {r['k']:g}: critical load learned {r['critical_load_learned']:.4f} kg, "
-                f"trapezoid {r['critical_load_trapezoid']:.4f} kg" for r in records]
+                    "variant": args.variant, "drive": drive.name, **friction} for k, t in zip(ks, trap)]
+        text = [f"k = {r['k']:g}: critical load policy {r['critical_load_learned']:.4f} kg, "
+                f"trapezoid {r['critical_load_trapezoid']:.4f} kg ({pair})" for r in records]
     else:
         if single_env:  # one single env per run: sensor policies, other frictions, load steps
             kw = {**env_kwargs, **friction}
@@ -196,9 +227,10 @@ def main(args: argparse.Namespace) -> int:
             learned = steady_velocity_of(v_learned * drive.period, runaway=[r[0][2] for r in runs], period=drive.period)
             trapezoid = steady_velocity_of(v_trap * drive.period, runaway=[r[1][2] for r in runs], period=drive.period)
         else:
-            disp, acts, runaway = policy_rollout(policy, points, drive=drive)
+            at = [(k, m, *friction.values()) for k, m in points]  # (k, m, mu, mu1): the pair played, not drawn
+            disp, acts, runaway = policy_rollout(policy, at, drive=drive)
             learned = steady_velocity_of(disp, runaway=runaway, period=drive.period)
-            disp_trap, runaway_trap = open_loop_displacements(points, trapezoid_action(drive), drive=drive)
+            disp_trap, runaway_trap = open_loop_displacements(at, trapezoid_action(drive), drive=drive)
             trapezoid = steady_velocity_of(disp_trap, runaway=runaway_trap, period=drive.period)
             v_learned, v_trap = disp / drive.period, disp_trap / drive.period
         quantum = float(env_kwargs.get("time_quantum", TIME_QUANTUM))
@@ -209,8 +241,10 @@ def main(args: argparse.Namespace) -> int:
             r["trapezoid_period_velocity"] = v_trap[:, i].tolist()
             r.update(periods=args.periods, load_step=args.load_step, **friction)
             r["protocol"] = f"mean over periods {args.periods - AVERAGE_PERIODS + 1}-{args.periods}, m/s"
-        text = [f"k = {k:g}, m = {m:g} kg: learned {_speed(lv)}, trapezoid {_speed(tv)} (mean of periods "
-                f"{args.periods - AVERAGE_PERIODS + 1}-{args.periods}, fast numerics)"
+        step = "" if args.load_step is None else f"; the cargo becomes {args.load_step[1]:g} kg before period " \
+                                                   f"{args.load_step[0]}"
+        text = [f"k = {k:g}, m = {m:g} kg: policy {_speed(lv)}, trapezoid {_speed(tv)} (mean of periods "
+                f"{args.periods - AVERAGE_PERIODS + 1}-{args.periods}; {pair}{step}; fast numerics)"
                 for (k, m), lv, tv in zip(points, learned, trapezoid)]
     if args.json:
         print(json.dumps(records[0] if len(records) == 1 else records))
@@ -219,4 +253,5 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-__all__ = ["add_arguments", "load_step_type", "main", "policy_path", "trained_range_warnings"]
+__all__ = ["FRICTION_OPTIONS", "add_arguments", "friction_played", "load_step_type", "main", "policy_path",
+           "trained_range_warnings"]

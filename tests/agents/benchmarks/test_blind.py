@@ -192,3 +192,20 @@ def test_the_strong_reference_keeps_every_points_drive_or_a_faster_one_and_says_
                   reuse=tmp_path / "standard" / "blind.json", reference="strong")
     with pytest.raises(ValueError, match="reference='best' is not one of"):
         blind.run([str(PRETRAINED)], 3, seed=5, out=tmp_path / "bad", quick=True, workers=1, reference="best")
+
+
+def test_scan_ks_0_runs_the_points_alone_without_a_critical_load_scan(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(blind, "cycle_scan_task", lambda args: pytest.fail("scanned"))
+    out = tmp_path / "b"
+    assert main(["benchmark", "--blind", "2", "--seed", "5", "--quick", "--scan-ks", "0", "--policies",
+                 str(PRETRAINED), "--out", str(out)]) == 0
+    res = json.loads((out / "blind.json").read_text())
+    assert res["critical_load_kg"]["k"] == [] and len(res["points"]) == 2
+    stats = res["statistics"][str(PRETRAINED)]
+    assert stats["critical_load_over_best_cycle_min"] is None and "critical load" not in blind.missed_targets(stats)
+    text = (out / "blind.md").read_text()
+    assert "No critical-load scan (--scan-ks 0)" in text and "critical load: not scanned" in text
+    assert (out / "fraction_of_best.png").exists() and not (out / "critical_load_vs_k.png").exists()
+    with pytest.raises(SystemExit) as exit_:
+        main(["benchmark", "--blind", "2", "--seed", "5", "--scan-ks", "-1"])
+    assert exit_.value.code == 2 and "--scan-ks: -1 is outside the allowed range [0, inf]" in capsys.readouterr().err

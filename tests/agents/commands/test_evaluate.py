@@ -150,3 +150,58 @@ def test_evaluate_cli_prints_finite_velocities(tmp_path):
     data = json.loads(res.stdout)
     assert np.isfinite(data["learned_mean_velocity"]) and np.isfinite(data["trapezoid_mean_velocity"])
     assert set(data["learned_waveform_last_period"]) >= {"x_amplitude", "z_amplitude", "z_phase"}
+
+
+def test_a_sensor_policy_plays_the_drives_nominal_friction_unless_told_otherwise(capsys):
+    """Its run.json draws mu in [0.2, 0.4] and mu1 in [0.07, 0.13] per episode; evaluated at a point it
+    plays the middle, the paper's pair, and says so, the same as with that pair named."""
+    from mdr_drive_agents.policy import SENSOR_PRETRAINED
+
+    argv = ["evaluate", "--policy", str(SENSOR_PRETRAINED), "--k", "0.469", "--cargo-mass", "0.0099", "--json"]
+    assert main(argv) == 0
+    default = json.loads(capsys.readouterr().out)
+    assert (default["friction_coefficient"], default["base_friction_coefficient"]) == (0.3, 0.1)
+    assert main(argv + ["--friction-coefficient", "0.3", "--base-friction-coefficient", "0.1"]) == 0
+    named = json.loads(capsys.readouterr().out)
+    assert named["learned_period_velocity"] == default["learned_period_velocity"]
+    assert named["trapezoid_period_velocity"] == default["trapezoid_period_velocity"]
+    # the trapezoid is the paper drive's at that point, not at a drawn pair
+    assert default["trapezoid_mean_velocity"] == pytest.approx(
+        open_loop_velocity([(0.469, 0.0099)], trapezoid_action())[0], rel=1e-9)
+    assert main(argv[:-1] + ["--base-friction-coefficient", "0.12"]) == 0  # inside the trained range: no warning
+    captured = capsys.readouterr()
+    assert "0.3, mu1 0.12" in captured.out and "warning" not in captured.err
+
+
+def test_the_text_names_the_friction_pair_and_the_load_step(capsys):
+    code, out, _ = _run(["--k", "0.2", "--cargo-mass", "0.05", "--load-step", "15:0.08"], capsys)
+    assert code == 0 and "mu 0.3, mu1 0.1" in out and "the cargo becomes 0.08 kg before period 15" in out
+    code, out, _ = _run(["--k", "0.3", "--critical-load"], capsys)
+    assert code == 0 and "mu 0.3, mu1 0.1" in out
+
+
+def test_a_load_step_above_the_trained_loads_warns(capsys):
+    # the generalist's loads reach 0.55 of mu F_ref: 0.304 kg at k = 0.2, mu 0.3
+    code, _, err = _run(["--k", "0.2", "--cargo-mass", "0.1", "--load-step", "15:0.35"], capsys)
+    assert code == 0 and "m = 0.35 kg at k = 0.2 is above the trained loads" in err
+    code, _, err = _run(["--k", "0.2", "--cargo-mass", "0.1", "--load-step", "15:0.25"], capsys)
+    assert code == 0 and "warning" not in err
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["--friction-coefficient", "0.05"], "--friction-coefficient 0.05 must exceed --base-friction-coefficient 0.1"),
+    (["--base-friction-coefficient", "0.3"], "--friction-coefficient 0.3 must exceed --base-friction-coefficient 0.3"),
+    (["--base-friction-coefficient", "-0.1"], "mu1 >= 0"),
+])
+def test_an_impossible_friction_pair_is_an_error(argv, needle, capsys):
+    code, out, err = _run(["--k", "0.2", "--cargo-mass", "0.1", *argv], capsys)
+    assert code == 2 and needle in err and len(err.strip().splitlines()) == 1 and not out
+
+
+def test_the_nominal_friction_of_a_drive_is_its_value_or_the_middle_of_its_range():
+    from mdr_drive_agents.drive import PAPER_DRIVE, DriveDescription
+
+    assert PAPER_DRIVE.nominal_friction == (0.3, 0.1)
+    drawn = DriveDescription((("friction_coefficient", (0.2, 0.4)), ("base_friction_coefficient", (0.07, 0.13))))
+    assert drawn.nominal_friction == (0.3, 0.1)
+    assert DriveDescription((("friction_coefficient", 0.25),)).nominal_friction == (0.25, 0.1)
