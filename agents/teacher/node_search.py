@@ -6,7 +6,7 @@ refinements (``mdr_drive_agents.teacher.refine``) one node per task.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -14,11 +14,17 @@ from ..drive import PAPER_DRIVE, DriveDescription
 from ..protocol import open_loop_velocity, trapezoid_action
 from ..search import PUSH_CLAMP, THROW_COAST, best_cma_run, search_point
 
-if TYPE_CHECKING:
-    from .config import FieldConfig
+class NodeSearchSettings(Protocol):
+    """What a node's search reads of the teacher's settings (``teacher.config.FieldConfig`` has it):
+    CMA-ES evaluations over fixed actions and per cycle start, the first step size, and (mu, mu1)."""
+
+    fixed_budget: int
+    cycle_budget: int
+    sigma0: float
+    friction: tuple[float, float]
 
 
-def search_node(k: float, load: float, previous: np.ndarray | None, config: FieldConfig,
+def search_node(k: float, load: float, previous: np.ndarray | None, config: NodeSearchSettings,
                 seed: int = 0, drive: DriveDescription = PAPER_DRIVE) -> tuple[np.ndarray, float]:
     """The best drive (2, 5) found at (k, load kg) and its steady velocity (m/s): ``search_point``
     with ``config``'s budgets and step size, over fixed actions from the lighter point's first action
@@ -34,7 +40,7 @@ def search_node(k: float, load: float, previous: np.ndarray | None, config: Fiel
 
 def search_slice(args) -> tuple[np.ndarray, np.ndarray]:
     """Drives (n_loads, 2, 5) and velocities (n_loads,) along one k, light to heavy (continuation);
-    ``args``: (k, loads kg, FieldConfig, seed, DriveDescription)."""
+    ``args``: (k, loads kg, settings (``NodeSearchSettings``), seed, DriveDescription)."""
     k, loads, config, seed, drive_description = args
     drives, velocities, previous = [], [], None
     for j, load in enumerate(loads):

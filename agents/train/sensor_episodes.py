@@ -8,7 +8,7 @@ Used by ``mdr_drive_agents.train.sensor``, which re-exports them.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import gymnasium as gym
 import numpy as np
@@ -17,11 +17,21 @@ from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
 
 from ..protocol import SENSOR_ID
 
-if TYPE_CHECKING:
-    from .sensor import SensorConfig
+class EpisodeSettings(Protocol):
+    """What the sensor episodes read of a recipe's settings (``train.sensor.SensorConfig`` has it):
+    the observation's periods, the episode's length, the load steps' share and period range, the
+    sensor tier with its position samples per period and their noise (m)."""
+
+    history: int
+    periods: int
+    load_step_share: float
+    load_step_periods: tuple[int, int]
+    sensor_tier: str
+    trace_samples: int
+    encoder_noise: float
 
 
-def sensor_envs(config: SensorConfig, n: int, seed: int, codebook: np.ndarray | None = None) -> tuple[list, np.ndarray]:
+def sensor_envs(config: EpisodeSettings, n: int, seed: int, codebook: np.ndarray | None = None) -> tuple[list, np.ndarray]:
     """``n`` sensor envs (hidden parameters drawn per episode), the first ``load_step_share`` of
     them with a load step, reset with seeds ``seed, seed + 1, ...``; and their first observations.
     ``codebook``: the (m, 5) action table they play rows of (``Discrete(m)`` actions), or None (Box)."""
@@ -134,7 +144,7 @@ def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.ran
     return np.concatenate(sensed), np.concatenate(privileged), np.array(disp)
 
 
-def sensor_env_kwargs(config: SensorConfig) -> dict:
+def sensor_env_kwargs(config: EpisodeSettings) -> dict:
     """The env the sensor policy is trained and acts in, as ``MDRDriveSensor-v0`` keywords: its trained
     range (run.json: what ``evaluate`` warns outside) and its observation."""
     tier = {} if config.sensor_tier == "encoder" else {
@@ -143,6 +153,6 @@ def sensor_env_kwargs(config: SensorConfig) -> dict:
             "history": config.history, "max_periods": config.periods, **tier}
 
 
-def sensor_structure_of(config: SensorConfig) -> dict[str, slice]:
+def sensor_structure_of(config: EpisodeSettings) -> dict[str, slice]:
     """Where each group of entries sits in the sensor observation ``config`` trains on."""
     return gym.make(SENSOR_ID, **sensor_env_kwargs(config)).unwrapped.observation_structure
