@@ -201,17 +201,18 @@ def actions_of(policy):
 
 
 def policy_rollout(policy, points, periods: int = EVAL_PERIODS, drive: DriveDescription = PAPER_DRIVE):
-    """Run ``policy`` (``act(obs) -> Box actions``) closed loop at each (k, cargo mass) or (k, cargo mass,
-    mu, mu1) point, in the batched env it expects (:func:`play_kwargs_of`, on its own drive:
-    :func:`drive_of`); returns (displacements (periods, n) m, actions (periods, n, 5) in the default
+    """Run ``policy`` (``act(obs) -> Box actions``) closed loop at each (k, cargo mass) point (at the
+    drive's nominal friction, ``DriveDescription.nominal_friction``) or (k, cargo mass, mu, mu1) point,
+    in the batched env it expects (:func:`play_kwargs_of`, on its own drive: :func:`drive_of`); returns (displacements (periods, n) m, actions (periods, n, 5) in the default
     action units (``ACTION_MAP``, whatever the policy's ``z_phase_origin``), runaway (n,) bool)."""
     n = len(points)
     play, act, drive = play_kwargs_of(policy), actions_of(policy), drive_of(policy, drive)
     venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods,
                         **{**drive.env_kwargs, **play})
     options = {"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]}
-    if points and len(points[0]) == 4:  # (k, cargo mass, mu, mu1)
-        options.update(friction_coefficient=[p[2] for p in points], base_friction_coefficient=[p[3] for p in points])
+    mu, mu1 = drive.nominal_friction  # a (k, cargo mass) point plays the drive's nominal pair, never a drawn one
+    options.update(friction_coefficient=[p[2] if len(p) == 4 else mu for p in points],
+                   base_friction_coefficient=[p[3] if len(p) == 4 else mu1 for p in points])
     obs, _ = venv.reset(seed=0, options=options)
     disp, acts = [], []
     for _ in range(periods):
@@ -236,9 +237,12 @@ def rollout_env(policy, k: float, cargo_mass: float, periods: int, load_step=Non
                 drive: DriveDescription = PAPER_DRIVE, **env_kwargs):
     """``MDRDrive-v0`` at (k, cargo mass kg) on ``drive`` as ``policy`` plays in it (its ``play_kwargs``
     under ``env_kwargs``), reset with ``seed`` and the optional ``load_step`` (period, cargo mass kg):
-    (env, first observation). ``drive`` as given: :func:`env_rollout` passes the policy's own."""
+    (env, first observation). ``drive`` as given: :func:`env_rollout` passes the policy's own. At a
+    point the friction pair is the drive's nominal one (``DriveDescription.nominal_friction``) unless
+    ``env_kwargs`` names it, never drawn from a range the policy was trained on."""
+    nominal = dict(zip(("friction_coefficient", "base_friction_coefficient"), drive.nominal_friction))
     env = gym.make("MDRDrive-v0", k=k, cargo_mass=cargo_mass, max_periods=periods,
-                   **{**drive.env_kwargs, **play_kwargs_of(policy), **env_kwargs})
+                   **{**drive.env_kwargs, **play_kwargs_of(policy), **nominal, **env_kwargs})
     obs, _ = env.reset(seed=seed, options={"load_step": load_step} if load_step else None)
     return env, obs
 
