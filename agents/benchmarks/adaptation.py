@@ -258,7 +258,7 @@ def _f(x) -> str:
 def write_outputs(res: dict, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     drives = drives_of(res)
-    write_text(out / "adaptation.json", json.dumps(json_safe(res), indent=1))
+    write_text(out / "adaptation.json", json.dumps(json_safe(res)))  # compact: every period of every episode
     write_text(out / "adaptation.md", markdown(res))
     header = ["k", "cargo_mass_kg", "friction_coefficient", "base_friction_coefficient", "load_ratio",
               "best_m_s", *[f"{column_name(d)}_m_s" for d in drives]]
@@ -304,9 +304,12 @@ def plot(res: dict, out: Path) -> None:
         axes[0, col].set_title(f"{title}: k = {d['k']:.2f}, mu = {d['friction_coefficient']:.2f}, "
                                f"{d['cargo_mass'] * 1e3:.0f} -> {d['step_cargo_mass'] * 1e3:.0f} g", fontsize=9)
         axes[1, col].set_xlabel("period")
+        axes[1, col].set_ylim(0.0, 1.05 * ACTION_MAP.x_amplitude_max * 1e6)  # the whole stroke, on both panels
     axes[0, 0].set_ylabel("mean velocity per period (mm/s)")
-    axes[1, 0].set_ylabel("x amplitude played (um)")
+    axes[1, 0].set_ylabel("x amplitude played (µm)")
     axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"blind load steps (seed {res['seed']}): the hidden cargo changes before period {STEP_PERIOD + 1}; "
+                 "velocity (top) and the x stroke each policy plays (bottom)", fontsize=10)
     fig.tight_layout()
     save_figure(fig, out / "adaptation_load_steps.png")
     plt.close(fig)
@@ -318,7 +321,7 @@ def plot(res: dict, out: Path) -> None:
     ratio = np.array([d["load_ratio"] for d in res["points"]])
     ks = np.array([d["k"] for d in res["points"]])
     panels = ((lambda ep: min(ACTION_MAP.to_params(a).x_amplitude for a in ep) * 1e6,
-               "smallest x amplitude, periods 21-30 (um)"),
+               "smallest x amplitude, periods 21-30 (µm)"),
               (lambda ep: ACTION_MAP.to_params(ep[-1]).z_phase, "z phase of period 30 (-)"))
     for ax, (value_of, label) in zip(axes, panels):
         for drive, marker, alpha in (("full-observation policy", "o", 0.35), *((s, m, 1.0) for s, m in
@@ -330,6 +333,8 @@ def plot(res: dict, out: Path) -> None:
         ax.set_ylabel(label)
     axes[0].legend(fontsize=8)
     fig.colorbar(sc, ax=axes, label="hidden k")
+    fig.suptitle(f"what each policy plays once settled, at the {len(ks)} blind draws (seed {res['seed']}), against "
+                 "the hidden load; colour: the hidden k", fontsize=10)
     save_figure(fig, out / "adaptation_tracking.png")
     plt.close(fig)
 

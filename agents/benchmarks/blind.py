@@ -47,7 +47,7 @@ from mdr_drive_env.files import json_safe, nan_array, write_csv, write_text
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from ..drive import PAPER_DRIVE, DriveDescription
-from ..policy import load_policy
+from ..policy import load_policy, policy_label
 from ..protocol import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,
@@ -174,7 +174,8 @@ def run(policies: list[str], n: int, seed: int, out: str | Path, quick: bool = F
                             "two_action_cycle_cma_evaluations_per_start": cycle_budget, "cycle_starts": 2,
                             "cycle_critical_load_bisection_steps": iterations},
                  "protocol": f"fast numerics; mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}",
-                 "scan": DRAWN_SCAN if scan_draw else EVEN_SCAN, "policies": list(policies)}
+                 "scan": DRAWN_SCAN if scan_draw else EVEN_SCAN, "policies": list(policies),
+                 "policy_labels": [policy_label(p) for p in policies]}  # the plots name them without the folders
     if strong:
         res["search"]["pooled_rounds"] = dict(strong)  # files of the standard search stay reusable as before
     if drive.settings != ():

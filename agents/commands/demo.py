@@ -111,7 +111,7 @@ def plot_policy_vs_trapezoid(masses: np.ndarray, lp: np.ndarray, tp: np.ndarray,
 
     from mdr_drive_env.files import save_figure
 
-    fig, (ax, strip) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, gridspec_kw={"height_ratios": [5, 1]})
+    fig, (ax, strip) = plt.subplots(2, 1, figsize=(8, 7.2), sharex=True, gridspec_kw={"height_ratios": [3, 1.4]})
     labels = []
     for i, k in enumerate(DEMO_KS):
         ax.plot(masses, tp[i], "-", color=f"C{i}", lw=1.5, label=f"trapezoid, k = {k:g}")
@@ -125,11 +125,11 @@ def plot_policy_vs_trapezoid(masses: np.ndarray, lp: np.ndarray, tp: np.ndarray,
     ax.set(ylabel="steady velocity (mm/s)",
            title=f"{name} vs the paper's trapezoid (mean of periods 21-30); below 0: the load drags the slider back")
     ax.title.set_fontsize(9)
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=8, ncol=2)
     ax.grid(alpha=0.3)
     strip.set(yticks=range(len(labels)), xlabel="cargo mass m (kg)", ylim=(-0.7, len(labels) - 0.3))
-    strip.set_yticklabels(labels, fontsize=5)
-    strip.set_title("loads where the load runs away with the slider (no steady velocity)", fontsize=8)
+    strip.set_yticklabels(labels, fontsize=8)
+    strip.set_title("loads where the load runs away with the slider (no steady velocity)", fontsize=9)
     strip.grid(alpha=0.3, axis="x")
     fig.tight_layout()
     save_figure(fig, path)

@@ -166,13 +166,15 @@ def table(config: BaselinesConfig, plan: Plan, summaries: dict, searches: dict, 
 
 
 def plot_curves(path: Path, config: BaselinesConfig, curves: dict) -> None:
-    """The IQM score against environment steps and against training seconds, with intervals."""
+    """The IQM score against environment steps and against training seconds, with intervals; the
+    legend below both panels, where it hides no curve."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), sharey=True)
     for agent in config.agents:
         c = [p for p in curves[agent.label] if p.get("iqm") is not None]
         if not c:
@@ -181,16 +183,22 @@ def plot_curves(path: Path, config: BaselinesConfig, curves: dict) -> None:
         for ax, x in zip(axes, (np.array([p["steps"] for p in c]), np.array([p["train_seconds"] for p in c]))):
             ax.plot(x, iqm[:, 0], marker="o", ms=3, label=agent.label)
             ax.fill_between(x, iqm[:, 1], iqm[:, 2], alpha=0.25)
+    plain = FuncFormatter(lambda x, _: f"{x / 1e6:g}M" if x >= 1e6 else f"{x / 1e3:g}k" if x >= 1e3 else f"{x:g}")
     for ax, label in zip(axes, ("environment steps (drive periods)", "training time per run (s, 1 core)")):
         ax.set_xscale("log")
+        ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))  # 1, 2, 5 per decade, as plain numbers
+        ax.xaxis.set_major_formatter(plain)
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(label)
         ax.axhline(0.0, color="k", lw=0.8, ls="--")
         ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("normalised score, IQM (0 trapezoid, 1 best drive)")
-    axes[0].legend()
+    handles, labels = axes[0].get_legend_handles_labels()
+    rows = -(-len(labels) // 3)
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=9)
     fig.suptitle(f"Plain RL on {ENV_ID}: IQM score with 95 % bootstrap intervals over seeds and points")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, 0.05 + 0.045 * rows, 1.0, 1.0))  # room for the legend below
     from mdr_drive_env.files import atomic_path
 
     with atomic_path(path) as tmp:
@@ -217,7 +225,7 @@ def write_report(out: str | Path, config: BaselinesConfig, found: dict) -> dict:
     results = {"config": asdict(config), "validation": plan.validation.name, "reports": [r.name for r in plan.reports],
                "time_quantum_s": plan.time_quantum, "summaries": summaries, "curves": curves, "references": refs,
                "searches": found["searches"], "load_bands": {"edges": LOAD_BANDS, "iqm_score": bands}, "runs": found["runs"]}
-    write_text(out / "results.json", json.dumps(json_safe(results), indent=1))
+    write_text(out / "results.json", json.dumps(json_safe(results)))  # compact: every run's whole curve
     return summaries
 
 
