@@ -39,7 +39,7 @@ def ship_plain(best: dict, found: dict, summaries: dict, results_dir: str | Path
     for path in records:  # before anything is copied
         if dst.as_posix() not in json.loads(Path(path).read_text()).get("statistics", {}):
             raise ValueError(f"{path} did not judge {dst.as_posix()}: its record is not this policy's")
-    dst, record = copy_policy(best["folder"], dst)
+    dst, record = copy_policy(source_of(best, dst), dst)
     name = ALGORITHM_NAMES[best["algo"]]
     own = format_aggregate(aggregate(scores))
     agent = summaries[best["agent"]]
@@ -62,7 +62,7 @@ on the same points (the table there).
 
 {load_snippet(dst, record)}
 
-With Stable-Baselines3 alone (paths from the repository's root):
+With Stable-Baselines3 alone:
 
 {snippet(dst, record)}
 
@@ -92,7 +92,7 @@ from `{results}/results.json`:
 
 ## Limits
 
-* It is below the trapezoid at some points (above) and well short of the best drive at others: judge a
+{dropped_load_note(list(records), dst.as_posix())}* It is below the trapezoid at some points (above) and well short of the best drive at others: judge a
   working point with `mdr-drive evaluate` first, or a whole record with `mdr-drive benchmark --blind N
   --seed S --policies {dst.as_posix()}`.
 * Trained for the ranges above with the paper's friction (mu = 0.3, mu1 = 0.1) and material.
@@ -110,4 +110,49 @@ without bound.
     return dst / "MODEL_CARD.md"
 
 
-__all__ = ["ship_plain", "shipped_folder"]
+def source_of(best: dict, dst: Path) -> Path:
+    """Where the run ``best`` is: its training folder, or ``dst`` when that folder is gone and ``dst``
+    already holds the same run (its card is written again in place); ``ValueError`` otherwise."""
+    folder = Path(best["folder"])
+    if (folder / "run.json").is_file():
+        return folder
+    shipped = json.loads((dst / "run.json").read_text()) if (dst / "run.json").is_file() else {}
+    if shipped.get("algo") == best["algo"] and shipped.get("seed") == best["seed"]:
+        return dst
+    raise ValueError(f"{folder}: the run to ship is not there (and {dst} holds another): train it again")
+
+
+def dropped_loads(records, key: str) -> list[tuple[float, float, float, float]]:
+    """Where the blind benchmarks ``records`` (``blind.json`` paths) saw the policy ``key`` drop the
+    load the trapezoid carries: (k, cargo mass kg, trapezoid m/s, policy m/s, NaN a runaway) at each
+    point where the trapezoid holds or moves the load forward (>= 0) and under the policy it runs away
+    or drags the slider back."""
+    found = []
+    for path in records:
+        res = json.loads(Path(path).read_text())
+        for (k, m), trap, v in zip(res["points"], res["trapezoid"], res["learned"][key]):
+            if trap is not None and trap >= 0.0 and (v is None or v < 0.0):
+                found.append((k, m, trap, float("nan") if v is None else v))
+    return found
+
+
+def dropped_load_note(records, key: str) -> str:
+    """The card's warning of :func:`dropped_loads` (a bullet, or '' where there is none or no record)."""
+    if not records:
+        return ""
+    dropped = dropped_loads(records, key)
+    n = sum(len(json.loads(Path(p).read_text())["points"]) for p in records)
+    if not dropped:
+        return f"* It never drops a load the trapezoid carries on its record's {n:,} points.\n"
+    runaways = [d for d in dropped if d[3] != d[3]]
+    ks = [d[0] for d in dropped]
+    worst = max(dropped, key=lambda d: d[2])  # where the trapezoid moves it forward fastest
+    where = (f"k = {worst[0]:.3f}, m = {worst[1]:.4f} kg: the trapezoid {worst[2] * 1e3:.2f} mm/s, this policy "
+             + ("a runaway" if worst[3] != worst[3] else f"{worst[3] * 1e3:.2f} mm/s"))
+    return (f"* **It drops loads the trapezoid carries.** At {len(dropped)} of its record's {n:,} points (k\n"
+            f"  {min(ks):.2f}-{max(ks):.2f}) the trapezoid holds the load or moves it forward and under this policy\n"
+            f"  it runs away with the slider ({len(runaways)} points) or drags it back; at worst {where}.\n"
+            "  Do not drive a load near the trapezoid's critical load with it.\n")
+
+
+__all__ = ["dropped_load_note", "dropped_loads", "ship_plain", "shipped_folder", "source_of"]
