@@ -11,6 +11,8 @@ from .blas import pin_blas_kernels
 
 pin_blas_kernels()  # before numpy loads, where it can: the same CMA-ES drives on every x86-64 CPU (blas.py)
 
+from mdr_drive_env import __version__  # noqa: E402  one distribution, one version
+
 from .policy import PRETRAINED, SENSOR_PRETRAINED, Policy, load_policy  # noqa: E402
 
-__all__ = ["PRETRAINED", "SENSOR_PRETRAINED", "Policy", "load_policy"]
+__all__ = ["PRETRAINED", "SENSOR_PRETRAINED", "Policy", "__version__", "load_policy"]

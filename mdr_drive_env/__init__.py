@@ -4,7 +4,8 @@ Importing the package registers ``MDRDrive-v0``; ``gym.make("mdr_drive_env:MDRDr
 imports it on demand (also in subprocesses).
 """
 
-__version__ = "0.1.0"
+#: The version of the distribution (pyproject.toml reads it from here; ``mdr-drive --version``).
+__version__ = "0.2.0"
 
 #: The full-observation env's id (what the agents train and play on).
 ENV_ID = "MDRDrive-v0"

@@ -6,26 +6,35 @@ group ``mdr_drive.commands`` (pyproject.toml): each module holds ``HELP``, ``DES
 def add_recipe_arguments(p, default_config, config_help: str, default_out: str) -> None:
     """The arguments every recipe command takes: its YAML config (optional, ``default_config``), ``--out``
     (default ``default_out``), ``--force`` and ``--no-progress``."""
-    from mdr_drive_env.cli_args import input_file, output_dir
+    from mdr_drive_env.cli_args import output_dir
 
-    p.add_argument("config", nargs="?", default=str(default_config), type=input_file, help=config_help)
+    p.add_argument("config", nargs="?", default=str(default_config), type=package_file, help=config_help)
     p.add_argument("--out", default=default_out, type=output_dir, help="output folder")
     p.add_argument("--force", action="store_true", help="overwrite a non-empty --out")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
 
 
+def package_file(text: str) -> str:
+    """argparse type: an existing file; ``agents/...`` names the package's own (its configs and example
+    drives, ``policy.package_path``) from any working directory."""
+    from mdr_drive_env.cli_args import input_file
+
+    from ..policy import package_path
+
+    return input_file(str(package_path(text)))
+
+
 def drive_file(text: str):
-    """argparse type: a drive description YAML (``mdr_drive_agents.drive.DriveDescription``), with a
+    """argparse type: a drive description YAML (``mdr_drive_agents.drive.DriveDescription``; the
+    package's example drives as ``agents/configs/drives/NAME.yaml`` from any working directory), with a
     one-line error for a missing file, an unknown key or a bad value."""
     import argparse
 
-    from mdr_drive_env.cli_args import input_file
-
     from ..drive import DriveDescription
 
-    input_file(text)
+    path = package_file(text)
     try:
-        return DriveDescription.load(text)
+        return DriveDescription.load(path)
     except ValueError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
 

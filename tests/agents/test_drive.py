@@ -159,3 +159,32 @@ def test_a_reference_scores_a_policy_only_on_the_drive_it_was_run_on(drive_recip
     paper_reference = Reference.load(DATA / "blind_tiny_a.json")
     with pytest.raises(ValueError, match="built for another drive"):
         paper_reference.score_policy(load_policy(drive_recipe / "policy"))
+
+
+def test_the_example_drives_are_package_data_named_from_any_directory(tmp_path, monkeypatch):
+    """``agents/configs/drives/NAME.yaml`` names the package's own example drives (installed with it:
+    pyproject's package data) wherever the command runs."""
+    import argparse
+
+    from mdr_drive_agents.commands import drive_file
+
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
+
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
+    assert "configs/drives/*.yaml" in data["mdr_drive_agents"]
+    monkeypatch.chdir(tmp_path)
+    drive = drive_file("agents/configs/drives/small_stage.yaml")
+    assert drive.name == "small_stage" and drive.period == 1e-3
+    with pytest.raises(argparse.ArgumentTypeError, match="no_such_stage.yaml"):
+        drive_file("agents/configs/drives/no_such_stage.yaml")
+
+
+def test_one_version_for_both_packages_and_the_command(capsys):
+    import mdr_drive_agents
+    import mdr_drive_env
+    from mdr_drive_env.cli import main
+
+    assert mdr_drive_agents.__version__ == mdr_drive_env.__version__ == "0.2.0"
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert capsys.readouterr().out.strip() == "mdr-drive 0.2.0"
