@@ -361,7 +361,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="simulate the drive for N periods",
                        description="Simulate the drive with a fixed waveform; print per-period results "
-                                   "(SI units in --json; µm, mm/s and N in the table).")
+                                   "(SI units in --json; µm, mm/s and N in the table). Every option defaults to "
+                                   "the paper's drive and trapezoid waveform, with k = 0 (a homogeneous indenter) "
+                                   "and no cargo (m = 0): name --k and --cargo-mass for another working point "
+                                   "(MDRDrive-v0's own default is k = 0.2, m = 0.1 kg).")
     add_model_arguments(s)
     add_waveform_arguments(s)
     o = s.add_argument_group("output")

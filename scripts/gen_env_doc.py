@@ -32,6 +32,11 @@ obs, reward, terminated, truncated, info = env.step(action)
 print(info["mean_velocity"], info["waveform"])
 ```
 
+Without keywords, `gym.make("MDRDrive-v0")` is one working point of the paper's drive: k = 0.2 and
+a 0.1 kg cargo (mu = 0.3, mu1 = 0.1), the same every episode; `k`, `cargo_mass` or `load_ratio`
+given as (low, high) draw one per episode. (`mdr-drive simulate` without `--k` and `--cargo-mass`
+runs k = 0 and no cargo.)
+
 Training with Stable-Baselines3 needs nothing special (`pip install -e ".[train]"`). This is
 `quickstart()` of `scripts/quickstart_sb3.py` (run it with `python scripts/quickstart_sb3.py
 --steps 100000`; `make test` runs it for 1,024 steps):
@@ -40,8 +45,7 @@ Training with Stable-Baselines3 needs nothing special (`pip install -e ".[train]
 {quickstart}
 ```
 
-What you should see (seed 0, measured with the command above on this 2-core machine, about 2
-minutes): SB3's `ep_rew_mean` starts near -94 (a fresh policy plays nearly random waveforms, and
+What you should see (seed 0, measured with the command above on 2 cores, about 2 minutes): SB3's `ep_rew_mean` starts near -94 (a fresh policy plays nearly random waveforms, and
 the load drags the slider back), passes 0 after about 17,000 steps and stays at 44-46 from about
 50,000 steps on (in this run with one dip to about 9 between 78,000 and 84,000 steps). On 16 fresh episodes the deterministic policy then earns a mean return of 43.9,
 the trapezoid 39.5 and random waveforms -189.0. The domain matters: `load_ratio=(0.0, 0.2)`

@@ -27,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from ..search import CMA_BUDGET
 
     p.add_argument("--policies", nargs="*", default=[], type=policy_path,
-                   help="policy folders (model.zip, vecnormalize.pkl, run.json), e.g. one per training seed")
+                   help="policy folders (model.zip, vecnormalize.npz, run.json; read as data), e.g. one per training seed")
     p.add_argument("--out", default=None, type=output_dir,
                    help="output folder (default: results/benchmark, or runs/blind/seed<S> with --blind)")
     p.add_argument("--quick", action="store_true", help="a CI-sized grid and CMA-ES budget")

@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 
 HELP = "ship a trained policy: copy its files and write its model card"
-DESCRIPTION = ("Copy a policy's files (model.zip, vecnormalize.pkl, run.json, its action table) to DST and write "
+DESCRIPTION = ("Copy a policy's files (model.zip, vecnormalize.npz and .pkl, run.json, its action table) to DST and write "
                "DST/MODEL_CARD.md: how to load it, how it was made, its limits, an evaluation table computed from the "
                "shipped files, and its blind record (one blind.json per report seed) or, for a sensor policy, its "
                "adaptation report.")

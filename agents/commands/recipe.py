@@ -1,4 +1,4 @@
-"""``mdr-drive recipe``: the shipped policy's recipe, teacher to student (``train.recipe``).
+"""``mdr-drive recipe``: a policy for a drive told its k and load, teacher to student (``train.recipe``).
 
     mdr-drive recipe agents/configs/recipe.yaml --out runs/recipe --force      # make train
 """
@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import argparse
 
-HELP = "the shipped policy's recipe: CMA-ES teacher, then the distilled PPO student"
-DESCRIPTION = ("Build a policy as the shipped one was built (agents/configs/recipe.yaml, docs/results.md): "
+HELP = "build a policy for a drive: CMA-ES teacher, then the distilled PPO student"
+DESCRIPTION = ("Build a policy that is told k and the load, for the paper's drive or --drive FILE "
+               "(agents/configs/recipe.yaml, docs/results.md, docs/your_drive.md): "
                "1. the teacher, the best open-loop drives CMA-ES finds on a grid of k and load, polished and refined "
                "stage by stage (OUT/teacher_field.npz); 2. the student, a plain SB3 PPO MlpPolicy fitted to the "
                "teacher's actions by DAgger (OUT/policy/). Each stage's wall time is printed and kept in "

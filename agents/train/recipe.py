@@ -1,4 +1,4 @@
-"""The shipped policy's recipe, teacher to student, as one function driven by one YAML file.
+"""The recipe of a policy told k and the load, teacher to student, as one function driven by one YAML file.
 
     mdr-drive recipe agents/configs/recipe.yaml --out runs/recipe                  # make train
     mdr-drive recipe agents/configs/recipe.yaml --out runs/recipe --ray-address auto

@@ -9,7 +9,7 @@ separate :class:`DriveSimulator` runs with the same numerics bit for bit, whatev
 Used by the vector environment.
 
 Why not numba's ``prange``: with its fork-safe ``workqueue`` layer every parallel call waited for
-sleeping workers (about 75 us a call on this machine, measured with an empty loop) while the calling
+sleeping workers (about 75 us a call on 2 cores, measured with an empty loop) while the calling
 thread idled, so at 64 drives two threads stepped the vector env no faster than one; the OpenMP
 layer is faster but kills forked children, and the sweeps fork.
 """
