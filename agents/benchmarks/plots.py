@@ -74,7 +74,7 @@ def plot_all(res: dict, ks, masses, out: Path) -> None:
         ax.add_artist(first)
         ax.legend(handles=colour_handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 0.6))
         ax.grid(alpha=0.3)
-        fig.tight_layout(rect=(0.0, 0.0, 0.7, 1.0))  # the legends to the right of the axes
+        fig.tight_layout(rect=(0.0, 0.0, 0.79, 1.0))  # the legends to the right of the axes
         save_figure(fig, out / f"{name}.png")
         plt.close(fig)
 
