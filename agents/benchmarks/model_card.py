@@ -93,7 +93,7 @@ def training_note(run: dict) -> str:
                 f"{d.get('teacher_radius', 1)}; "
                 f"DAgger rounds after it: {d['rounds']}; hole rounds: {d.get('hole_rounds', 0)}{stall_note(d)}); final fit loss "
                 f"{loss:.2e}. No PPO update yet ({run['total_timesteps']:,} environment "
-                f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below (docs/ablations.md: "
+                f"steps): `mdr-drive train --resume` fine-tunes it with the PPO settings below (docs/results.md: "
                 f"it did not make it better)")
     return (f"{run['algo'].upper()}, {run['total_timesteps']:,} environment steps (drive periods), "
             f"warm start {run['hyperparameters'].get('warm_start', 'none')}")
@@ -120,11 +120,13 @@ from {module} import {cls}
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 import mdr_drive_env  # registers {env_id}
+from mdr_drive_agents.policy import package_path
 
+folder = package_path("{dir}")   # its files, from any working directory
 {comment}make = lambda: gym.make({make_args})
-venv = VecNormalize.load("{dir}/vecnormalize.pkl", DummyVecEnv([make]))
+venv = VecNormalize.load(str(folder / "vecnormalize.pkl"), DummyVecEnv([make]))
 venv.training, venv.norm_reward = False, False      # play: statistics frozen, raw rewards
-model = {cls}.load("{dir}/model.zip", device="cpu")
+model = {cls}.load(str(folder / "model.zip"), device="cpu")
 {seed}obs, velocities = venv.reset(), []
 {memory}for period in range(30):
     {predict}
@@ -134,11 +136,22 @@ print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
 ```"""
 
 
-def recipe_commit_note(run: dict) -> str:
-    """Where a run record names the commit whose recipe built it (``recipe_commit``; the recipe
-    has changed since): how to get that recipe back."""
-    commit = run.get("recipe_commit")
-    return f" at commit {commit} (`git checkout {commit}` first: the recipe has changed since)" if commit else ""
+def recipe_note(run: dict) -> str:
+    """Where a distilled policy's student settings (its run.json's ``distilled_from.distill``) differ from
+    today's ``agents/configs/recipe.yaml``: the keys, since ``make train`` then builds another policy."""
+    from ..train.recipe import DEFAULT_CONFIG, load_recipe
+
+    saved = (run.get("distilled_from") or {}).get("distill")
+    if not saved:
+        return ""
+    config = load_recipe(DEFAULT_CONFIG).distill
+    today = json.loads(json.dumps({key: getattr(config, key) for key in config.__dataclass_fields__}))
+    differ = sorted(key for key in set(saved) | set(today)  # a key one side lacks counts where the other sets it
+                    if saved.get(key) != today.get(key) and (saved.get(key) or today.get(key)))
+    if not differ:
+        return ""
+    return (f" (today's `agents/configs/recipe.yaml` sets other student settings, {', '.join(f'`{k}`' for k in differ)}: "
+            "`make train` builds another policy, docs/results.md)")
 
 
 def tier_arguments(run: dict) -> str:
@@ -244,7 +257,7 @@ def snippet(dst: Path, run: dict) -> str:
                                         f"{tier_arguments(run)}max_periods=30, "
                                         "k=0.2, cargo_mass=0.1,\n                        friction_coefficient=0.3, "
                                         "base_friction_coefficient=0.1"
-                                        + (f',\n                        action_codebook="{dst.as_posix()}/{table}"'
+                                        + (f',\n                        action_codebook=str(folder / "{table}")'
                                            if table else ""))
     # its actions mean what they mean in an env with its seam of the z phase and its time quantum
     origin = run["env_kwargs"].get("z_phase_origin", 0.0)
@@ -257,7 +270,7 @@ def snippet(dst: Path, run: dict) -> str:
         args.append(f"time_quantum={quantum:g}")
         notes.append(f"time_quantum={quantum:g} (rises and the z phase in {quantum * 1e6:g} us steps)")
     if run["env_kwargs"].get("action_codebook"):
-        args.append(f'action_codebook="{dst.as_posix()}/{run["env_kwargs"]["action_codebook"]}"')
+        args.append(f'action_codebook=str(folder / "{run["env_kwargs"]["action_codebook"]}")')
         notes.append("its table of actions (Discrete: action i plays row i)")
     comment = f"# {' and '.join(notes)}: the env it was trained in, as in its run.json\n" if notes else ""
     return SNIPPET.format(**play, env_id="MDRDrive-v0", dir=dst.as_posix(), comment=comment, seed="",
@@ -332,17 +345,17 @@ and {f"picks each period's waveform among the {n_actions:,} drives of its teache
 
 {load_snippet(dst, run)}
 
-With Stable-Baselines3 alone (paths from the repository's root):
+With Stable-Baselines3 alone:
 
 {snippet(dst, run)}
 
-(`tests/agents/test_pretrained.py` runs both snippets.) Or: `mdr-drive evaluate --policy {dst.as_posix()}
+(`tests/agents/test_pretrained.py` runs both snippets, from another directory.) Or: `mdr-drive evaluate --policy {dst.as_posix()}
 --k 0.2 --cargo-mass 0.1 --json`; `mdr-drive train --resume {dst.as_posix()}` fine-tunes it with PPO (copy
 the folder first: a resumed run writes into it; the observation statistics stay as distilled).
 
 ## How it was made
 
-* Command: `{run['command']}`{recipe_commit_note(run)}
+* Command: `{run['command']}`{recipe_note(run)}
 * Training: {training_note(run)}
 * Training range (env kwargs): `{json.dumps(run['env_kwargs'])}`
 * PPO settings: `{json.dumps(hyper)}`, policy `{json.dumps(run['hyperparameters'].get('policy_kwargs', {}))}`
@@ -380,7 +393,7 @@ fresh drive, computed by `mdr-drive model-card {Path(src).as_posix()} {dst.as_po
 
 def reused_note(command: str) -> str:
     """What a sensor build's wall time leaves out when its command took earlier work (``--reuse``, ``--resume``)."""
-    return ("; the work an earlier run did for it (the drive table, values already computed) is not counted"
+    return ("; without the drive table and values it took from `--reuse` or `--resume`"
             if "--reuse" in command or "--resume" in command else "")
 
 
@@ -427,16 +440,17 @@ and the actions that produced them. It is not told k, the load or the friction c
 
 {load_snippet(dst, run)}
 
-With Stable-Baselines3 alone (paths from the repository's root):
+With Stable-Baselines3 alone:
 
 {snippet(dst, run)}
 
-(`tests/agents/test_pretrained.py` runs both snippets.) Or: `mdr-drive evaluate --policy {dst.as_posix()}
---k 0.2 --cargo-mass 0.1 --friction-coefficient 0.25 --load-step 15:0.05 --json` (it plays in its own tier).
+(`tests/agents/test_pretrained.py` runs both snippets, from another directory.) Or: `mdr-drive evaluate --policy {dst.as_posix()}
+--k 0.2 --cargo-mass 0.1 --friction-coefficient 0.25 --load-step 15:0.05 --json` (it plays in its own tier; without
+`--friction-coefficient` at the paper's mu 0.3 and mu1 0.1).
 
 ## How it was made
 
-* Command: `{run['command']}`{recipe_commit_note(run)} (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s{reused_note(run['command'])})
+* Command: `{run['command']}` (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s{reused_note(run['command'])})
 * Its actions: {picks['drives']} whole drives (fixed actions and two-action cycles, {picks['rows']} rows in
   `action_codebook.npy`; a cycle plays its two rows in turn) that CMA-ES found at {table['config']['points']} draws
   of the hidden parameters, picked to cover them: the best of them reaches on average

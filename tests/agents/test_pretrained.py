@@ -31,14 +31,14 @@ def snippets(folder) -> list[str]:
 
 @pytest.mark.parametrize("folder", SHIPPED, ids=IDS)
 def test_both_model_card_snippets_load_and_drive_the_same(folder, tmp_path):
-    """The ``load_policy`` snippet from an unrelated folder, the plain SB3 one from the checkout's root:
-    the same steady velocity (forward, but for the plain-RL policy, which may not move there)."""
+    """Both snippets, each from an unrelated folder and from the checkout's root: the same steady
+    velocity (forward, but for the plain-RL policy, which may not move there)."""
     found = []
-    for code, cwd in zip(snippets(folder), (tmp_path, ROOT)):
+    for code, cwd in [(code, cwd) for code in snippets(folder) for cwd in (tmp_path, ROOT)]:
         r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=cwd)
         assert r.returncode == 0, r.stderr
         found.append(float(re.search(r"steady velocity (-?[\d.]+) mm/s", r.stdout).group(1)))
-    assert len(found) == 2 and found[0] == found[1] and (found[0] > 0.0 or folder in PLAIN)
+    assert len(found) == 4 and len(set(found)) == 1 and (found[0] > 0.0 or folder in PLAIN)
 
 
 @pytest.mark.parametrize("folder", SHIPPED, ids=IDS)
