@@ -324,9 +324,9 @@ def policy_label(path: str | Path) -> str:
     if path.resolve() == PRETRAINED.resolve():
         return "shipped policy"
     run = read_run(path)
-    if run.get("distilled_from"):  # mdr-drive recipe's student (its seed is the fit's, not an RL run's)
+    if "distilled_from" in run:  # mdr-drive recipe's student (its seed is the fit's, not an RL run's)
         return f"recipe policy ({path.name})"
-    if run.get("picks_from"):
+    if "picks_from" in run:
         return f"sensor policy, {run.get('env_kwargs', {}).get('sensor_tier', 'encoder')} tier ({path.name})"
     if run:
         return f"{run.get('algo', 'policy').upper()} seed {run.get('seed', '?')} ({path.name})"

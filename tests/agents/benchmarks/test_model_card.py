@@ -99,13 +99,22 @@ def test_the_model_card_command_explains_itself_and_refuses_a_folder_without_a_p
     assert exit_.value.code == 2 and "model.zip" in err and len(err.strip().splitlines()) == 1
 
 
-def test_the_model_card_names_the_recipes_commit_where_the_run_record_keeps_one():
-    from mdr_drive_agents.benchmarks.model_card import recipe_commit_note
+def test_the_model_card_says_where_todays_recipe_differs_from_the_one_that_built_the_policy():
+    import json
 
-    assert recipe_commit_note({"command": "mdr-drive recipe agents/configs/recipe.yaml"}) == ""
-    assert "git checkout 525a95b" in recipe_commit_note({"recipe_commit": "525a95b"})
+    from mdr_drive_agents.benchmarks.model_card import recipe_note
+    from mdr_drive_agents.train.recipe import DEFAULT_CONFIG, load_recipe
+
+    config = load_recipe(DEFAULT_CONFIG).distill
+    today = json.loads(json.dumps({key: getattr(config, key) for key in config.__dataclass_fields__}))
+    assert recipe_note({"command": "mdr-drive train --algo ppo"}) == ""  # not distilled: nothing to compare
+    assert recipe_note({"distilled_from": {"distill": today}}) == ""
+    older = {**today, "hole_dagger": not today["hole_dagger"], "focus_points": 1024}
+    older.pop("teacher_load_loss", None)  # a key the older recipe did not have: it counts only where today sets it
+    note = recipe_note({"distilled_from": {"distill": older}})
+    assert "`focus_points`, `hole_dagger`" in note and "`make train` builds another policy" in note
     card = (PRETRAINED / "MODEL_CARD.md").read_text()
-    assert "at commit 525a95b (`git checkout 525a95b` first" in card  # the shipped policy's recipe has changed since
+    assert "commit" not in card and "`make train` builds another policy" in card
 
 
 def test_the_sensor_cards_below_trapezoid_note_says_none_plainly():

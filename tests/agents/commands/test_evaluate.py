@@ -84,6 +84,11 @@ def test_policies_are_named_by_what_they_are_not_by_paths(tmp_path):
     run.mkdir(parents=True)
     (run / "run.json").write_text(json.dumps({"algo": "ppo", "seed": 3}))
     assert policy_label(run) == "PPO seed 3 (ppo_s3)" and str(tmp_path) not in policy_label(run)
+    (run / "run.json").write_text(json.dumps({"algo": "ppo", "seed": 1, "distilled_from": {"recipe": "r.yaml"}}))
+    assert policy_label(run) == "recipe policy (ppo_s3)"  # a recipe's student, not an RL run of that seed
+    (run / "run.json").write_text(json.dumps({"algo": "ppo", "seed": 0, "picks_from": {},
+                                              "env_kwargs": {"sensor_tier": "trace"}}))
+    assert policy_label(run) == "sensor policy, trace tier (ppo_s3)"
 
 
 def test_periods_friction_and_a_load_step(capsys):
