@@ -310,3 +310,10 @@ def test_a_plot_that_cannot_be_written_names_itself_not_a_temporary_file(tmp_pat
         code = e.code
     err = capsys.readouterr().err
     assert code == 2 and str(target.parent) in err and ".run.png." not in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_reader_that_goes_away_is_no_error():
+    """``mdr-drive ... --json | head``: the command ends quietly when the pipe closes."""
+    r = subprocess.run(f"{sys.executable} -m mdr_drive_env.cli simulate --periods 200 --json | head -c 20",
+                       shell=True, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and len(r.stdout) == 20 and "error" not in r.stderr and "Traceback" not in r.stderr
