@@ -324,13 +324,14 @@ def policy_label(path: str | Path) -> str:
     if path.resolve() == PRETRAINED.resolve():
         return "shipped policy"
     run = read_run(path)
+    name = path.name if path.name != "policy" else f"{path.parent.name}/{path.name}"  # a recipe's DIR/policy
     if "distilled_from" in run:  # mdr-drive recipe's student (its seed is the fit's, not an RL run's)
-        return f"recipe policy ({path.name})"
+        return f"recipe policy ({name})"
     if "picks_from" in run:
-        return f"sensor policy, {run.get('env_kwargs', {}).get('sensor_tier', 'encoder')} tier ({path.name})"
+        return f"sensor policy, {run.get('env_kwargs', {}).get('sensor_tier', 'encoder')} tier ({name})"
     if run:
-        return f"{run.get('algo', 'policy').upper()} seed {run.get('seed', '?')} ({path.name})"
-    return f"policy {path.stem}"
+        return f"{run.get('algo', 'policy').upper()} seed {run.get('seed', '?')} ({name})"
+    return f"policy {name}"
 
 
 def policy_files(folder: str | Path) -> tuple[str, ...]:
