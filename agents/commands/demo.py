@@ -162,6 +162,8 @@ def load_steps(sensor, full, out: Path) -> None:
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("mean velocity per period (mm/s)")
     axes[0].legend(fontsize=8)
+    fig.suptitle("a load picked up and set down: the sensor policy is told neither k nor the load "
+                 "(mu 0.3, mu1 0.1)", fontsize=10)
     fig.tight_layout()
     save_figure(fig, out / "load_step.png")
     plt.close(fig)
