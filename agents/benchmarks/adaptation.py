@@ -42,14 +42,14 @@ from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from ..policy import load_policy
-from ..protocol import (ACTION_MAP, AVERAGE_PERIODS, EVAL_PERIODS, SENSOR_ID, draw_hidden, env_rollout,
+from ..protocol import (ACTION_MAP, AVERAGE_PERIODS, EVAL_PERIODS, draw_hidden, env_rollout,
                         format_velocity, hidden_point, steady_velocity_of)
 from ..search import CMA_BUDGET, CYCLE_SEARCH, cma_optimize
 from .blind import QUICK
 from .load_steps import (RECOVERY_FRACTION, RECOVERY_PERIODS, STEP_EPISODE_PERIODS, STEP_PERIOD, candidate_drives,
                          fastest_recovery, recovery, recovery_record, recovery_window)
 from .point_search import PointTask, best_drive
-from .targets import MOVING_THRESHOLD, velocity_statistics
+from .targets import velocity_statistics
 
 SENSOR_POLICY = "agents/pretrained/ppo_sensor"
 FULL_POLICY = "agents/pretrained/ppo_sensor/teacher"  # told k, the load and mu1/mu: the upper bound the sensor policies approximate

@@ -16,7 +16,7 @@ import numpy as np
 
 from mdr_drive_env.files import write_text
 
-from ..policy import load_policy, package_path, policy_files, read_run, same_weights
+from ..policy import load_policy, policy_files, same_weights
 from ..protocol import (
     AVERAGE_PERIODS,
     EVAL_PERIODS,

@@ -155,7 +155,6 @@ def plot_blind(res: dict, out: str | Path, moving_threshold: float) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     out = Path(out)
     names = [f"policy {i + 1}" for i in range(len(res["policies"]))]

@@ -30,7 +30,6 @@ from ..protocol import (
     steady_velocity_of,
     trapezoid_action,
     trapezoid_critical_load,
-    upper_mass,
 )
 
 #: The options (and env keywords) of the friction pair: indenter-slider mu, slider-base mu1.
@@ -227,10 +226,9 @@ def main(args: argparse.Namespace) -> int:
             learned = steady_velocity_of(v_learned * drive.period, runaway=[r[0][2] for r in runs], period=drive.period)
             trapezoid = steady_velocity_of(v_trap * drive.period, runaway=[r[1][2] for r in runs], period=drive.period)
         else:
-            at = [(k, m, *friction.values()) for k, m in points]  # (k, m, mu, mu1): the pair played, not drawn
-            disp, acts, runaway = policy_rollout(policy, at, drive=drive)
+            disp, acts, runaway = policy_rollout(policy, points, drive=drive)  # at the drive's nominal pair
             learned = steady_velocity_of(disp, runaway=runaway, period=drive.period)
-            disp_trap, runaway_trap = open_loop_displacements(at, trapezoid_action(drive), drive=drive)
+            disp_trap, runaway_trap = open_loop_displacements(points, trapezoid_action(drive), drive=drive)
             trapezoid = steady_velocity_of(disp_trap, runaway=runaway_trap, period=drive.period)
             v_learned, v_trap = disp / drive.period, disp_trap / drive.period
         quantum = float(env_kwargs.get("time_quantum", TIME_QUANTUM))
