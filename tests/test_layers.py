@@ -12,7 +12,7 @@ from tests import ROOT
 AGENT_LAYERS = (
     {"blas", "cycles", "yaml_config", "run_record", "sb3_files", "drive"},
     {"protocol"},
-    {"policy", "search", "vec_env"},
+    {"policy", "search", "vec_env", "sensor_episodes"},
     {"teacher"},
     {"student"},
     {"train", "benchmarks"},
@@ -73,3 +73,10 @@ def test_no_agents_module_imports_a_layer_above_its_own(path):
 def test_teacher_and_student_do_not_import_each_other_in_a_circle():
     for path, package in modules(ROOT / "agents" / "teacher", "mdr_drive_agents.teacher"):
         assert not {n for n in imports(path, package) if n.startswith("mdr_drive_agents.student")}, path
+
+
+def test_the_benchmarks_never_import_the_training_programs():
+    """A result judges a policy without the code that built it: benchmarks/ and train/ share only what
+    lies below both."""
+    for path, package in modules(ROOT / "agents" / "benchmarks", "mdr_drive_agents.benchmarks"):
+        assert not {n for n in imports(path, package) if n.startswith("mdr_drive_agents.train")}, path

@@ -6,7 +6,7 @@ Episodes of ``MDRDriveSensor-v0`` (k, the load, mu and mu1 hidden and drawn as i
 load step). Each *drive* plays them for P periods:
 
 * ``trapezoid``: the paper's trapezoid every period, from rest;
-* ``probe``: the deliberate probe (``train.sensor_episodes.probe_actions``: the trapezoid, reversed,
+* ``probe``: the deliberate probe (``sensor_episodes.probe_actions``: the trapezoid, reversed,
   out of contact, half depth, symmetric, a clamp) in turn, from rest;
 * ``teacher``: the full-observation policy told the truth (``--teacher``, default the sensor
   policies' teacher), from rest;
@@ -193,7 +193,7 @@ def sensor_policy_player(folder: str, config: IdentifiabilityConfig):
 def _driver(drive: str, envs: list, policy_act):
     """``collect``'s driver of ``drive`` over ``envs`` (``policy_act``: the policy's, for the
     policy drives)."""
-    from ..train.sensor_episodes import ProbeFirst, probe_actions
+    from ..sensor_episodes import ProbeFirst, probe_actions
 
     trapezoid = np.tile(envs[0].unwrapped.trapezoid_action(), (len(envs), 1))
     constant = lambda sensed, privileged: trapezoid  # noqa: E731
@@ -214,7 +214,7 @@ def episodes_of(config: IdentifiabilityConfig, drive: str) -> tuple[np.ndarray, 
     from mdr_drive_env import SENSOR_DEFAULTS
 
     from ..protocol import SENSOR_ID
-    from ..train.sensor_episodes import collect
+    from ..sensor_episodes import collect
 
     player = sensor_policy_player(config.sensor_policy, config) if drive.startswith("sensor") else None
     depth = max(max(config.periods), player[0] if player else 1)

@@ -136,15 +136,21 @@ print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
 ```"""
 
 
+#: The recipe ``make train`` runs (``train.recipe.DEFAULT_CONFIG``; read here as a file, the benchmarks
+#: sit beside the training programs, not on them).
+RECIPE_YAML = Path(__file__).parents[1] / "configs" / "recipe.yaml"
+
+
 def recipe_note(run: dict) -> str:
     """Where a distilled policy's student settings (its run.json's ``distilled_from.distill``) differ from
     today's ``agents/configs/recipe.yaml``: the keys, since ``make train`` then builds another policy."""
-    from ..train.recipe import DEFAULT_CONFIG, load_recipe
+    from ..student.distill import DistillConfig
+    from ..yaml_config import build, read_yaml
 
     saved = (run.get("distilled_from") or {}).get("distill")
     if not saved:
         return ""
-    config = load_recipe(DEFAULT_CONFIG).distill
+    config = build(DistillConfig, read_yaml(RECIPE_YAML).get("distill", {}), f"{RECIPE_YAML.name}'s distill")
     today = json.loads(json.dumps({key: getattr(config, key) for key in config.__dataclass_fields__}))
     differ = sorted(key for key in set(saved) | set(today)  # a key one side lacks counts where the other sets it
                     if saved.get(key) != today.get(key) and (saved.get(key) or today.get(key)))

@@ -52,7 +52,7 @@ from ..student.estimator import FINE_TUNE_PPO, hidden_entries, standardised_erro
 from ..student.network import save_student
 from ..teacher.drive_table import DriveTable, DriveTableConfig, build, drive_values
 from ..yaml_config import from_yaml
-from .sensor_episodes import collect_rows, episode_points, sensor_env_kwargs, sensor_envs
+from ..sensor_episodes import collect_rows, episode_points, sensor_env_kwargs, sensor_envs
 
 DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "sensor.yaml"
 TABLE_FILE = "drive_table.npz"

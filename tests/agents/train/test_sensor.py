@@ -170,7 +170,7 @@ def test_mdr_drive_evaluate_plays_a_sensor_policy_in_its_own_tier(sensor_run, ca
 
 
 def test_the_probe_plays_its_varied_waveforms_first_then_the_driver():
-    from mdr_drive_agents.train.sensor_episodes import ProbeFirst, probe_actions
+    from mdr_drive_agents.sensor_episodes import ProbeFirst, probe_actions
 
     env = gym.make("MDRDriveSensor-v0", history=2)
     amap = env.unwrapped.action_map

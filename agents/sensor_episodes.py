@@ -3,7 +3,8 @@ points of each episode, the deliberate probe, and episodes driven by a driver of
 privileged observations (Box actions, ``collect``) or of the sensor observation and the hidden point
 (the rows of an action table, ``collect_rows``).
 
-Used by ``mdr_drive_agents.train.sensor``, which re-exports them.
+Shared by the sensor recipe (``train.sensor``, which re-exports them) and the identifiability study
+(``benchmarks.identifiability``), which sit beside each other and import neither.
 """
 
 from __future__ import annotations
@@ -15,7 +16,8 @@ import numpy as np
 
 from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
 
-from ..protocol import SENSOR_ID
+from .protocol import SENSOR_ID
+
 
 class EpisodeSettings(Protocol):
     """What the sensor episodes read of a recipe's settings (``train.sensor.SensorConfig`` has it):
