@@ -203,8 +203,9 @@ def actions_of(policy):
 def policy_rollout(policy, points, periods: int = EVAL_PERIODS, drive: DriveDescription = PAPER_DRIVE):
     """Run ``policy`` (``act(obs) -> Box actions``) closed loop at each (k, cargo mass) point (at the
     drive's nominal friction, ``DriveDescription.nominal_friction``) or (k, cargo mass, mu, mu1) point,
-    in the batched env it expects (:func:`play_kwargs_of`, on its own drive: :func:`drive_of`); returns (displacements (periods, n) m, actions (periods, n, 5) in the default
-    action units (``ACTION_MAP``, whatever the policy's ``z_phase_origin``), runaway (n,) bool)."""
+    in the batched env it expects (:func:`play_kwargs_of`, on its own drive: :func:`drive_of`); returns
+    (displacements (periods, n) m, actions (periods, n, 5) in the default action units (``ACTION_MAP``,
+    whatever the policy's ``z_phase_origin``), runaway (n,) bool)."""
     n = len(points)
     play, act, drive = play_kwargs_of(policy), actions_of(policy), drive_of(policy, drive)
     venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods,

@@ -4,6 +4,7 @@ card with its scores from the run's ``results.json``."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from mdr_drive_env.files import write_text
@@ -122,36 +123,34 @@ def source_of(best: dict, dst: Path) -> Path:
     raise ValueError(f"{folder}: the run to ship is not there (and {dst} holds another): train it again")
 
 
-def dropped_loads(records, key: str) -> list[tuple[float, float, float, float]]:
-    """Where the blind benchmarks ``records`` (``blind.json`` paths) saw the policy ``key`` drop the
+def dropped_loads(records: list[dict], key: str) -> list[tuple[float, float, float, float]]:
+    """Where the blind benchmarks ``records`` (``blind.json`` loaded) saw the policy ``key`` drop the
     load the trapezoid carries: (k, cargo mass kg, trapezoid m/s, policy m/s, NaN a runaway) at each
     point where the trapezoid holds or moves the load forward (>= 0) and under the policy it runs away
     or drags the slider back."""
-    found = []
-    for path in records:
-        res = json.loads(Path(path).read_text())
-        for (k, m), trap, v in zip(res["points"], res["trapezoid"], res["learned"][key]):
-            if trap is not None and trap >= 0.0 and (v is None or v < 0.0):
-                found.append((k, m, trap, float("nan") if v is None else v))
-    return found
+    return [(k, m, trap, math.nan if v is None else v)
+            for res in records for (k, m), trap, v in zip(res["points"], res["trapezoid"], res["learned"][key])
+            if trap is not None and trap >= 0.0 and (v is None or v < 0.0)]
 
 
-def dropped_load_note(records, key: str) -> str:
-    """The card's warning of :func:`dropped_loads` (a bullet, or '' where there is none or no record)."""
-    if not records:
+def dropped_load_note(paths, key: str) -> str:
+    """The card's warning of :func:`dropped_loads` over the ``blind.json`` files ``paths`` (a bullet, or
+    '' where there is no record)."""
+    if not paths:
         return ""
+    records = [json.loads(Path(p).read_text()) for p in paths]
     dropped = dropped_loads(records, key)
-    n = sum(len(json.loads(Path(p).read_text())["points"]) for p in records)
+    n = sum(len(res["points"]) for res in records)
     if not dropped:
         return f"* It never drops a load the trapezoid carries on its record's {n:,} points.\n"
-    runaways = [d for d in dropped if d[3] != d[3]]
+    runaways = sum(math.isnan(d[3]) for d in dropped)
     ks = [d[0] for d in dropped]
     worst = max(dropped, key=lambda d: d[2])  # where the trapezoid moves it forward fastest
     where = (f"k = {worst[0]:.3f}, m = {worst[1]:.4f} kg: the trapezoid {worst[2] * 1e3:.2f} mm/s, this policy "
-             + ("a runaway" if worst[3] != worst[3] else f"{worst[3] * 1e3:.2f} mm/s"))
+             + ("a runaway" if math.isnan(worst[3]) else f"{worst[3] * 1e3:.2f} mm/s"))
     return (f"* **It drops loads the trapezoid carries.** At {len(dropped)} of its record's {n:,} points (k\n"
             f"  {min(ks):.2f}-{max(ks):.2f}) the trapezoid holds the load or moves it forward and under this policy\n"
-            f"  it runs away with the slider ({len(runaways)} points) or drags it back; at worst {where}.\n"
+            f"  it runs away with the slider ({runaways} points) or drags it back; at worst {where}.\n"
             "  Do not drive a load near the trapezoid's critical load with it.\n")
 
 

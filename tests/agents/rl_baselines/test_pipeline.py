@@ -124,3 +124,24 @@ def test_the_tiny_pipeline_resumes_after_ctrl_c_and_writes_its_outputs(tmp_path,
     # the tuned file is a config of mdr-drive train
     assert main(["train", "--config", str(out / "hyperparameters" / "ppo.yaml"), "--algo", "ppo", "--steps", "64",
                  "--out", str(tmp_path / "again"), "--no-progress"]) == 0
+
+
+def test_the_plain_card_counts_the_loads_the_policy_drops_where_the_trapezoid_carries_them(tmp_path):
+    import math
+
+    from mdr_drive_agents.rl_baselines.card import dropped_load_note, dropped_loads
+
+    res = {"points": [[0.1, 0.2], [0.2, 0.1], [0.3, 0.05], [0.4, 0.02], [0.5, 0.01]],
+           "trapezoid": [2e-3, 0.0, None, -1e-3, 3e-3],  # m/s; None: the trapezoid lets it run away
+           "learned": {"p": [None, -1e-3, None, None, 4e-3]}}
+    found = dropped_loads([res], "p")  # a runaway under the trapezoid, or its own backward drive, is not dropped
+    assert [(k, m) for k, m, *_ in found] == [(0.1, 0.2), (0.2, 0.1)] and math.isnan(found[0][3])
+    path = tmp_path / "blind.json"
+    path.write_text(json.dumps(res))
+    note = dropped_load_note([path], "p")
+    assert "At 2 of its record's 5 points" in note and "(1 points)" in note
+    assert "at worst k = 0.100, m = 0.2000 kg: the trapezoid 2.00 mm/s, this policy a runaway" in note
+    res["learned"]["p"] = [3e-3, 1e-3, None, None, 4e-3]
+    path.write_text(json.dumps(res))
+    assert dropped_load_note([path], "p") == "* It never drops a load the trapezoid carries on its record's 5 points.\n"
+    assert dropped_load_note([], "p") == ""
