@@ -42,6 +42,9 @@ DOMAIN_KEYS = {"k": "- (low, high)", "load_ratio": "- (low, high), fractions of 
 #: The domain every policy of this package is built for unless a description says otherwise.
 DEFAULT_K_RANGE = (0.0, 0.6)
 DEFAULT_LOAD_RATIO_RANGE = (0.0, 0.55)
+#: Why a drive needs mu > mu1 (the error every check of a friction pair gives).
+WHY_MU_EXCEEDS_MU1 = ("the base holds the slider with mu1 times the contact's normal force and the contact pulls it "
+                      "with at most mu times it, so no drive moves it forward")
 #: The fewest time steps per period a search solver may take (``DriveDescription.search_steps_per_period``).
 MIN_SEARCH_STEPS = 50
 
@@ -81,9 +84,8 @@ class DriveDescription:
         contact = template(self.settings).params_for(0.0, 0.0).contact  # the env validates every value
         mu, mu1 = contact.friction_coefficient, contact.base_friction_coefficient
         if mu <= mu1:  # M X'' = F_x - mu1 F_z - F_m with |F_x| <= mu F_z: never a forward push (docs/model.md)
-            raise ValueError(f"friction_coefficient={mu!r} must exceed base_friction_coefficient={mu1!r}: the base "
-                             "holds the slider with mu1 times the contact's normal force and the contact pulls it "
-                             "with at most mu times it, so no drive moves it forward")
+            raise ValueError(f"friction_coefficient={mu!r} must exceed base_friction_coefficient={mu1!r}: "
+                             f"{WHY_MU_EXCEEDS_MU1}")
 
     @classmethod
     def from_mapping(cls, mapping: dict, name: str = "drive") -> "DriveDescription":
@@ -268,4 +270,4 @@ def _action_map(settings: tuple, time_quantum: float | None) -> ActionMap:
 PAPER_DRIVE = DriveDescription()
 
 __all__ = ["DEFAULT_K_RANGE", "DEFAULT_LOAD_RATIO_RANGE", "DOMAIN_KEYS", "DRIVE_KEYS", "DriveDescription", "PAPER_DRIVE",
-           "template"]
+           "WHY_MU_EXCEEDS_MU1", "template"]

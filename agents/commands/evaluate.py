@@ -14,7 +14,7 @@ import json
 
 import numpy as np
 
-from ..drive import PAPER_DRIVE, DriveDescription
+from ..drive import PAPER_DRIVE, WHY_MU_EXCEEDS_MU1, DriveDescription
 from ..policy import OBSERVATION_KEYS, load_policy, package_path
 from ..protocol import (
     AVERAGE_PERIODS,
@@ -143,9 +143,8 @@ def friction_played(args: argparse.Namespace, drive: DriveDescription) -> dict:
         raise ValueError(f"--friction-coefficient {mu:g} and --base-friction-coefficient {mu1:g} must be finite, "
                          "mu1 >= 0")
     if mu <= mu1:
-        raise ValueError(f"--friction-coefficient {mu:g} must exceed --base-friction-coefficient {mu1:g}: the base "
-                         "holds the slider with mu1 times the normal force and the contact pulls it with at most mu "
-                         "times it, so no drive moves it forward")
+        raise ValueError(f"--friction-coefficient {mu:g} must exceed --base-friction-coefficient {mu1:g}: "
+                         f"{WHY_MU_EXCEEDS_MU1}")
     return friction
 
 
