@@ -325,8 +325,8 @@ def policy_label(path: str | Path) -> str:
         return "shipped policy"
     run = read_run(path)
     name = path.name if path.name != "policy" else f"{path.parent.name}/{path.name}"  # a recipe's DIR/policy
-    if "distilled_from" in run:  # mdr-drive recipe's student (its seed is the fit's, not an RL run's)
-        return f"recipe policy ({name})"
+    if "distilled_from" in run or run.get("picks_from", {}).get("observation") == "told":  # mdr-drive recipe's
+        return f"recipe policy ({name})"  # student (its seed is the fit's, not an RL run's)
     if "picks_from" in run:
         return f"sensor policy, {run.get('env_kwargs', {}).get('sensor_tier', 'encoder')} tier ({name})"
     if run:

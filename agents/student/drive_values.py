@@ -27,6 +27,8 @@ of one of them (decision-focused learning; a contextual bandit with every arm's 
 
 from __future__ import annotations
 
+import warnings
+
 import gymnasium as gym
 import numpy as np
 
@@ -122,7 +124,9 @@ class DriveValueNetwork:
         self.trunk = torch.nn.Sequential(*layers)
         self.partners = np.asarray(partners, dtype=np.float64)
         self.worth = torch.nn.Linear(width, len(self.partners) // 2)
-        self.estimate_head = torch.nn.Linear(width, len(estimate_names))
+        with warnings.catch_warnings():  # a head of no estimates (a told policy) has nothing to initialise
+            warnings.filterwarnings("ignore", "Initializing zero-element tensors")
+            self.estimate_head = torch.nn.Linear(width, len(estimate_names))
         self.previous = list(range(obs_dim))[previous]
         self.continuation = float(continuation)
         #: ``pick_rows``' switch cost: 0 while the rounds drive; the recipe sets its ``play_switch_cost``
@@ -170,24 +174,30 @@ class DriveValueNetwork:
         return out * self.scales[3] + self.scales[2]
 
     def fit(self, x: np.ndarray, point: np.ndarray, estimates: np.ndarray, targets: DriveValueTargets, steps: int,
-            batch: int, learning_rate: float, seed: int, estimate_weight: float = 0.2, progress: bool = True) -> float:
+            batch: int, learning_rate: float, seed: int, estimate_weight: float = 0.2, progress: bool = True,
+            top_weight: float = 0.0, top_margin: float = 0.1, desc: str = "sensor: value network") -> float:
         """``steps`` Adam steps (``student.adam_fit``) of the squared error of every drive's predicted
-        worth against ``targets.worth`` at each sample's hidden point (``point``: indices), plus
-        ``estimate_weight`` times that of the standardised estimates against ``estimates``; returns the
-        last epoch's loss."""
+        worth against ``targets.worth`` at each sample's hidden point (``point``: indices), the drives
+        within ``top_margin`` of the point's best worth weighted ``1 + top_weight`` (the pick needs the
+        best drives' order, not the worst drives' worth), plus ``estimate_weight`` times that of the
+        standardised estimates against ``estimates``; returns the last epoch's loss."""
         import torch
 
         xt = self._inputs(x)
         yt = torch.as_tensor((estimates - self.scales[2]) / self.scales[3], dtype=torch.float32)
         worth, point = torch.as_tensor(targets.worth), torch.as_tensor(point)
+        weight = 1.0 + top_weight * (worth >= worth.max(dim=1, keepdim=True).values - top_margin).float()
+        weight = weight / weight.mean(dim=1, keepdim=True)
 
         def loss_of(idx):
             h = self.trunk(xt[idx])
-            return (torch.mean((self.worth(h) - worth[point[idx]]) ** 2)
-                    + estimate_weight * torch.mean((self.estimate_head(h) - yt[idx]) ** 2))
+            loss = torch.mean(weight[point[idx]] * (self.worth(h) - worth[point[idx]]) ** 2)
+            if self.estimate_names:  # a told policy estimates nothing
+                loss = loss + estimate_weight * torch.mean((self.estimate_head(h) - yt[idx]) ** 2)
+            return loss
 
         return adam_fit(self.parameters(), lambda: (len(xt), loss_of), steps, batch, learning_rate, seed,
-                        "sensor: value network", progress)
+                        desc, progress)
 
     def _trunk_layers(self) -> list:
         return [m for m in self.trunk if hasattr(m, "weight")]
@@ -246,8 +256,8 @@ class DriveValueNetwork:
             hats[r, i - 1], hats[r, i], hats[r, i + 1] = 1.0 / left, -1.0 / left - 1.0 / right, 1.0 / right
         return key, knots, hats
 
-    def policy(self, env_kwargs: dict, rows: np.ndarray, seed: int = 0) -> Student:
-        """One SB3 PPO ``MlpPolicy`` over ``MDRDriveSensor-v0(**env_kwargs, action_codebook=rows)`` whose
+    def policy(self, env_kwargs: dict, rows: np.ndarray, seed: int = 0, env_id: str = SENSOR_ID) -> Student:
+        """One SB3 PPO ``MlpPolicy`` over ``gym.make(env_id, **env_kwargs, action_codebook=rows)`` whose
         most likely action is :meth:`act`'s row: its ``VecNormalize`` standardises as the network does;
         its policy layers are the trunk (the ignored entries' weights zeroed), each with ten more units
         that carry the previous action (relu(a) and relu(-a)); its action net gives each row its drive's
@@ -261,7 +271,7 @@ class DriveValueNetwork:
         from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
 
         play_env = {**env_kwargs, "action_codebook": np.asarray(rows)}
-        venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: gym.make(SENSOR_ID, **play_env)])),
+        venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: gym.make(env_id, **play_env)])),
                             norm_obs=True, norm_reward=True, gamma=FINE_TUNE_PPO["gamma"], clip_obs=1e6)
         mean, std = self.scales[:2]
         venv.obs_rms.mean = mean.astype(np.float64)

@@ -33,7 +33,7 @@ from mdr_drive_env.core.params import check_int
 from mdr_drive_env.files import atomic_path
 from mdr_drive_env.sweep import Executor, TaskStore
 
-from ..protocol import MOVING_THRESHOLD, draw_hidden, hidden_point, open_loop_velocity, policy_rollout, trapezoid_action
+from ..protocol import MOVING_THRESHOLD, TIME_QUANTUM, draw_hidden, hidden_point, open_loop_velocity, policy_rollout, trapezoid_action
 from ..search import CMA_BUDGET, CYCLE_SEARCH, PUSH_CLAMP, THROW_COAST, best_cycle, cma_optimize
 
 #: Starts of the cycle searches besides the full-observation policy's own cycle (None: the trapezoid).
@@ -109,26 +109,31 @@ def search_drives(task: SearchTask) -> dict:
 
 @dataclass(frozen=True)
 class ValuesTask:
-    """Every drive of ``drives`` (n, 2, 5) played at each of ``points`` (k, cargo mass kg, mu, mu1)."""
+    """Every drive of ``drives`` (n, 2, 5) played at each of ``points`` (k, cargo mass kg, mu, mu1), its
+    rises and z phase in steps of ``time_quantum`` (s)."""
 
     points: tuple
     drives: np.ndarray
+    time_quantum: float = TIME_QUANTUM
 
 
 def values_task(task: ValuesTask) -> np.ndarray:
     """Steady velocities (len(points), n) m/s of ``task`` (a runaway: its mean, a large negative number)."""
     drives = np.asarray(task.drives)
     points = [tuple(p) for p in task.points for _ in range(len(drives))]
-    return open_loop_velocity(points, np.tile(drives, (len(task.points), 1, 1))).reshape(len(task.points), -1)
+    return open_loop_velocity(points, np.tile(drives, (len(task.points), 1, 1)),
+                              time_quantum=task.time_quantum).reshape(len(task.points), -1)
 
 
 def drive_values(points, drives: np.ndarray, executor: Executor, store: TaskStore | None = None,
-                 desc: str = "drive table: values") -> np.ndarray:
-    """Steady velocity (m/s) of every drive (n, 2, 5) at every hidden point (k, cargo mass kg, mu, mu1):
-    (len(points), n), in tasks of ``VALUE_CHUNK`` points."""
+                 desc: str = "drive table: values", time_quantum: float = TIME_QUANTUM) -> np.ndarray:
+    """Steady velocity (m/s) of every drive (n, 2, 5) at every hidden point (k, cargo mass kg, mu, mu1),
+    its rises and z phase in steps of ``time_quantum`` (s): (len(points), n), in tasks of
+    ``VALUE_CHUNK`` points."""
     points = [tuple(float(x) for x in p) for p in points]
     drives = np.asarray(drives, dtype=np.float64)
-    tasks = [ValuesTask(tuple(points[i:i + VALUE_CHUNK]), drives) for i in range(0, len(points), VALUE_CHUNK)]
+    tasks = [ValuesTask(tuple(points[i:i + VALUE_CHUNK]), drives, time_quantum)
+             for i in range(0, len(points), VALUE_CHUNK)]
     return np.concatenate([np.asarray(v) for v in executor.map(values_task, tasks, desc, store=store)])
 
 

@@ -46,6 +46,7 @@ from ..drive import PAPER_DRIVE, DriveDescription
 from ..run_record import RunLock, command_line, start_run, versions
 from ..student.distill import DistillConfig, distill
 from ..student.network import save_student
+from ..student.told import WorthConfig, fit_told
 from ..teacher import DriveField, FieldConfig
 from ..yaml_config import build, from_yaml
 from .sb3 import ENV_ID, HELD_OUT_POINTS
@@ -60,7 +61,9 @@ class RecipeConfig:
     Attributes:
         seed: seed of the teacher's search (-).
         teacher: the teacher's grid, budgets and stages.
-        distill: the student's distillation.
+        distill: the student's distillation (a codebook classifier fitted by DAgger); or
+        worth: the student as a network that predicts the worth of each of the field's whole drives and
+            plays the best (``student.told``). The recipe names one of the two.
         ppo: the saved model's SB3 PPO settings (what ``mdr-drive train --resume`` fine-tunes it with).
         env_kwargs: the training domain and the env the student acts in, as ``MDRDrive-v0`` keywords.
         student_seed: seed of the student's network, episodes and minibatches (-); default ``seed``.
@@ -68,7 +71,8 @@ class RecipeConfig:
 
     seed: int
     teacher: FieldConfig
-    distill: DistillConfig
+    distill: DistillConfig | None = None
+    worth: WorthConfig | None = None
     ppo: dict = field(default_factory=dict)
     env_kwargs: dict = field(default_factory=dict)
     student_seed: int | None = None
@@ -78,6 +82,9 @@ class RecipeConfig:
             value = getattr(self, name)
             if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
                 raise ValueError(f"{name}={value!r} must be an integer")
+        if (self.distill is None) == (self.worth is None):
+            raise ValueError("the recipe names one student: 'distill' or 'worth' (it names "
+                             f"{'both' if self.worth is not None else 'neither'})")
 
     @property
     def seeds(self) -> tuple[int, int]:
@@ -107,6 +114,24 @@ def student_record(seed: int, env_kwargs: dict, ppo: dict, config: DistillConfig
         "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall_time_s, "steps_per_s_this_run": 0.0,
         "resumes": 0, "held_out_points": HELD_OUT_POINTS, "interrupted": False,
     }
+
+
+def worth_record(seed: int, env_kwargs: dict, ppo: dict, config: WorthConfig, student, picks: dict,
+                 wall_time_s: float, command: str, teacher: dict, drive: DriveDescription | None = None) -> dict:
+    """The told-load worth policy's ``run.json`` (``student.told``): as :func:`student_record`, its
+    provenance under ``picks_from`` (the teacher, the settings, the library's size and how its picks
+    do at the labelled points) and its network's actual layer sizes."""
+    import torch
+
+    layers = [m.out_features for m in student.model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
+    return {**({} if drive is None else {"drive": drive.to_record()}),
+            "algo": "ppo", "seed": seed, "env_id": ENV_ID, "env_kwargs": env_kwargs,
+            "hyperparameters": {**dict(ppo), "normalize": True, "warm_start": "none",
+                                "policy_kwargs": {"net_arch": {"pi": layers, "vf": [64, 64]}, "activation_fn": "relu"}},
+            "picks_from": {**teacher, "observation": "told", "worth": dataclasses.asdict(config), **picks},
+            "command": command, "versions": versions(), "torch_threads": config.torch_threads,
+            "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall_time_s, "steps_per_s_this_run": 0.0,
+            "resumes": 0, "held_out_points": HELD_OUT_POINTS, "interrupted": False}
 
 
 def searched_with_another_config(field: DriveField, config: FieldConfig) -> bool:
@@ -185,12 +210,21 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
                                         round(time.perf_counter() - t1, 1), command, teacher_record, drive)
                 save_student(student, out / "snapshots" / f"hole_round{round_record['hole_round']}", record)
 
-        student = distill(field, recipe.distill, seed=student_seed, env_kwargs=recipe.env_kwargs,
-                          hyperparameters=recipe.ppo, progress=progress, on_round=save_snapshot,
-                          checkpoint=tasks / "student_round0.npz")
-        stages["student_s"] = round(time.perf_counter() - t1, 1)
-        record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student, stages["student_s"],
-                                command, teacher_record, drive)
+        if recipe.worth is not None:
+            student, _, picks = fit_told(field, recipe.worth, student_seed, recipe.env_kwargs, executor,
+                                         TaskStore(tasks / "told_values"), progress)
+            print("recipe: told: " + ", ".join(f"{key} {value:.3g}" for key, value in
+                                               picks["labelled_points"].items() if value is not None), flush=True)
+            stages["student_s"] = round(time.perf_counter() - t1, 1)
+            record = worth_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.worth, student, picks,
+                                  stages["student_s"], command, teacher_record, drive)
+        else:
+            student = distill(field, recipe.distill, seed=student_seed, env_kwargs=recipe.env_kwargs,
+                              hyperparameters=recipe.ppo, progress=progress, on_round=save_snapshot,
+                              checkpoint=tasks / "student_round0.npz")
+            stages["student_s"] = round(time.perf_counter() - t1, 1)
+            record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student,
+                                    stages["student_s"], command, teacher_record, drive)
         save_student(student, out / "policy", record)
         stages["total_s"] = round(time.perf_counter() - t0, 1)
         print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
@@ -208,4 +242,5 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         return summary
 
 
-__all__ = ["DEFAULT_CONFIG", "RecipeConfig", "load_recipe", "run", "searched_with_another_config", "student_record"]
+__all__ = ["DEFAULT_CONFIG", "RecipeConfig", "load_recipe", "run", "searched_with_another_config", "student_record",
+           "worth_record"]

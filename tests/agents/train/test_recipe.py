@@ -385,3 +385,41 @@ def test_a_codebook_student_picks_the_teachers_grid_actions_and_loads_as_plain_s
     with pytest.raises(ValueError, match="stall_probes: not with a drawn friction"):
         check_drawn_friction(DistillConfig(stall_probes=16), friction_drawn=True)
 
+
+
+def test_a_worth_student_is_built_from_the_teacher_and_loads_as_plain_sb3(recipe_run, tmp_path, capsys):
+    """The recipe's ``worth`` student (``student.told``): the field's drives valued at random points,
+    one network of their worth, written as one SB3 policy over the library's rows."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    out, _ = recipe_run
+    worth = DATA / "recipe_tiny_worth.yaml"
+    assert main(["recipe", str(worth), "--out", str(tmp_path / "w"), "--no-progress", "--workers", "1",
+                 "--teacher", str(out / "teacher_field.npz")]) == 0
+    assert "recipe: told: fraction_of_library_best_mean" in capsys.readouterr().out
+    folder = tmp_path / "w" / "policy"
+    run = json.loads((folder / "run.json").read_text())
+    picks = run["picks_from"]
+    assert picks["observation"] == "told" and picks["worth"]["steps"] == 30 and picks["points"] == 20
+    assert run["env_kwargs"]["action_codebook"] == "action_codebook.npy" and 2 * picks["drives"] == picks["rows"]
+    rows = np.load(folder / "action_codebook.npy")
+    venv = VecNormalize.load(str(folder / "vecnormalize.pkl"), DummyVecEnv([lambda: gym.make(
+        "MDRDrive-v0", k=0.1, cargo_mass=0.02, action_codebook=rows, time_quantum=5e-6)]))
+    venv.training, venv.norm_reward = False, False
+    model = PPO.load(folder / "model.zip", device="cpu")
+    obs = venv.reset()
+    action, _ = model.predict(obs, deterministic=True)
+    assert 0 <= int(action[0]) < len(rows)
+    from mdr_drive_agents.policy import policy_label
+
+    assert policy_label(folder) == "recipe policy (w/policy)"
+
+
+def test_a_recipe_names_one_student():
+    from mdr_drive_agents.student.told import WorthConfig
+
+    with pytest.raises(ValueError, match="names one student.*both"):
+        recipe.RecipeConfig(seed=0, teacher=FieldConfig(), distill=DistillConfig(), worth=WorthConfig())
+    with pytest.raises(ValueError, match="names one student.*neither"):
+        recipe.RecipeConfig(seed=0, teacher=FieldConfig())
