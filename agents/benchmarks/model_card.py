@@ -141,16 +141,21 @@ print(f"steady velocity {{np.mean(velocities[20:]) * 1e3:.2f}} mm/s")
 RECIPE_YAML = Path(__file__).parents[1] / "configs" / "recipe.yaml"
 
 
-def recipe_note(run: dict) -> str:
+def recipe_note(run: dict, recipe_yaml: Path = RECIPE_YAML) -> str:
     """Where a distilled policy's student settings (its run.json's ``distilled_from.distill``) differ from
-    today's ``agents/configs/recipe.yaml``: the keys, since ``make train`` then builds another policy."""
+    today's ``agents/configs/recipe.yaml`` (``recipe_yaml``): the keys, or that today's recipe builds
+    another kind of student, since ``make train`` then builds another policy."""
     from ..student.distill import DistillConfig
     from ..yaml_config import build, read_yaml
 
     saved = (run.get("distilled_from") or {}).get("distill")
     if not saved:
         return ""
-    config = build(DistillConfig, read_yaml(RECIPE_YAML).get("distill", {}), f"{RECIPE_YAML.name}'s distill")
+    recipe = read_yaml(recipe_yaml)
+    if recipe.get("student", "distill") != "distill":
+        return (f" (today's `agents/configs/recipe.yaml` builds another kind of student, one that predicts the worth "
+                "of each of the teacher's drives: `make train` builds another policy, docs/results.md)")
+    config = build(DistillConfig, recipe.get("distill", {}), f"{recipe_yaml.name}'s distill")
     today = json.loads(json.dumps({key: getattr(config, key) for key in config.__dataclass_fields__}))
     differ = sorted(key for key in set(saved) | set(today)  # a key one side lacks counts where the other sets it
                     if saved.get(key) != today.get(key) and (saved.get(key) or today.get(key)))

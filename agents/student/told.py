@@ -59,6 +59,8 @@ class WorthConfig:
         continuation: ``student.pick_rows``' weight on the distance from the previous action to a row's
             partner (-): a cycle's rows alternate.
         knee, shortfall_weight, below_weight: ``student.DriveValueTargets``' worth (-).
+        validation_points: further points, drawn as the uniform ones with another seed and never
+            fitted, where the picks are judged against the library's best (-); 0: none.
         torch_threads: torch threads of the fit (-).
     """
 
@@ -75,12 +77,14 @@ class WorthConfig:
     knee: float = 0.85
     shortfall_weight: float = 1.0
     below_weight: float = 5.0
+    validation_points: int = 0
     torch_threads: int = 2
 
     def __post_init__(self) -> None:
         for name in ("points", "steps", "batch", "torch_threads"):
             check_int(name, getattr(self, name), 1)
-        check_int("stall_points", self.stall_points, 0)
+        for name in ("stall_points", "validation_points"):
+            check_int(name, getattr(self, name), 0)
         if not self.arch or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in self.arch):
             raise ValueError(f"arch={self.arch!r} must be positive layer sizes")
         check_range("load_factor", self.load_factor, 0.0, 10.0, low_open=True)
@@ -169,9 +173,17 @@ def fit_told(field_: DriveField, config: WorthConfig, seed: int, env_kwargs: dic
                        desc="told: worth network")
     fit_s = time.perf_counter() - t1
     picks = network.predicted_worth(x).argmax(axis=1)
+    validation = None
+    if config.validation_points:  # points the fit never saw, judged against the library's best
+        held = draw_points(field_, config.validation_points, np.random.default_rng([seed, 1]),
+                           SimpleNamespace(load_factor=config.load_factor, no_load_share=config.no_load_share))
+        held_v = drive_values([(k, m, mu, mu1) for k, m in held], library.drives, executor,
+                              None if store is None else TaskStore(store.folder.with_name(store.folder.name + "_validation")),
+                              "told: validation points", time_quantum=quantum)
+        validation = pick_quality(held_v, network.predicted_worth(told_observations(held, env_kwargs)).argmax(axis=1))
     student = network.policy(env_kwargs, library.rows, seed, env_id=ENV_ID)
     record = {"drives": len(library.drives), "rows": len(library.rows), "points": len(points), "loss": loss,
-              "labelled_points": pick_quality(velocities, picks),
+              "labelled_points": pick_quality(velocities, picks), "validation_points": validation,
               "wall_time_s": {"values": round(values_s, 1), "fit": round(fit_s, 1),
                               "total": round(time.perf_counter() - t0, 1)}}
     return student, library, record

@@ -8,21 +8,28 @@ Stages (each one's wall time is printed and kept in ``recipe.json``):
 1. **teacher**: the best open-loop drives on a grid of k and load (``mdr_drive_agents.teacher``),
    one task per k slice on the sweep executor (local processes or Ray), kept in ``OUT/.tasks`` as
    they finish (``--resume`` continues an interrupted search); written to ``OUT/teacher_field.npz``.
-2. **student**: a plain SB3 PPO ``MlpPolicy`` fitted to the teacher's actions on its episodes, with
-   optional DAgger and hole rounds (``mdr_drive_agents.student.distill``); written to ``OUT/policy/``
-   as ``model.zip``, ``vecnormalize.pkl`` and ``run.json``, which ``PPO.load`` +
-   ``VecNormalize.load`` play, ``mdr-drive evaluate`` and ``benchmark`` judge, and ``mdr-drive train
-   --resume OUT/policy`` fine-tunes with PPO.
+2. **student**: a plain SB3 PPO ``MlpPolicy`` written to ``OUT/policy/`` as ``model.zip``,
+   ``vecnormalize.pkl`` and ``run.json``, which ``PPO.load`` + ``VecNormalize.load`` play,
+   ``mdr-drive evaluate`` and ``benchmark`` judge, and ``mdr-drive train --resume OUT/policy``
+   fine-tunes with PPO. The YAML names one of two:
+
+   - ``worth`` (``mdr_drive_agents.student.told``): every distinct drive of the teacher's field is
+     played at random points of the domain, and a network that predicts each drive's worth from k
+     and the load picks the best (the sensor policies' method, told the point); the labelled
+     points are kept in ``OUT/.tasks`` as they finish;
+   - ``distill`` (``mdr_drive_agents.student.distill``): a classifier fitted to the teacher's picks
+     on its episodes, with optional DAgger and hole rounds.
 
 An existing ``OUT`` is refused unless ``--resume`` or ``--force``. ``--resume`` continues an
-interrupted run: the teacher's finished k slices are reused, and so is the student's first round
-(round 0, most of the student stage) as far as it got, its labelled episodes or its fit, kept in
-``OUT/.tasks/student_round0.npz`` for the same teacher and settings
-(``mdr_drive_agents.student.checkpoint``); the student's hole rounds run again.
-``--teacher FIELD.npz`` skips stage 1 and distils that field (a recipe's
+interrupted run: the teacher's finished k slices are reused, and so are the worth student's
+labelled points, or the distilled student's first round (round 0, most of its stage) as far as it
+got, its labelled episodes or its fit, kept in ``OUT/.tasks/student_round0.npz`` for the same
+teacher and settings (``mdr_drive_agents.student.checkpoint``); its hole rounds run again.
+``--teacher FIELD.npz`` skips stage 1 and builds the student of that field (a recipe's
 ``teacher_field.npz``), for trying student settings without searching the teacher again.
-``--snapshots`` also saves the student after each hole round into ``OUT/snapshots/hole_round<H>/``
-(the same files as ``OUT/policy/``), so one run shows what each further hole round changes.
+``--snapshots`` also saves the distilled student after each hole round into
+``OUT/snapshots/hole_round<H>/`` (the same files as ``OUT/policy/``), so one run shows what each
+further hole round changes.
 """
 
 from __future__ import annotations
@@ -52,6 +59,8 @@ from ..yaml_config import build, from_yaml
 from .sb3 import ENV_ID, HELD_OUT_POINTS
 
 DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "recipe.yaml"
+#: The students a recipe can build (``RecipeConfig.student``).
+STUDENTS = ("distill", "worth")
 
 
 @dataclass(frozen=True)
@@ -61,9 +70,10 @@ class RecipeConfig:
     Attributes:
         seed: seed of the teacher's search (-).
         teacher: the teacher's grid, budgets and stages.
-        distill: the student's distillation (a codebook classifier fitted by DAgger); or
+        student: which section builds the student: ``"distill"`` or ``"worth"``.
+        distill: the student's distillation (a codebook classifier fitted by DAgger).
         worth: the student as a network that predicts the worth of each of the field's whole drives and
-            plays the best (``student.told``). The recipe names one of the two.
+            plays the best (``student.told``).
         ppo: the saved model's SB3 PPO settings (what ``mdr-drive train --resume`` fine-tunes it with).
         env_kwargs: the training domain and the env the student acts in, as ``MDRDrive-v0`` keywords.
         student_seed: seed of the student's network, episodes and minibatches (-); default ``seed``.
@@ -71,6 +81,7 @@ class RecipeConfig:
 
     seed: int
     teacher: FieldConfig
+    student: str = "distill"
     distill: DistillConfig | None = None
     worth: WorthConfig | None = None
     ppo: dict = field(default_factory=dict)
@@ -82,9 +93,10 @@ class RecipeConfig:
             value = getattr(self, name)
             if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
                 raise ValueError(f"{name}={value!r} must be an integer")
-        if (self.distill is None) == (self.worth is None):
-            raise ValueError("the recipe names one student: 'distill' or 'worth' (it names "
-                             f"{'both' if self.worth is not None else 'neither'})")
+        if self.student not in STUDENTS:
+            raise ValueError(f"student={self.student!r} is not one of {list(STUDENTS)}")
+        if getattr(self, self.student) is None:
+            raise ValueError(f"student={self.student!r} needs a '{self.student}' section in the recipe")
 
     @property
     def seeds(self) -> tuple[int, int]:
@@ -161,11 +173,17 @@ def on_drive(recipe: RecipeConfig, drive: DriveDescription) -> RecipeConfig:
 
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
         force: bool = False, progress: bool = True, teacher: str | Path | None = None, snapshots: bool = False,
-        drive: DriveDescription | None = None) -> dict:
+        drive: DriveDescription | None = None, student_kind: str | None = None) -> dict:
     """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1; with
     ``snapshots``: the student after each hole round in ``out/snapshots/hole_round<H>/`` too; with
-    ``drive``: for that drive, :func:`on_drive`); returns what ``recipe.json`` holds."""
+    ``drive``: for that drive, :func:`on_drive`; with ``student_kind``: that student (``STUDENTS``)
+    instead of the YAML's); returns what ``recipe.json`` holds."""
     recipe = load_recipe(config_path)
+    if student_kind is not None:
+        recipe = dataclasses.replace(recipe, student=student_kind)
+    if snapshots and recipe.student == "worth":
+        raise ValueError(f"--snapshots saves a 'distill' student after each hole round; {config_path}'s student is "
+                         "'worth', which has none")
     if drive is not None:
         recipe = on_drive(recipe, drive)
     out, executor = start_run(out, resume, force, executor, progress)
@@ -210,7 +228,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
                                         round(time.perf_counter() - t1, 1), command, teacher_record, drive)
                 save_student(student, out / "snapshots" / f"hole_round{round_record['hole_round']}", record)
 
-        if recipe.worth is not None:
+        if recipe.student == "worth":
             student, _, picks = fit_told(field, recipe.worth, student_seed, recipe.env_kwargs, executor,
                                          TaskStore(tasks / "told_values"), progress)
             print("recipe: told: " + ", ".join(f"{key} {value:.3g}" for key, value in
@@ -230,6 +248,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
               flush=True)
         summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
+                   "student": recipe.student,
                    "drive": None if drive is None else drive.to_record(),
                    "stage_wall_time_s": stages,
                    "teacher_stage_wall_time_s": field.meta.get("stage_wall_time_s"),
@@ -242,5 +261,5 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         return summary
 
 
-__all__ = ["DEFAULT_CONFIG", "RecipeConfig", "load_recipe", "run", "searched_with_another_config", "student_record",
+__all__ = ["DEFAULT_CONFIG", "STUDENTS", "RecipeConfig", "load_recipe", "run", "searched_with_another_config", "student_record",
            "worth_record"]

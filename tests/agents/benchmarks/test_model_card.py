@@ -105,6 +105,9 @@ def test_the_model_card_says_where_todays_recipe_differs_from_the_one_that_built
     from mdr_drive_agents.benchmarks.model_card import recipe_note
     from mdr_drive_agents.train.recipe import DEFAULT_CONFIG, load_recipe
 
+    from mdr_drive_agents.yaml_config import read_yaml
+    from tests import DATA
+
     config = load_recipe(DEFAULT_CONFIG).distill
     today = json.loads(json.dumps({key: getattr(config, key) for key in config.__dataclass_fields__}))
     assert recipe_note({"command": "mdr-drive train --algo ppo"}) == ""  # not distilled: nothing to compare
@@ -113,6 +116,9 @@ def test_the_model_card_says_where_todays_recipe_differs_from_the_one_that_built
     older.pop("teacher_load_loss", None)  # a key the older recipe did not have: it counts only where today sets it
     note = recipe_note({"distilled_from": {"distill": older}})
     assert "`focus_points`, `hole_dagger`" in note and "`make train` builds another policy" in note
+    worth = DATA / "recipe_tiny_worth.yaml"  # a recipe whose student is the worth network's
+    assert read_yaml(worth)["student"] == "worth"
+    assert "builds another kind of student" in recipe_note({"distilled_from": {"distill": today}}, worth)
     card = (PRETRAINED / "MODEL_CARD.md").read_text()
     assert "commit" not in card and "`make train` builds another policy" in card
 

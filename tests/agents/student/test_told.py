@@ -13,7 +13,7 @@ from mdr_drive_agents.student.told import WorthConfig, field_library, fit_told, 
 from mdr_drive_env.sweep import Executor
 from tests.agents.fields import synthetic_field
 
-TINY = WorthConfig(points=12, stall_points=4, arch=(16,), steps=30, batch=8, torch_threads=1)
+TINY = WorthConfig(points=12, stall_points=4, arch=(16,), steps=30, batch=8, validation_points=6, torch_threads=1)
 ENV = {"k": [0.0, 0.6], "load_ratio": [0.0, 0.55], "max_periods": 10, "time_quantum": 5e-6}
 
 
@@ -56,6 +56,7 @@ def test_fit_told_writes_one_sb3_policy_that_picks_as_the_network(tmp_path):
     assert record["drives"] == len(library.drives) and record["rows"] == 2 * len(library.drives)
     assert record["points"] == 16 and set(record["wall_time_s"]) == {"values", "fit", "total"}
     assert np.isfinite(record["loss"]) and record["loss"] > 0.0
+    assert set(record["validation_points"]) == set(record["labelled_points"])  # judged on points never fitted
     save_student(student, tmp_path / "policy", {"algo": "ppo", "seed": 0, "env_id": "MDRDrive-v0", "env_kwargs": ENV})
     policy = load_policy(tmp_path / "policy")
     env = policy.make_env(k=0.2, cargo_mass=0.01)

@@ -414,12 +414,21 @@ def test_a_worth_student_is_built_from_the_teacher_and_loads_as_plain_sb3(recipe
     from mdr_drive_agents.policy import policy_label
 
     assert policy_label(folder) == "recipe policy (w/policy)"
+    assert main(["recipe", str(worth), "--out", str(tmp_path / "s"), "--teacher", str(out / "teacher_field.npz"),
+                 "--snapshots"]) == 2
+    err = capsys.readouterr().err
+    assert "--snapshots" in err and "'worth'" in err and len(err.strip().splitlines()) == 1
+    assert main(["recipe", str(TINY), "--out", str(tmp_path / "t"), "--teacher", str(out / "teacher_field.npz"),
+                 "--student", "worth"]) == 2  # --student names a section the YAML must have
+    err = capsys.readouterr().err
+    assert "needs a 'worth' section" in err and len(err.strip().splitlines()) == 1
 
 
-def test_a_recipe_names_one_student():
+def test_a_recipe_builds_the_student_it_names():
     from mdr_drive_agents.student.told import WorthConfig
 
-    with pytest.raises(ValueError, match="names one student.*both"):
-        recipe.RecipeConfig(seed=0, teacher=FieldConfig(), distill=DistillConfig(), worth=WorthConfig())
-    with pytest.raises(ValueError, match="names one student.*neither"):
-        recipe.RecipeConfig(seed=0, teacher=FieldConfig())
+    assert recipe.RecipeConfig(seed=0, teacher=FieldConfig(), distill=DistillConfig()).student == "distill"
+    with pytest.raises(ValueError, match="student='worth' needs a 'worth' section"):
+        recipe.RecipeConfig(seed=0, teacher=FieldConfig(), student="worth", distill=DistillConfig())
+    with pytest.raises(ValueError, match=r"student='ppo' is not one of \['distill', 'worth'\]"):
+        recipe.RecipeConfig(seed=0, teacher=FieldConfig(), student="ppo", worth=WorthConfig())
