@@ -74,6 +74,14 @@ class DriveValueTargets:
         #: best's velocity over the drive's, less 1 and the below-trapezoid cost (the best 0).
         self.worth = np.clip(worth, -1.0, 1.0).astype(np.float32)
 
+    @classmethod
+    def of(cls, velocities: np.ndarray, settings) -> "DriveValueTargets":
+        """The targets of ``velocities`` (points, drives) m/s with the ``knee``, ``shortfall_weight`` and
+        ``below_weight`` of ``settings`` (a recipe's config: ``train.sensor.SensorConfig``,
+        ``student.told.WorthConfig``)."""
+        return cls(velocities, knee=settings.knee, shortfall_weight=settings.shortfall_weight,
+                   below_weight=settings.below_weight)
+
 
 def pick_rows(worth: np.ndarray, previous: np.ndarray, partners: np.ndarray, continuation: float,
               switch_cost: float = 0.0) -> np.ndarray:

@@ -96,8 +96,7 @@ class WorthConfig:
 
     def targets(self, velocities: np.ndarray) -> DriveValueTargets:
         """Each drive's worth at the points of ``velocities`` (points, drives) m/s."""
-        return DriveValueTargets(velocities, knee=self.knee, shortfall_weight=self.shortfall_weight,
-                                 below_weight=self.below_weight)
+        return DriveValueTargets.of(velocities, self)
 
 
 def field_library(field_: DriveField) -> DriveTable:

@@ -143,8 +143,7 @@ class SensorConfig:
 
     def targets(self, velocities: np.ndarray) -> DriveValueTargets:
         """Each drive's worth at the hidden points of ``velocities`` (points, drives) m/s."""
-        return DriveValueTargets(velocities, knee=self.knee, shortfall_weight=self.shortfall_weight,
-                                 below_weight=self.below_weight)
+        return DriveValueTargets.of(velocities, self)
 
 
 @dataclass(frozen=True)
