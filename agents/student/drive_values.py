@@ -32,6 +32,8 @@ import warnings
 import gymnasium as gym
 import numpy as np
 
+from mdr_drive_env.core.params import check_int, check_range
+
 from ..protocol import BELOW_TOLERANCE, MOVING_THRESHOLD, SENSOR_ID
 from .estimator import FINE_TUNE_PPO, Estimator
 from .network import Student, adam_fit
@@ -81,6 +83,22 @@ class DriveValueTargets:
         ``student.told.WorthConfig``)."""
         return cls(velocities, knee=settings.knee, shortfall_weight=settings.shortfall_weight,
                    below_weight=settings.below_weight)
+
+
+def check_fit_settings(config) -> None:
+    """The checks every worth network's settings share (``train.sensor.SensorConfig``,
+    ``student.told.WorthConfig``): ``ValueError`` naming the first bad one of ``steps``, ``batch`` and
+    ``torch_threads`` (>= 1), ``arch`` (positive layer sizes), ``continuation`` and ``knee`` (0-1),
+    ``shortfall_weight`` and ``below_weight`` (0-100) and ``learning_rate`` (0-1, above 0)."""
+    for name in ("steps", "batch", "torch_threads"):
+        check_int(name, getattr(config, name), 1)
+    if not config.arch or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in config.arch):
+        raise ValueError(f"arch={config.arch!r} must be positive layer sizes")
+    for name in ("continuation", "knee"):
+        check_range(name, getattr(config, name), 0.0, 1.0)
+    for name in ("shortfall_weight", "below_weight"):
+        check_range(name, getattr(config, name), 0.0, 100.0)
+    check_range("learning_rate", config.learning_rate, 0.0, 1.0, low_open=True)
 
 
 def pick_rows(worth: np.ndarray, previous: np.ndarray, partners: np.ndarray, continuation: float,
@@ -345,4 +363,4 @@ class DriveValueNetwork:
         return Student(model, venv, codebook=np.asarray(rows))
 
 
-__all__ = ["DriveValueNetwork", "DriveValueTargets", "SAME_ACTION", "TEMPERATURE", "pick_rows", "row_key"]
+__all__ = ["DriveValueNetwork", "DriveValueTargets", "check_fit_settings", "SAME_ACTION", "TEMPERATURE", "pick_rows", "row_key"]

@@ -36,7 +36,7 @@ from ..protocol import BELOW_TOLERANCE, MOVING_THRESHOLD, trapezoid_action
 from ..teacher import DriveField
 from ..teacher.drive_table import DriveTable, drive_values
 from .data import draw_points, stall_points
-from .drive_values import DriveValueNetwork, DriveValueTargets
+from .drive_values import DriveValueNetwork, DriveValueTargets, check_fit_settings
 
 
 @dataclass(frozen=True)
@@ -81,18 +81,13 @@ class WorthConfig:
     torch_threads: int = 2
 
     def __post_init__(self) -> None:
-        for name in ("points", "steps", "batch", "torch_threads"):
-            check_int(name, getattr(self, name), 1)
+        check_int("points", self.points, 1)
         for name in ("stall_points", "validation_points"):
             check_int(name, getattr(self, name), 0)
-        if not self.arch or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in self.arch):
-            raise ValueError(f"arch={self.arch!r} must be positive layer sizes")
+        check_fit_settings(self)
         check_range("load_factor", self.load_factor, 0.0, 10.0, low_open=True)
-        for name in ("no_load_share", "continuation", "knee"):
-            check_range(name, getattr(self, name), 0.0, 1.0)
-        for name in ("top_weight", "shortfall_weight", "below_weight"):
-            check_range(name, getattr(self, name), 0.0, 100.0)
-        check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
+        check_range("no_load_share", self.no_load_share, 0.0, 1.0)
+        check_range("top_weight", self.top_weight, 0.0, 100.0)
 
     def targets(self, velocities: np.ndarray) -> DriveValueTargets:
         """Each drive's worth at the points of ``velocities`` (points, drives) m/s."""

@@ -47,7 +47,7 @@ from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 from ..policy import ESTIMATOR_FILE, package_path, read_run
 from ..protocol import ACTION_MAP, SENSOR_ID, draw_hidden, hidden_point, steady_velocity_of
 from ..run_record import RunLock, command_line, versions
-from ..student.drive_values import DriveValueNetwork, DriveValueTargets, pick_rows
+from ..student.drive_values import DriveValueNetwork, DriveValueTargets, check_fit_settings, pick_rows
 from ..student.estimator import FINE_TUNE_PPO, hidden_entries, standardised_error
 from ..student.network import save_student
 from ..teacher.drive_table import DriveTable, DriveTableConfig, build, drive_values
@@ -125,20 +125,17 @@ class SensorConfig:
     encoder_noise: float = DEFAULT_ENCODER_NOISE
 
     def __post_init__(self) -> None:
-        for name in ("history", "episodes", "periods", "steps", "batch", "torch_threads"):
+        for name in ("history", "episodes", "periods"):
             check_int(name, getattr(self, name), 1)
         check_int("rounds", self.rounds, 0)
-        if not self.arch or not all(isinstance(n, int) and n >= 1 for n in self.arch):
-            raise ValueError(f"arch={self.arch!r} must be positive layer sizes")
+        check_fit_settings(self)
         lo, hi = self.load_step_periods
         if not (isinstance(lo, int) and isinstance(hi, int) and 1 <= lo <= hi <= self.periods - 1):
             raise ValueError(f"load_step_periods={self.load_step_periods!r} is outside the allowed range "
                              f"1 <= first <= last <= periods - 1 = {self.periods - 1}")
-        for name in ("load_step_share", "explore", "continuation", "knee", "play_switch_cost"):
+        for name in ("load_step_share", "explore", "play_switch_cost"):
             check_range(name, getattr(self, name), 0.0, 1.0)
-        for name in ("estimate_weight", "shortfall_weight", "below_weight"):
-            check_range(name, getattr(self, name), 0.0, 100.0)
-        check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
+        check_range("estimate_weight", self.estimate_weight, 0.0, 100.0)
         SensorTier(self.sensor_tier, self.trace_samples, self.encoder_noise)  # its own checks
 
     def targets(self, velocities: np.ndarray) -> DriveValueTargets:
