@@ -21,9 +21,10 @@ DESCRIPTION = ("Build a policy that is told k and the load, for the paper's driv
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import input_file
+    from mdr_drive_env.gym_envs.sensor import SENSOR_TIERS
     from mdr_drive_env.sweep import add_executor_arguments
 
-    from ..train.recipe import DEFAULT_CONFIG, STUDENTS
+    from ..train.recipe import DEFAULT_CONFIG, ONLY, STUDENTS
     from . import add_drive_argument, add_recipe_arguments
 
     add_recipe_arguments(p, DEFAULT_CONFIG, "recipe YAML (default: agents/configs/recipe.yaml)", "runs/recipe")
@@ -35,6 +36,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the student, instead of the YAML's 'student': 'distill', a classifier fitted to the teacher's "
                         "picks by DAgger; 'worth', a network of each of the teacher's drives' worth at k and the load "
                         "(the YAML's 'worth' section)")
+    p.add_argument("--only", choices=ONLY, default=None,
+                   help="build only this policy: 'told', the policy told k and the load (OUT/policy/), without the "
+                        "sensor policy of the YAML's 'sensor_policy' section")
+    p.add_argument("--sensor-tier", choices=SENSOR_TIERS, default=None,
+                   help="the sensor tier the sensor policy (OUT/sensor_policy/) drives with, instead of the YAML's: "
+                        "encoder (per-period summaries), trace (positions through each period), self-sensing (and "
+                        "the piezo-sensed forces); docs/adaptation.md")
     add_drive_argument(p, "to build the policy for (its run.json records it)")
     add_executor_arguments(p)
 
@@ -50,6 +58,7 @@ def main(args: argparse.Namespace) -> int:
     return run_command("mdr-drive recipe",
                        lambda: run(args.config, args.out, executor_from(args), resume=args.resume, force=args.force,
                                    progress=not args.no_progress, teacher=args.teacher, snapshots=args.snapshots,
-                                   drive=args.drive, student_kind=args.student),
+                                   drive=args.drive, student_kind=args.student, only=args.only,
+                                   sensor_tier=args.sensor_tier),
                        f"the teacher's finished slices and the student's first round, once labelled or fitted, "
                        f"are kept, continue with --resume --out {args.out}")

@@ -65,7 +65,7 @@ class DriveTableConfig:
     fixed_budget: int = CMA_BUDGET
     cycle_budget: int = CYCLE_SEARCH["budget"]
     polish_budget: int = 1000
-    polish_from: str | None = "agents/pretrained/ppo_sensor/teacher"
+    polish_from: str | None = None
     keep_per_point: int = 2
     selection_points: int = 400
     size: int = 256
@@ -75,8 +75,11 @@ class DriveTableConfig:
             check_int(name, getattr(self, name), 1)
         for name in ("seed", "selection_points"):
             check_int(name, getattr(self, name), 0)
-        for name in ("fixed_budget", "cycle_budget", "polish_budget"):
-            check_int(name, getattr(self, name), 2)
+        check_int("polish_budget", self.polish_budget, 2)
+        for name in ("fixed_budget", "cycle_budget"):  # 0: no such search
+            check_int(name, getattr(self, name), 0)
+            if getattr(self, name) == 1:
+                raise ValueError(f"{name}=1 is outside the allowed range: 0 (no such search) or >= 2")
 
 
 @dataclass(frozen=True)
@@ -94,11 +97,14 @@ class SearchTask:
 def search_drives(task: SearchTask) -> dict:
     """The drives found at one point and their steady velocities there (m/s): ``{"drives": (n, 2, 5),
     "velocities": (n,)}``, the fixed action (both rows equal), one cycle per start of
-    ``CYCLE_STARTS`` and, with a ``start``, the cycle searched from it."""
+    ``CYCLE_STARTS`` and, with a ``start``, the cycle searched from it; a budget of 0 skips its
+    searches."""
     k, mass, mu, mu1 = task.point
-    fixed = cma_optimize(k, mass, task.fixed_budget, friction=(mu, mu1))
-    found = [(np.tile(fixed.action, (2, 1)), fixed.velocity)]
-    for i, start in enumerate(CYCLE_STARTS):
+    found = []
+    if task.fixed_budget:
+        fixed = cma_optimize(k, mass, task.fixed_budget, friction=(mu, mu1))
+        found.append((np.tile(fixed.action, (2, 1)), fixed.velocity))
+    for i, start in enumerate(CYCLE_STARTS if task.cycle_budget else ()):
         c = best_cycle(k, mass, (start,), task.cycle_budget, seed=i, friction=(mu, mu1))
         found.append((np.asarray(c.action), c.velocity))
     if task.start is not None:
@@ -215,15 +221,27 @@ def policy_cycles(folder: str | Path, points) -> np.ndarray:
     return np.stack([actions[-2], actions[-1]], axis=1).astype(np.float64)
 
 
-def build(config: DriveTableConfig, executor: Executor, tasks: Path) -> DriveTable:
+def build(config: DriveTableConfig, executor: Executor, tasks: Path, library: DriveTable | None = None) -> DriveTable:
     """The table of ``config`` (module docstring); each sweep's finished tasks are kept under ``tasks``
-    (``resume``: the same folder again)."""
+    (``resume``: the same folder again). With a ``library`` (drives found before, such as a teacher
+    field's, ``student.field_library``), each point's polishing search starts from the library's fastest
+    drive there instead of ``polish_from``'s, and every drive of the library is a candidate too."""
     points = [hidden_point(d) for d in draw_hidden(config.points, config.seed)]
-    starts = ([None] * len(points) if config.polish_from is None else list(policy_cycles(config.polish_from, points)))
+    candidates = [np.tile(trapezoid_action(), (2, 1))]
+    if library is not None:
+        if config.polish_from is not None:
+            raise ValueError(f"polish_from={config.polish_from!r}: a table built from a library starts its polishing "
+                             "searches from the library's drives; set polish_from to null")
+        known = drive_values(points, library.drives, executor, TaskStore(tasks / "library"), "drive table: library")
+        starts = list(np.asarray(library.drives)[np.argmax(known, axis=1)])
+        candidates += list(np.asarray(library.drives, dtype=np.float64))
+    elif config.polish_from is not None:
+        starts = list(policy_cycles(config.polish_from, points))
+    else:
+        starts = [None] * len(points)
     found = executor.map(search_drives, [SearchTask(p, config.fixed_budget, config.cycle_budget, config.polish_budget, s)
                                          for p, s in zip(points, starts)],
                          "drive table: searches", store=TaskStore(tasks / "searches"))
-    candidates = [np.tile(trapezoid_action(), (2, 1))]
     for f in found:
         order = np.argsort(-np.asarray(f["velocities"]), kind="stable")[:config.keep_per_point]
         candidates += [np.asarray(f["drives"])[i] for i in order]
@@ -236,7 +254,8 @@ def build(config: DriveTableConfig, executor: Executor, tasks: Path) -> DriveTab
     best = values.max(axis=1)
     moving = best >= MOVING_THRESHOLD
     fraction = values[:, chosen].max(axis=1)[moving] / best[moving]
-    record = {"config": asdict(config), "candidates": len(candidates), "sample_points": len(sample),
+    record = {"config": asdict(config), "library": None if library is None else len(library.drives),
+              "candidates": len(candidates), "sample_points": len(sample),
               "selection_utility": history,
               "coverage": {"points_moving": int(moving.sum()), "mean_fraction_of_best_candidate": float(fraction.mean()),
                            "min_fraction_of_best_candidate": float(fraction.min())}}

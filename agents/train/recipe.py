@@ -53,14 +53,18 @@ from ..drive import PAPER_DRIVE, DriveDescription
 from ..run_record import RunLock, command_line, start_run, versions
 from ..student.distill import DistillConfig, distill
 from ..student.network import save_student
-from ..student.told import WorthConfig, fit_told
+from ..student.told import WorthConfig, field_library, fit_told
 from ..teacher import DriveField, FieldConfig
+from ..teacher.drive_table import build as build_table
 from ..yaml_config import build, from_yaml
 from .sb3 import ENV_ID, HELD_OUT_POINTS
+from .sensor import TABLE_FILE, SensorRecipeConfig, policy_from_table
 
 DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "recipe.yaml"
 #: The students a recipe can build (``RecipeConfig.student``).
 STUDENTS = ("distill", "worth")
+#: What ``--only`` builds alone.
+ONLY = ("told",)
 
 
 @dataclass(frozen=True)
@@ -77,6 +81,9 @@ class RecipeConfig:
         ppo: the saved model's SB3 PPO settings (what ``mdr-drive train --resume`` fine-tunes it with).
         env_kwargs: the training domain and the env the student acts in, as ``MDRDrive-v0`` keywords.
         student_seed: seed of the student's network, episodes and minibatches (-); default ``seed``.
+        sensor_policy: the sensor policy's table (``teacher.DriveTableConfig``: searched at draws of the
+            hidden parameters from the teacher's drives, which join it) and training
+            (``train.sensor.SensorRecipeConfig``); None: the recipe builds the told policy alone.
     """
 
     seed: int
@@ -87,6 +94,7 @@ class RecipeConfig:
     ppo: dict = field(default_factory=dict)
     env_kwargs: dict = field(default_factory=dict)
     student_seed: int | None = None
+    sensor_policy: SensorRecipeConfig | None = None
 
     def __post_init__(self) -> None:
         for name in ("seed", "student_seed"):
@@ -173,14 +181,27 @@ def on_drive(recipe: RecipeConfig, drive: DriveDescription) -> RecipeConfig:
 
 def run(config_path: str | Path, out: str | Path, executor: Executor | None = None, resume: bool = False,
         force: bool = False, progress: bool = True, teacher: str | Path | None = None, snapshots: bool = False,
-        drive: DriveDescription | None = None, student_kind: str | None = None) -> dict:
+        drive: DriveDescription | None = None, student_kind: str | None = None, only: str | None = None,
+        sensor_tier: str | None = None) -> dict:
     """Run the recipe into ``out`` (with ``teacher``: that saved field instead of stage 1; with
     ``snapshots``: the student after each hole round in ``out/snapshots/hole_round<H>/`` too; with
     ``drive``: for that drive, :func:`on_drive`; with ``student_kind``: that student (``STUDENTS``)
-    instead of the YAML's); returns what ``recipe.json`` holds."""
+    instead of the YAML's; with ``only="told"``: no sensor policy; with ``sensor_tier``: the sensor
+    policy's tier instead of the YAML's); returns what ``recipe.json`` holds."""
     recipe = load_recipe(config_path)
+    if only is not None and only not in ONLY:
+        raise ValueError(f"only={only!r} is not one of {list(ONLY)}")
     if student_kind is not None:
         recipe = dataclasses.replace(recipe, student=student_kind)
+    sensor = None if only == "told" else recipe.sensor_policy
+    if sensor is not None and sensor_tier is not None:
+        sensor = dataclasses.replace(sensor, sensor=dataclasses.replace(sensor.sensor, sensor_tier=sensor_tier))
+    elif sensor is None and sensor_tier is not None:
+        raise ValueError(f"--sensor-tier {sensor_tier}: no sensor policy is built ({config_path} has no "
+                         "'sensor_policy' section, or --only told)")
+    if sensor is not None and drive is not None:
+        raise ValueError(f"the sensor policy of a drive file is not built yet: use --only told for {drive.name}, or "
+                         "a recipe without a 'sensor_policy' section")
     if snapshots and recipe.student == "worth":
         raise ValueError(f"--snapshots saves a 'distill' student after each hole round; {config_path}'s student is "
                          "'worth', which has none")
@@ -244,9 +265,22 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
             record = student_record(student_seed, recipe.env_kwargs, recipe.ppo, recipe.distill, student,
                                     stages["student_s"], command, teacher_record, drive)
         save_student(student, out / "policy", record)
+        print(f"recipe: student {stages['student_s']:.0f} s; policy in {out / 'policy'}", flush=True)
+        sensor_summary = None
+        if sensor is not None:
+            t2 = time.perf_counter()
+            table = build_table(sensor.table, executor, tasks / "sensor_table", field_library(field))
+            table.save(out / TABLE_FILE)
+            stages["sensor_table_s"] = round(time.perf_counter() - t2, 1)
+            print(f"recipe: sensor table {stages['sensor_table_s']:.0f} s: {len(table.drives)} drives, coverage "
+                  f"{table.record['coverage']}", flush=True)
+            sensor_summary = policy_from_table(table, sensor, sensor.sensor, out, out / "sensor_policy", tasks,
+                                               executor, progress, command, str(config_path))
+            stages["sensor_policy_s"] = sensor_summary["wall_time_s"]
+            print(f"recipe: sensor policy {stages['sensor_policy_s']:.0f} s; policy in {out / 'sensor_policy'}",
+                  flush=True)
         stages["total_s"] = round(time.perf_counter() - t0, 1)
-        print(f"recipe: student {stages['student_s']:.0f} s; total {stages['total_s']:.0f} s; policy in {out / 'policy'}",
-              flush=True)
+        print(f"recipe: total {stages['total_s']:.0f} s", flush=True)
         summary = {"config": str(config_path), "command": command, "seed": seed, "student_seed": student_seed,
                    "student": recipe.student,
                    "drive": None if drive is None else drive.to_record(),
@@ -255,11 +289,12 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
                    "teacher_loaded_from": None if teacher is None else str(teacher), "blas_core": core,
                    "executor": f"ray ({executor.ray_address})" if executor.is_ray else f"local ({executor.workers or 'all'} workers)",
                    "teacher_grid": {"k": field.ks.tolist(), "load_fractions": field.fractions.tolist()},
-                   "teacher_mean_velocity_m_s": float(np.mean(field.velocities))}
+                   "teacher_mean_velocity_m_s": float(np.mean(field.velocities)),
+                   "sensor_policy": sensor_summary}
         write_text(out / "recipe.json", json.dumps(summary, indent=2))
         shutil.rmtree(tasks, ignore_errors=True)  # the teacher and the student are written: their task files are spent
         return summary
 
 
-__all__ = ["DEFAULT_CONFIG", "STUDENTS", "RecipeConfig", "load_recipe", "run", "searched_with_another_config", "student_record",
+__all__ = ["DEFAULT_CONFIG", "ONLY", "STUDENTS", "RecipeConfig", "load_recipe", "run", "searched_with_another_config", "student_record",
            "worth_record"]

@@ -355,7 +355,6 @@ def _run(config_path, out: Path, recipe: SensorRecipeConfig, config: SensorConfi
     command = command_line()
     t0 = time.perf_counter()
     tasks = task_folder(out, resume)
-    times = {}
     if reuse is not None:
         table = DriveTable.load(Path(reuse) / TABLE_FILE)
     elif recipe.drive_table is not None:
@@ -363,12 +362,31 @@ def _run(config_path, out: Path, recipe: SensorRecipeConfig, config: SensorConfi
     else:
         table = build(recipe.table, executor, tasks / "table")
     table.save(out / TABLE_FILE)
-    times["table_s"] = round(time.perf_counter() - t0, 1)
-    index, step, velocities = episode_values(table, config, recipe.seed, out, executor, tasks, reuse)
-    times["values_s"] = round(time.perf_counter() - t0 - times["table_s"], 1)
+    table_s = round(time.perf_counter() - t0, 1)
+    summary = policy_from_table(table, recipe, config, out, out / "policy", tasks, executor, progress, command,
+                                str(config_path), reuse)
+    summary["stage_times_s"] = {"table_s": table_s, **summary["stage_times_s"]}
+    summary["wall_time_s"] = round(time.perf_counter() - t0, 1)
+    write_text(out / "adapt.json", json.dumps(summary, indent=2))
+    shutil.rmtree(tasks, ignore_errors=True)
+    print(f"sensor: {summary['wall_time_s']:.0f} s; policy in {out / 'policy'}", flush=True)
+    return summary
+
+
+def policy_from_table(table: DriveTable, recipe: SensorRecipeConfig, config: SensorConfig, values_folder: Path,
+                      policy_folder: Path, tasks: Path, executor: Executor, progress: bool, command: str,
+                      config_name: str, reuse: Path | None = None) -> dict:
+    """The sensor policy that picks from ``table``: the training episodes' values (kept in
+    ``values_folder``, or taken from ``reuse``'s), the rounds, the policy written to ``policy_folder``
+    with its ``estimator.npz``; returns the run's summary (its stage times, rounds and merge check)."""
+    t0 = time.perf_counter()
+    times = {}
+    index, step, velocities = episode_values(table, config, recipe.seed, values_folder, executor, tasks, reuse)
+    times["values_s"] = round(time.perf_counter() - t0, 1)
     validate = None if recipe.validation_seed is None else Validation(
         config, table, recipe.validation_seed, recipe.validation_points, recipe.validation_load_steps)
     network, history, interrupted = train(config, table, index, step, velocities, recipe.seed, validate, progress)
+    times["rounds_s"] = round(time.perf_counter() - t0 - times["values_s"], 1)
     env_kwargs = sensor_env_kwargs(config)
     network.switch_cost = config.play_switch_cost
     student = network.policy(env_kwargs, table.rows, recipe.seed)
@@ -380,7 +398,7 @@ def _run(config_path, out: Path, recipe: SensorRecipeConfig, config: SensorConfi
         "hyperparameters": {**FINE_TUNE_PPO, "normalize": True, "warm_start": "none",
                             "policy_kwargs": {"net_arch": {"pi": list(config.arch), "vf": [64, 64]},
                                               "activation_fn": "relu"}},
-        "picks_from": {"config": str(config_path), "sensor": asdict(config), "drive_table": table.record,
+        "picks_from": {"config": config_name, "sensor": asdict(config), "drive_table": table.record,
                        "drives": len(table.drives), "rows": len(table.rows), "validation_seed": recipe.validation_seed,
                        "validation_points": recipe.validation_points,
                        "validation_load_steps": recipe.validation_load_steps, "history": history, "merged": check},
@@ -388,17 +406,13 @@ def _run(config_path, out: Path, recipe: SensorRecipeConfig, config: SensorConfi
         "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall, "steps_per_s_this_run": 0.0, "resumes": 0,
         "interrupted": interrupted,
     }
-    save_student(student, out / "policy", record)
-    network.estimator().save(out / "policy" / ESTIMATOR_FILE)  # what the report plots the estimates with
-    summary = {"config": str(config_path), "command": command, "seed": recipe.seed, "wall_time_s": wall,
-               "stage_times_s": times, "drives": len(table.drives), "rows": len(table.rows),
-               "table_coverage": table.record.get("coverage"), "rounds": history, "merged": check,
-               "interrupted": interrupted}
-    write_text(out / "adapt.json", json.dumps(summary, indent=2))
-    shutil.rmtree(tasks, ignore_errors=True)
-    print(f"sensor: {wall:.0f} s; policy in {out / 'policy'}", flush=True)
-    return summary
+    save_student(student, policy_folder, record)
+    network.estimator().save(policy_folder / ESTIMATOR_FILE)  # what the report plots the estimates with
+    return {"config": config_name, "command": command, "seed": recipe.seed, "wall_time_s": wall,
+            "stage_times_s": times, "drives": len(table.drives), "rows": len(table.rows),
+            "table_coverage": table.record.get("coverage"), "rounds": history, "merged": check,
+            "interrupted": interrupted}
 
 
 __all__ = ["DEFAULT_CONFIG", "ESTIMATED", "SensorConfig", "SensorRecipeConfig", "TABLE_FILE", "VALUES_FILE",
-           "Validation", "episode_values", "load_config", "merge_check", "run", "train", "values_fingerprint"]
+           "Validation", "episode_values", "load_config", "merge_check", "policy_from_table", "run", "train", "values_fingerprint"]

@@ -45,7 +45,32 @@ def test_the_searches_at_a_point_report_the_velocities_their_drives_play():
 
 
 @pytest.mark.parametrize("kwargs, name", [({"points": 0}, "points"), ({"size": 0}, "size"),
-                                          ({"cycle_budget": 1}, "cycle_budget"), ({"seed": -1}, "seed")])
+                                          ({"cycle_budget": 1}, "cycle_budget"), ({"fixed_budget": -1}, "fixed_budget"), ({"seed": -1}, "seed")])
 def test_bad_table_settings_name_themselves(kwargs, name):
     with pytest.raises(ValueError, match=name):
         DriveTableConfig(**kwargs)
+
+
+def test_a_budget_of_zero_skips_its_searches():
+    point = (0.3, 0.02, 0.3, 0.1)
+    start = np.array([[0.9, 0.8, 0.9, 0.0, 0.9], [-0.8, -0.9, 0.9, -0.9, 0.8]])
+    found = search_drives(SearchTask(point, 0, 0, 32, start))
+    assert found["drives"].shape == (1, 2, 5)  # the given start's search alone
+
+
+def test_a_table_from_a_library_starts_each_search_from_its_fastest_drive_and_keeps_its_drives(tmp_path):
+    from mdr_drive_env.sweep import Executor
+
+    from mdr_drive_agents.teacher.drive_table import build
+
+    still = np.array([[0.0, 0.5, 0.5, 0.0, 0.0]] * 2)  # no x stroke: it never moves the slider
+    cycle = np.array([[0.9, 0.8, 0.9, 0.0, 0.9], [-0.8, -0.9, 0.9, -0.9, 0.8]])
+    library = DriveTable(np.array([np.tile(trapezoid_action(), (2, 1)), still, cycle]), {})
+    config = DriveTableConfig(points=2, fixed_budget=0, cycle_budget=0, polish_budget=8, keep_per_point=1,
+                              selection_points=2, size=3)
+    table = build(config, Executor(workers=1, progress=False), tmp_path, library)
+    np.testing.assert_array_equal(table.drives[0], library.drives[0])  # the trapezoid first
+    assert table.record["library"] == 3 and table.record["candidates"] <= 3 + 2
+    with pytest.raises(ValueError, match="polish_from"):
+        build(DriveTableConfig(points=1, polish_from="agents/pretrained/ppo_generalist"),
+              Executor(workers=1, progress=False), tmp_path / "x", library)

@@ -396,8 +396,10 @@ def test_a_worth_student_is_built_from_the_teacher_and_loads_as_plain_sb3(recipe
     out, _ = recipe_run
     worth = DATA / "recipe_tiny_worth.yaml"
     assert main(["recipe", str(worth), "--out", str(tmp_path / "w"), "--no-progress", "--workers", "1",
-                 "--teacher", str(out / "teacher_field.npz")]) == 0
+                 "--teacher", str(out / "teacher_field.npz"), "--only", "told"]) == 0
     assert "recipe: told: fraction_of_library_best_mean" in capsys.readouterr().out
+    assert not (tmp_path / "w" / "sensor_policy").exists()
+    assert json.loads((tmp_path / "w" / "recipe.json").read_text())["sensor_policy"] is None
     folder = tmp_path / "w" / "policy"
     run = json.loads((folder / "run.json").read_text())
     picks = run["picks_from"]
@@ -422,6 +424,37 @@ def test_a_worth_student_is_built_from_the_teacher_and_loads_as_plain_sb3(recipe
                  "--student", "worth"]) == 2  # --student names a section the YAML must have
     err = capsys.readouterr().err
     assert "needs a 'worth' section" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_recipe_builds_the_sensor_policy_from_the_teachers_drives(recipe_run, tmp_path, capsys):
+    """Without ``--only told``, a recipe with a ``sensor_policy`` section also writes ``OUT/sensor_policy``:
+    a table of the field's drives and of searches at hidden draws started from them, then the sensor
+    policy's rounds; each stage timed in recipe.json."""
+    from mdr_drive_agents.policy import load_policy
+    from mdr_drive_agents.teacher.drive_table import DriveTable
+
+    out, _ = recipe_run
+    worth = DATA / "recipe_tiny_worth.yaml"
+    assert main(["recipe", str(worth), "--out", str(tmp_path / "b"), "--no-progress", "--workers", "1",
+                 "--teacher", str(out / "teacher_field.npz"), "--sensor-tier", "encoder"]) == 0
+    assert "recipe: sensor policy" in capsys.readouterr().out
+    summary = json.loads((tmp_path / "b" / "recipe.json").read_text())
+    assert {"student_s", "sensor_table_s", "sensor_policy_s", "total_s"} <= set(summary["stage_wall_time_s"])
+    assert [r["round"] for r in summary["sensor_policy"]["rounds"]] == [0, 1]
+    table = DriveTable.load(tmp_path / "b" / "drive_table.npz")
+    assert table.record["library"] >= 2 and len(table.drives) <= 4
+    run = json.loads((tmp_path / "b" / "sensor_policy" / "run.json").read_text())
+    assert run["env_id"] == "MDRDriveSensor-v0" and "sensor_tier" not in run["env_kwargs"]  # the env default, encoder
+    assert run["picks_from"]["sensor"]["sensor_tier"] == "encoder"
+    policy = load_policy(tmp_path / "b" / "sensor_policy")
+    np.testing.assert_array_equal(policy.codebook, table.rows)
+    for args, says in ((["--only", "told", "--sensor-tier", "trace"], "no sensor policy is built"),
+                       (["--sensor-tier", "trace"], "no sensor policy is built")):
+        config = worth if "--only" in args else TINY
+        assert main(["recipe", str(config), "--out", str(tmp_path / "e"), "--teacher", str(out / "teacher_field.npz"),
+                     *args]) == 2
+        err = capsys.readouterr().err
+        assert says in err and len(err.strip().splitlines()) == 1
 
 
 def test_a_recipe_builds_the_student_it_names():
