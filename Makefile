@@ -58,9 +58,9 @@ bench: $(STAMP)
 scaling: $(STAMP)
 	$(PY) scripts/scaling.py --out results/scaling
 
-## make train: the recipe on the paper's drive, teacher then student (runs/recipe; about 20 minutes alone on 2 cores, docs/results.md)
+## make train: the recipe's policy told k and the load on the paper's drive, teacher then student (runs/recipe; about 20 minutes alone on 2 cores, docs/results.md)
 train: $(STAMP)
-	$(MDR) recipe agents/configs/recipe.yaml --out runs/recipe --force
+	$(MDR) recipe agents/configs/recipe.yaml --only told --out runs/recipe --force
 
 ## make train-friction-teacher: the sensor policies' teacher, told k, the load and mu1/mu (runs/friction_teacher; about 3.5 hours)
 train-friction-teacher: $(STAMP)

@@ -1,4 +1,5 @@
-"""``mdr-drive recipe``: a policy for a drive told its k and load, teacher to student (``train.recipe``).
+"""``mdr-drive recipe``: a drive's policies, teacher to the student told k and the load and the sensor policy
+(``train.recipe``).
 
     mdr-drive recipe agents/configs/recipe.yaml --out runs/recipe --force      # make train
 """
@@ -7,16 +8,21 @@ from __future__ import annotations
 
 import argparse
 
-HELP = "build a policy for a drive: CMA-ES teacher, then a PPO student that picks the teacher's drives"
-DESCRIPTION = ("Build a policy that is told k and the load, for the paper's drive or --drive FILE "
+HELP = "build a drive's policies: CMA-ES teacher, a student told k and the load, a sensor policy"
+DESCRIPTION = ("Build a drive's policies, for the paper's drive or --drive FILE "
                "(agents/configs/recipe.yaml, docs/results.md, docs/your_drive.md): "
                "1. the teacher, the best open-loop drives CMA-ES finds on a grid of k and load, polished and refined "
                "stage by stage (OUT/teacher_field.npz); 2. the student, a plain SB3 PPO MlpPolicy (OUT/policy/): "
                "with 'distill' (the YAML's student), a classifier fitted to the teacher's picks by DAgger; with "
                "--student worth, a network that predicts the worth of each of the teacher's drives from k and the "
-               "load, fitted to their velocities at random points, which plays the best. Each stage's wall time is printed and kept "
-               "in OUT/recipe.json. Ctrl-C keeps the teacher's finished k slices and the student's labelled "
-               "points (with 'distill', its first round once labelled or fitted): continue with --resume.")
+               "load, fitted to their velocities at random points, which plays the best; 3. with the YAML's 'sensor_policy' "
+               "section and without --only told, the sensor policy (OUT/sensor_policy/), told nothing of k, the load or "
+               "friction: a table of the teacher's drives and of searches at draws of the hidden values started from "
+               "them (OUT/drive_table.npz), and a network that picks from it by the worth it predicts from the sensor, "
+               "trained by DAgger (docs/adaptation.md). Each stage's wall time is printed and kept "
+               "in OUT/recipe.json. Ctrl-C keeps the teacher's finished k slices, the student's labelled "
+               "points (with 'distill', its first round once labelled or fitted), the sensor table's searches and "
+               "values and its episodes' values: continue with --resume.")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

@@ -200,8 +200,12 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         raise ValueError(f"--sensor-tier {sensor_tier}: no sensor policy is built ({config_path} has no "
                          "'sensor_policy' section, or --only told)")
     if sensor is not None and drive is not None:
-        raise ValueError(f"the sensor policy of a drive file is not built yet: use --only told for {drive.name}, or "
-                         "a recipe without a 'sensor_policy' section")
+        if sensor_tier is not None:
+            raise ValueError(f"--sensor-tier {sensor_tier}: the recipe builds the sensor policy of the paper's drive "
+                             f"only, not of {drive.name}")
+        print(f"recipe: {drive.name}: the told policy alone (the recipe builds the sensor policy of the paper's drive "
+              "only)", file=sys.stderr)
+        sensor = None
     if snapshots and recipe.student == "worth":
         raise ValueError(f"--snapshots saves a 'distill' student after each hole round; {config_path}'s student is "
                          "'worth', which has none")

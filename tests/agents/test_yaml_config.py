@@ -31,6 +31,8 @@ def test_the_shipped_recipe_reads_and_a_broken_file_is_one_line(tmp_path):
     recipe = load_recipe(DEFAULT_CONFIG)
     assert isinstance(recipe, RecipeConfig) and recipe.seeds == (0, 1) and recipe.distill.action_codebook
     assert recipe.student == "distill" and recipe.worth.arch == (512, 512, 512)  # --student worth builds the other
+    sensor = recipe.sensor_policy  # the sensor policy from the teacher's drives, its table's searches from them
+    assert sensor.table.polish_from is None and sensor.sensor.sensor_tier == "trace"
     (tmp_path / "bad.yaml").write_text("seed: [unclosed")
     with pytest.raises(ValueError, match="not valid YAML"):
         read_yaml(tmp_path / "bad.yaml")

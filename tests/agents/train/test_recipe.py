@@ -449,8 +449,9 @@ def test_a_recipe_builds_the_sensor_policy_from_the_teachers_drives(recipe_run, 
     policy = load_policy(tmp_path / "b" / "sensor_policy")
     np.testing.assert_array_equal(policy.codebook, table.rows)
     for args, says in ((["--only", "told", "--sensor-tier", "trace"], "no sensor policy is built"),
-                       (["--sensor-tier", "trace"], "no sensor policy is built")):
-        config = worth if "--only" in args else TINY
+                       (["--sensor-tier", "trace"], "no sensor policy is built"),
+                       (["--sensor-tier", "trace", "--drive", str(DATA / "drive_tiny.yaml")], "paper's drive only")):
+        config = TINY if args == ["--sensor-tier", "trace"] else worth
         assert main(["recipe", str(config), "--out", str(tmp_path / "e"), "--teacher", str(out / "teacher_field.npz"),
                      *args]) == 2
         err = capsys.readouterr().err
