@@ -1,7 +1,8 @@
 """What every training command records about its run, and how it starts one.
 
 A run's ``run.json`` (``mdr_drive_agents.policy``) says how the policy was made: the command line
-(``command_line``), the package versions (``versions``), and the program's own settings; a command
+(``command_line``), the package versions (``versions``), and the program's own settings, in one
+layout (``policy_record``); a command
 refuses an output folder that holds something unless told to continue or overwrite it
 (``start_run``), and one that another command is writing into (``RunLock``).
 """
@@ -28,6 +29,24 @@ def versions() -> dict[str, str]:
     return {"python": platform.python_version(), "mdr_drive": mdr_drive_env.__version__, "torch": torch.__version__,
             "stable_baselines3": stable_baselines3.__version__, "gymnasium": gymnasium.__version__,
             "numba": numba.__version__, "numpy": np.__version__}
+
+
+def policy_record(*, algo: str, seed: int, env_id: str, env_kwargs: dict, hyperparameters: dict, torch_threads: int,
+                  wall_time_s: float, interrupted: bool = False, total_timesteps: int = 0, steps_this_run: int = 0,
+                  steps_per_s_this_run: float = 0.0, resumes: int = 0, command: str | None = None,
+                  drive: dict | None = None, **extra) -> dict:
+    """A policy's ``run.json``, as every command that writes a policy records it: what ``load_policy``,
+    ``evaluate`` and ``train --resume`` read (the algorithm, the env and its keywords, the SB3
+    settings), how long it trained (``total_timesteps`` env steps, 0 for a policy fitted without RL;
+    ``wall_time_s`` s), the command line and the package versions; ``drive``: the drive description
+    it was built for (``DriveDescription.to_record``); ``extra``: the command's own keys (where the
+    policy came from, its fit history, ...)."""
+    return {**({} if drive is None else {"drive": drive}),
+            "algo": algo, "seed": seed, "env_id": env_id, "env_kwargs": env_kwargs, "hyperparameters": hyperparameters,
+            **extra, "command": command_line() if command is None else command, "versions": versions(),
+            "torch_threads": torch_threads, "total_timesteps": int(total_timesteps), "steps_this_run": int(steps_this_run),
+            "wall_time_s": wall_time_s, "steps_per_s_this_run": steps_per_s_this_run, "resumes": resumes,
+            "interrupted": interrupted}
 
 
 def command_line() -> str:
@@ -82,4 +101,4 @@ class RunLock:
         return False
 
 
-__all__ = ["RunLock", "command_line", "start_run", "versions"]
+__all__ = ["RunLock", "command_line", "policy_record", "start_run", "versions"]

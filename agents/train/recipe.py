@@ -50,7 +50,7 @@ from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from ..blas import PINNED_CORE, blas_core
 from ..drive import PAPER_DRIVE, DriveDescription
-from ..run_record import RunLock, command_line, start_run, versions
+from ..run_record import RunLock, command_line, policy_record, start_run
 from ..student.distill import DistillConfig, distill
 from ..student.network import save_student
 from ..student.told import WorthConfig, field_library, fit_told
@@ -123,17 +123,15 @@ def student_record(seed: int, env_kwargs: dict, ppo: dict, config: DistillConfig
     (env keywords, the drive's among them, PPO settings, network), and where it came from (``teacher``:
     {"teacher" or "fields", "recipe"}, with the distillation settings and fit history added; ``drive``:
     the description it was built for, named)."""
-    return {**({} if drive is None else {"drive": drive.to_record()}),
-        "algo": "ppo", "seed": seed, "env_id": ENV_ID, "env_kwargs": env_kwargs,
-        "hyperparameters": {**dict(ppo), "normalize": True, "warm_start": "none",
-                            "policy_kwargs": {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]},
-                                              "activation_fn": config.activation, "log_std_init": config.log_std}},
-        "distilled_from": {**teacher, "distill": {key: getattr(config, key) for key in config.__dataclass_fields__},
-                           "history": student.history},
-        "command": command, "versions": versions(), "torch_threads": config.torch_threads,
-        "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall_time_s, "steps_per_s_this_run": 0.0,
-        "resumes": 0, "held_out_points": HELD_OUT_POINTS, "interrupted": False,
-    }
+    return policy_record(
+        algo="ppo", seed=seed, env_id=ENV_ID, env_kwargs=env_kwargs,
+        hyperparameters={**dict(ppo), "normalize": True, "warm_start": "none",
+                         "policy_kwargs": {"net_arch": {"pi": list(config.net_arch), "vf": [64, 64]},
+                                           "activation_fn": config.activation, "log_std_init": config.log_std}},
+        distilled_from={**teacher, "distill": {key: getattr(config, key) for key in config.__dataclass_fields__},
+                        "history": student.history},
+        held_out_points=HELD_OUT_POINTS, command=command, torch_threads=config.torch_threads, wall_time_s=wall_time_s,
+        drive=None if drive is None else drive.to_record())
 
 
 def worth_record(seed: int, env_kwargs: dict, ppo: dict, config: WorthConfig, student, picks: dict,
@@ -144,14 +142,13 @@ def worth_record(seed: int, env_kwargs: dict, ppo: dict, config: WorthConfig, st
     import torch
 
     layers = [m.out_features for m in student.model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
-    return {**({} if drive is None else {"drive": drive.to_record()}),
-            "algo": "ppo", "seed": seed, "env_id": ENV_ID, "env_kwargs": env_kwargs,
-            "hyperparameters": {**dict(ppo), "normalize": True, "warm_start": "none",
-                                "policy_kwargs": {"net_arch": {"pi": layers, "vf": [64, 64]}, "activation_fn": "relu"}},
-            "picks_from": {**teacher, "observation": "told", "worth": dataclasses.asdict(config), **picks},
-            "command": command, "versions": versions(), "torch_threads": config.torch_threads,
-            "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall_time_s, "steps_per_s_this_run": 0.0,
-            "resumes": 0, "held_out_points": HELD_OUT_POINTS, "interrupted": False}
+    return policy_record(
+        algo="ppo", seed=seed, env_id=ENV_ID, env_kwargs=env_kwargs,
+        hyperparameters={**dict(ppo), "normalize": True, "warm_start": "none",
+                         "policy_kwargs": {"net_arch": {"pi": layers, "vf": [64, 64]}, "activation_fn": "relu"}},
+        picks_from={**teacher, "observation": "told", "worth": dataclasses.asdict(config), **picks},
+        held_out_points=HELD_OUT_POINTS, command=command, torch_threads=config.torch_threads, wall_time_s=wall_time_s,
+        drive=None if drive is None else drive.to_record())
 
 
 def searched_with_another_config(field: DriveField, config: FieldConfig) -> bool:

@@ -32,7 +32,7 @@ from mdr_drive_env.files import remove_temporary
 
 from ..policy import policy_name, run_env_kwargs, save_normalization, save_policy, sb3_class
 from ..protocol import trapezoid_action
-from ..run_record import RunLock, command_line, versions
+from ..run_record import RunLock, policy_record
 from ..sb3_files import NORMALIZATION_FILE, NormalizationState, read_model
 from .hyperparameters import NOT_SB3_KEYS, WARM_STARTS, check_hyperparameters, key_value, load_config  # noqa: F401
 
@@ -411,20 +411,17 @@ def save_run(out, model, previous, algo, seed, env_kwargs, hyper, n, normalize, 
     atomically; returns the run record."""
     from stable_baselines3.common.vec_env import VecNormalize
 
-    record = {
-        "algo": algo, "seed": seed, "env_id": previous.get("env_id", ENV_ID) if previous else ENV_ID,
-        "env_kwargs": previous["env_kwargs"] if previous else env_kwargs,  # a codebook file stays relative
-        "hyperparameters": {**hyper, "n_envs": n, "normalize": normalize},
-        "command": command_line(), "versions": versions(), "torch_threads": threads,
-        "target_timesteps": int(total),
-        "total_timesteps": int(model.num_timesteps), "steps_this_run": int(model.num_timesteps - start_steps),
-        "critic_warmup_steps_this_run": int((model.num_timesteps if main_start is None else main_start) - start_steps),
-        "wall_time_s": round(wall + (previous["wall_time_s"] if previous else 0.0), 3),
-        "steps_per_s_this_run": round((model.num_timesteps - start_steps) / max(wall, 1e-9), 1),
-        "resumes": (previous["resumes"] + 1) if previous else 0,
-        "held_out_points": HELD_OUT_POINTS,
-        "interrupted": interrupted,
-    }
+    record = policy_record(
+        algo=algo, seed=seed, env_id=previous.get("env_id", ENV_ID) if previous else ENV_ID,
+        env_kwargs=previous["env_kwargs"] if previous else env_kwargs,  # a codebook file stays relative
+        hyperparameters={**hyper, "n_envs": n, "normalize": normalize}, torch_threads=threads,
+        target_timesteps=int(total),
+        critic_warmup_steps_this_run=int((model.num_timesteps if main_start is None else main_start) - start_steps),
+        held_out_points=HELD_OUT_POINTS,
+        total_timesteps=model.num_timesteps, steps_this_run=model.num_timesteps - start_steps,
+        wall_time_s=round(wall + (previous["wall_time_s"] if previous else 0.0), 3),
+        steps_per_s_this_run=round((model.num_timesteps - start_steps) / max(wall, 1e-9), 1),
+        resumes=(previous["resumes"] + 1) if previous else 0, interrupted=interrupted)
     if previous:  # where the policy came from, and how it was continued
         record.update({key: previous[key] for key in PROVENANCE_KEYS if key in previous})
         record["continued_from"] = [*previous.get("continued_from", []), {

@@ -46,7 +46,7 @@ from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
 from ..policy import ESTIMATOR_FILE, package_path, read_run
 from ..protocol import ACTION_MAP, SENSOR_ID, draw_hidden, hidden_point, steady_velocity_of
-from ..run_record import RunLock, command_line, versions
+from ..run_record import RunLock, command_line, policy_record
 from ..student.drive_values import DriveValueNetwork, DriveValueTargets, check_fit_settings, pick_rows
 from ..student.estimator import FINE_TUNE_PPO, hidden_entries, standardised_error
 from ..student.network import save_student
@@ -393,19 +393,15 @@ def policy_from_table(table: DriveTable, recipe: SensorRecipeConfig, config: Sen
     check = merge_check(student, network, config, table, recipe.seed)
     _log(check)
     wall = round(time.perf_counter() - t0, 1)
-    record = {
-        "algo": "ppo", "seed": recipe.seed, "env_id": SENSOR_ID, "env_kwargs": env_kwargs,
-        "hyperparameters": {**FINE_TUNE_PPO, "normalize": True, "warm_start": "none",
-                            "policy_kwargs": {"net_arch": {"pi": list(config.arch), "vf": [64, 64]},
-                                              "activation_fn": "relu"}},
-        "picks_from": {"config": config_name, "sensor": asdict(config), "drive_table": table.record,
-                       "drives": len(table.drives), "rows": len(table.rows), "validation_seed": recipe.validation_seed,
-                       "validation_points": recipe.validation_points,
-                       "validation_load_steps": recipe.validation_load_steps, "history": history, "merged": check},
-        "command": command, "versions": versions(), "torch_threads": config.torch_threads,
-        "total_timesteps": 0, "steps_this_run": 0, "wall_time_s": wall, "steps_per_s_this_run": 0.0, "resumes": 0,
-        "interrupted": interrupted,
-    }
+    record = policy_record(
+        algo="ppo", seed=recipe.seed, env_id=SENSOR_ID, env_kwargs=env_kwargs,
+        hyperparameters={**FINE_TUNE_PPO, "normalize": True, "warm_start": "none",
+                         "policy_kwargs": {"net_arch": {"pi": list(config.arch), "vf": [64, 64]}, "activation_fn": "relu"}},
+        picks_from={"config": config_name, "sensor": asdict(config), "drive_table": table.record,
+                    "drives": len(table.drives), "rows": len(table.rows), "validation_seed": recipe.validation_seed,
+                    "validation_points": recipe.validation_points,
+                    "validation_load_steps": recipe.validation_load_steps, "history": history, "merged": check},
+        command=command, torch_threads=config.torch_threads, wall_time_s=wall, interrupted=interrupted)
     save_student(student, policy_folder, record)
     network.estimator().save(policy_folder / ESTIMATOR_FILE)  # what the report plots the estimates with
     return {"config": config_name, "command": command, "seed": recipe.seed, "wall_time_s": wall,
