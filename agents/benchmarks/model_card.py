@@ -402,6 +402,15 @@ fresh drive, computed by `mdr-drive model-card {Path(src).as_posix()} {dst.as_po
     return dst / "MODEL_CARD.md"
 
 
+def library_note(table: dict) -> str:
+    """Where a sensor table's candidates came from besides the searches at hidden draws: with a library
+    (``teacher.drive_table.build``), the recipe's teacher field's drives."""
+    if not table.get("library"):
+        return "that "
+    return (f"from the {table['library']} drives of the recipe's teacher field (told k and the load, at the nominal "
+            "friction) and those that ")
+
+
 def reused_note(command: str) -> str:
     """What a sensor build's wall time leaves out when its command took earlier work (``--reuse``, ``--resume``)."""
     return ("; without the drive table and values it took from `--reuse` or `--resume`"
@@ -463,7 +472,7 @@ With Stable-Baselines3 alone:
 
 * Command: `{run['command']}` (`mdr_drive_agents.train.sensor`, {run['wall_time_s']:.0f} s{reused_note(run['command'])})
 * Its actions: {picks['drives']} whole drives (fixed actions and two-action cycles, {picks['rows']} rows in
-  `action_codebook.npy`; a cycle plays its two rows in turn) that CMA-ES found at {table['config']['points']} draws
+  `action_codebook.npy`; a cycle plays its two rows in turn) {library_note(table)}CMA-ES found at {table['config']['points']} draws
   of the hidden parameters, picked to cover them: the best of them reaches on average
   {table['coverage']['mean_fraction_of_best_candidate']:.3f} (at worst {table['coverage']['min_fraction_of_best_candidate']:.3f})
   of the best drive found at {table['coverage']['points_moving']} draws where that moves (`teacher.DriveTable`).

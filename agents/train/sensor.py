@@ -20,7 +20,8 @@ friction, by picking whole drives from a table.
 4. **One network**: written as one SB3 ``MlpPolicy`` over ``Discrete(rows)`` (``OUT/policy/``, the table's
    rows as ``action_codebook.npy``), its estimates as ``estimator.npz``.
 
-Each round is validated on ``validation_seed``'s draws (``validation_points`` of them, and
+The network of the last round is written, or with ``keep_best_round`` that of the round whose
+validation ranks best. Each round is validated on ``validation_seed``'s draws (``validation_points`` of them, and
 ``validation_load_steps`` load-step episodes): the steady velocity's fraction of the table's best drive
 there, points below the trapezoid, load steps recovered, the estimates' errors. A Ctrl-C once
 round 0's fit has finished saves the policy of the last finished round (``"interrupted": true``) and exits
@@ -38,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mdr_drive_env.core.params import check_int, check_range
+from mdr_drive_env.core.params import check_bool, check_int, check_range
 from mdr_drive_env.files import atomic_path, write_text
 from mdr_drive_env.gym_envs.sensor import DEFAULT_ENCODER_NOISE, DEFAULT_TRACE_SAMPLES, SensorTier
 from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
@@ -95,6 +96,10 @@ class SensorConfig:
         shortfall_weight: ``DriveValueTargets.shortfall_weight`` (-).
         below_weight: ``DriveValueTargets.below_weight`` (-).
         torch_threads: torch threads of the fits (-).
+        keep_best_round: keep the network of the round whose validation ranks best (fewest draws below the
+            trapezoid, then the largest sum of the mean and the lowest fraction of the table's best), not the
+            last round's; needs the recipe's ``validation_seed``. The rounds' validation swings from round to
+            round, and a later round can lose what an earlier one had.
         sensor_tier: what the drive measures, ``MDRDriveSensor-v0(sensor_tier=...)``: ``"encoder"``
             (per-period summaries), ``"trace"`` (also positions through each period) or
             ``"self-sensing"`` (also the piezo-sensed peak forces).
@@ -120,6 +125,7 @@ class SensorConfig:
     shortfall_weight: float = 1.0
     below_weight: float = 5.0
     torch_threads: int = 1
+    keep_best_round: bool = False
     sensor_tier: str = "encoder"
     trace_samples: int = DEFAULT_TRACE_SAMPLES
     encoder_noise: float = DEFAULT_ENCODER_NOISE
@@ -129,6 +135,7 @@ class SensorConfig:
             check_int(name, getattr(self, name), 1)
         check_int("rounds", self.rounds, 0)
         check_fit_settings(self)
+        check_bool("keep_best_round", self.keep_best_round)
         lo, hi = self.load_step_periods
         if not (isinstance(lo, int) and isinstance(hi, int) and 1 <= lo <= hi <= self.periods - 1):
             raise ValueError(f"load_step_periods={self.load_step_periods!r} is outside the allowed range "
@@ -169,6 +176,8 @@ class SensorRecipeConfig:
         check_int("seed", self.seed, 0)
         check_int("validation_points", self.validation_points, 1)
         check_int("validation_load_steps", self.validation_load_steps, 1)
+        if self.sensor.keep_best_round and self.validation_seed is None:
+            raise ValueError("keep_best_round=True needs a validation_seed: the rounds are ranked on its draws")
         if self.drive_table is not None and not package_path(self.drive_table).is_file():
             raise ValueError(f"drive_table={self.drive_table!r} is not a file")
         polish = self.table.polish_from
@@ -269,8 +278,10 @@ def train(config: SensorConfig, table: DriveTable, index: np.ndarray, step: np.n
           seed: int = 0, validate: Validation | None = None, progress: bool = True):
     """Round 0, driven by the table's best drive told the hidden point, then ``config.rounds`` rounds
     driven by the network, each followed by a fit on every episode so far (module docstring). Returns
-    the network, the per-round records and whether a Ctrl-C cut it short (the network of the last
-    finished round is kept; before round 0's fit had finished, the Ctrl-C is raised)."""
+    the network, the per-round records (the kept round's marked ``"kept": true``) and whether a Ctrl-C cut
+    it short. The network kept is the last finished round's, or with ``config.keep_best_round`` and a
+    ``validate``, the round whose validation ranks best (``round_rank``); before round 0's fit had
+    finished, the Ctrl-C is raised."""
     import copy
 
     import torch
@@ -282,6 +293,7 @@ def train(config: SensorConfig, table: DriveTable, index: np.ndarray, step: np.n
     rng = np.random.default_rng(seed)
     data, history = [], []
     network = kept = None
+    kept_round = 0
     try:
         for r in range(config.rounds + 1):
             t0 = time.perf_counter()
@@ -306,16 +318,27 @@ def train(config: SensorConfig, table: DriveTable, index: np.ndarray, step: np.n
                 record.update(validate(network))
             record["wall_time_s"] = round(time.perf_counter() - t0, 1)
             history.append(record)
-            kept = copy.deepcopy(network.state())
+            if kept is None or not (config.keep_best_round and validate is not None) or (
+                    round_rank(record) > round_rank(history[kept_round])):
+                kept, kept_round = copy.deepcopy(network.state()), r
             _log(record)
     except KeyboardInterrupt:
         if kept is None:
             raise
         network.load_state(kept)
-        print(f"sensor: interrupted; the network of the last finished round ({len(history)} finished) is kept",
-              flush=True)
+        print(f"sensor: interrupted; the network of round {kept_round} is kept ({len(history)} finished)", flush=True)
+        history[kept_round]["kept"] = True
         return network, history, True
+    network.load_state(kept)
+    history[kept_round]["kept"] = True
     return network, history, False
+
+
+def round_rank(record: dict) -> tuple[int, float]:
+    """How a round's validation ranks (larger is better): fewer points below the trapezoid, then a larger
+    sum of the mean and the lowest fraction of the table's best drive."""
+    return (-record["val_points_below_trapezoid"],
+            record["val_mean_fraction_of_table"] + record["val_min_fraction_of_table"])
 
 
 def merge_check(student, network: DriveValueNetwork, config: SensorConfig, table: DriveTable, seed: int) -> dict:
@@ -411,4 +434,4 @@ def policy_from_table(table: DriveTable, recipe: SensorRecipeConfig, config: Sen
 
 
 __all__ = ["DEFAULT_CONFIG", "ESTIMATED", "SensorConfig", "SensorRecipeConfig", "TABLE_FILE", "VALUES_FILE",
-           "Validation", "episode_values", "load_config", "merge_check", "policy_from_table", "run", "train", "values_fingerprint"]
+           "Validation", "episode_values", "load_config", "merge_check", "policy_from_table", "round_rank", "run", "train", "values_fingerprint"]

@@ -440,7 +440,12 @@ def test_a_recipe_builds_the_sensor_policy_from_the_teachers_drives(recipe_run, 
     assert "recipe: sensor policy" in capsys.readouterr().out
     summary = json.loads((tmp_path / "b" / "recipe.json").read_text())
     assert {"student_s", "sensor_table_s", "sensor_policy_s", "total_s"} <= set(summary["stage_wall_time_s"])
-    assert [r["round"] for r in summary["sensor_policy"]["rounds"]] == [0, 1]
+    rounds = summary["sensor_policy"]["rounds"]
+    assert [r["round"] for r in rounds] == [0, 1] and sum(r.get("kept", False) for r in rounds) == 1
+    from mdr_drive_agents.train.sensor import round_rank
+
+    kept = next(r for r in rounds if r.get("kept"))
+    assert round_rank(kept) == max(round_rank(r) for r in rounds)  # keep_best_round: the best validation
     table = DriveTable.load(tmp_path / "b" / "drive_table.npz")
     assert table.record["library"] >= 2 and len(table.drives) <= 4
     run = json.loads((tmp_path / "b" / "sensor_policy" / "run.json").read_text())

@@ -97,7 +97,8 @@ def test_reuse_needs_a_folder_with_a_drive_table(tmp_path, capsys):
                                           ({"arch": ()}, "arch"), ({"rounds": -1}, "rounds"),
                                           ({"continuation": 1.5}, "continuation"),
                                           ({"learning_rate": 0.0}, "learning_rate"),
-                                          ({"play_switch_cost": -0.1}, "play_switch_cost")])
+                                          ({"play_switch_cost": -0.1}, "play_switch_cost"),
+                                          ({"keep_best_round": "yes"}, "keep_best_round")])
 def test_bad_sensor_settings_name_themselves(kwargs, name):
     with pytest.raises(ValueError, match=name):
         SensorConfig(**kwargs)
@@ -125,6 +126,16 @@ def test_bad_validation_sizes_name_themselves(name):
 
     with pytest.raises(ValueError, match=f"{name}=0 is outside"):
         SensorRecipeConfig(seed=0, sensor=SensorConfig(), **{name: 0})
+
+
+def test_keeping_the_best_round_needs_a_validation_seed():
+    from mdr_drive_agents.train.sensor import SensorRecipeConfig, round_rank
+
+    with pytest.raises(ValueError, match="keep_best_round=True needs a validation_seed"):
+        SensorRecipeConfig(seed=0, sensor=SensorConfig(keep_best_round=True))
+    worse, better = ({"val_points_below_trapezoid": b, "val_mean_fraction_of_table": m, "val_min_fraction_of_table": n}
+                     for b, m, n in ((1, 0.99, 0.9), (0, 0.9, 0.5)))
+    assert round_rank(better) > round_rank(worse)  # fewer points below the trapezoid first
 
 
 @pytest.mark.parametrize("folder, says", [("no/such/folder", "is not a policy folder"),
