@@ -1,16 +1,20 @@
 """Speed-up of the sweeps from 1 to N workers, and their expected wall time on larger clusters.
 
-    python scripts/scaling.py --out results/scaling          # about 6 minutes on 2 cores
+    python scripts/scaling.py --out results/scaling          # about 3 minutes on 2 cores
     python scripts/scaling.py --ray-address auto --out ...   # the same sweeps on a Ray cluster
 
-Three sweeps, each a representative slice of the real one, run first on 1 worker, then on
+Five sweeps, each a representative slice of the real one, run first on 1 worker, then on
 ``--workers`` (default: the cores available), same tasks, same results (checked):
 
 - the paper reproduction at paper numerics (``mdr-drive reproduce --quick``'s Fig. 5 cases);
 - the shipped recipe's teacher (``mdr_drive_agents.teacher.node_search.search_slice``: two of its 13 k
   slices);
 - the blind benchmark's per-point search (``mdr_drive_agents.benchmarks.point_search.best_drive`` at the first
-  points of a seed).
+  points of a seed);
+- the recipe's sensor table searches (``mdr_drive_agents.teacher.drive_table.search_drives`` at hidden draws,
+  the shipped recipe's budgets);
+- the recipe's sensor episode values (``mdr_drive_agents.teacher.drive_table.values_task``: 16 hidden points a
+  task, every drive of a 256-drive table; the told student's labels are the same tasks over its library).
 
 Every task's own duration is measured in the worker, so the projection to P CPUs uses measured
 costs: the full sweep's task count times the measured mean cost, scheduled longest first on P
@@ -102,9 +106,38 @@ def blind_sweep(n: int):
     return best_drive, [PointTask(k, m, CMA_BUDGET, CYCLE_SEARCH["budget"]) for k, m in points], 24
 
 
+def sensor_table_sweep(n: int):
+    from mdr_drive_agents.protocol import draw_hidden, hidden_point
+    from mdr_drive_agents.teacher.drive_table import SearchTask, search_drives
+    from mdr_drive_agents.train.recipe import DEFAULT_CONFIG, load_recipe
+
+    table = load_recipe(DEFAULT_CONFIG).sensor_policy.table
+    start = np.load(Path(__file__).parents[1] / "agents/pretrained/ppo_sensor/action_codebook.npy")[2:4]  # a cycle
+    tasks = [SearchTask(hidden_point(d), table.fixed_budget, table.cycle_budget, table.polish_budget, start)
+             for d in draw_hidden(n, 1)]
+    return search_drives, tasks, table.points
+
+
+def episode_values_sweep(n: int):
+    from mdr_drive_agents.protocol import draw_hidden, hidden_point
+    from mdr_drive_agents.teacher.drive_table import VALUE_CHUNK, ValuesTask, values_task
+    from mdr_drive_agents.train.recipe import DEFAULT_CONFIG, load_recipe
+
+    sensor = load_recipe(DEFAULT_CONFIG).sensor_policy
+    drives = np.load(Path(__file__).parents[1] / "agents/pretrained/ppo_sensor/action_codebook.npy").reshape(-1, 2, 5)
+    points = [hidden_point(d) for d in draw_hidden(n * VALUE_CHUNK, 1)]
+    tasks = [ValuesTask(tuple(points[i:i + VALUE_CHUNK]), drives.astype(np.float64))
+             for i in range(0, len(points), VALUE_CHUNK)]
+    episodes = sensor.sensor.episodes
+    full_points = episodes + int(round(sensor.sensor.load_step_share * episodes))  # a load step adds its second point
+    return values_task, tasks, -(-full_points // VALUE_CHUNK)
+
+
 #: sweep name: (its slice, tasks measured per --tasks 8)
 SWEEPS = {"paper reproduction (paper numerics)": (reproduce_sweep, 2), "recipe teacher (k slices)": (teacher_sweep, 0.25),
-          "blind benchmark searches": (blind_sweep, 1)}
+          "blind benchmark searches": (blind_sweep, 1),
+          "recipe sensor table searches": (sensor_table_sweep, 1),
+          "recipe sensor episode values (256 drives)": (episode_values_sweep, 1)}
 
 
 def measure(name: str, fn, tasks, full: int, executors: dict[str, Executor]) -> dict:
