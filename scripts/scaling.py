@@ -1,6 +1,6 @@
 """Speed-up of the sweeps from 1 to N workers, and their expected wall time on larger clusters.
 
-    python scripts/scaling.py --out results/scaling          # about 3 minutes on 2 cores
+    python scripts/scaling.py --out results/scaling          # about 4 minutes on 2 cores
     python scripts/scaling.py --ray-address auto --out ...   # the same sweeps on a Ray cluster
 
 Five sweeps, each a representative slice of the real one, run first on 1 worker, then on
@@ -16,8 +16,9 @@ Five sweeps, each a representative slice of the real one, run first on 1 worker,
 - the recipe's sensor episode values (``mdr_drive_agents.teacher.drive_table.values_task``: 16 hidden points a
   task, every drive of a 256-drive table; the told student's labels are the same tasks over its library).
 
-Every task's own duration is measured in the worker, so the projection to P CPUs uses measured
-costs: the full sweep's task count times the measured mean cost, scheduled longest first on P
+Every task's own duration is measured in the worker, the 1-worker run's on one thread (its batched
+simulators would otherwise step large batches on every core), so the projection to P CPUs uses measured
+costs of one CPU: the full sweep's task count times the measured mean cost, scheduled longest first on P
 workers (a lower bound that ignores the driver), plus the driver's measured overhead per task
 (the 1-worker wall time minus the sum of the task times, per task). What stops the scaling is
 printed beside each: the longest task (no sweep finishes before it), or the driver.
@@ -35,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mdr_drive_env.core.batch import set_process_threads
 from mdr_drive_env.files import write_text
 from mdr_drive_env.sweep import Executor, available_cores
 
@@ -144,9 +146,11 @@ def measure(name: str, fn, tasks, full: int, executors: dict[str, Executor]) -> 
     out: dict = {"tasks_measured": len(tasks), "tasks_full_sweep": full, "wall_s": {}}
     results = {}
     for label, ex in executors.items():
+        set_process_threads(1 if label == "1 worker" else None)  # one CPU: the in-process run's batches on one thread
         t0 = time.perf_counter()
         timed = ex.map(timed_call, [(fn, t) for t in tasks], f"{name} ({label})")
         out["wall_s"][label] = time.perf_counter() - t0
+        set_process_threads(None)
         results[label] = [r for _, r in timed]
         if label == "1 worker":
             costs = [c for c, _ in timed]
