@@ -54,9 +54,10 @@ convergence: $(STAMP)
 bench: $(STAMP)
 	$(MDR) bench --out results/bench
 
-## make scaling: the sweeps' speed-up from 1 to N workers and its projection (results/scaling)
+## make scaling: the sweeps' speed-up from 1 to N local workers, and to 2 workers of a local Ray instance, with their projections (results/scaling)
 scaling: $(STAMP)
 	$(PY) scripts/scaling.py --out results/scaling
+	$(PY) scripts/scaling.py --ray-address local --workers 2 --out results/scaling/ray
 
 ## make train: the recipe's policy told k and the load on the paper's drive, teacher then student (runs/recipe; about 20 minutes alone on 2 cores, docs/results.md)
 train: $(STAMP)
