@@ -48,6 +48,16 @@ def add_drive_argument(p, what: str) -> None:
                         f"{what}; default the paper's drive")
 
 
+def add_sensor_tier_argument(p, what: str) -> None:
+    """``--sensor-tier``: the sensor tier ``what`` drives with, instead of the config's."""
+    from mdr_drive_env.gym_envs.sensor import SENSOR_TIERS
+
+    p.add_argument("--sensor-tier", choices=SENSOR_TIERS, default=None,
+                   help=f"the sensor tier {what} drives with (default: the config's sensor_tier): encoder "
+                        "(per-period summaries), trace (positions through each period), self-sensing (and the "
+                        "piezo-sensed forces); docs/adaptation.md")
+
+
 def replot(out, stem: str, markdown, plot) -> None:
     """``--replot``: ``OUT/<stem>.md`` and the plots (``plot(res)``) redrawn from ``OUT/<stem>.json``;
     nothing is recomputed."""

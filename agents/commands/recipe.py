@@ -27,11 +27,10 @@ DESCRIPTION = ("Build a drive's policies, for the paper's drive or --drive FILE 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import input_file
-    from mdr_drive_env.gym_envs.sensor import SENSOR_TIERS
     from mdr_drive_env.sweep import add_executor_arguments
 
     from ..train.recipe import DEFAULT_CONFIG, ONLY, STUDENTS
-    from . import add_drive_argument, add_recipe_arguments
+    from . import add_drive_argument, add_recipe_arguments, add_sensor_tier_argument
 
     add_recipe_arguments(p, DEFAULT_CONFIG, "recipe YAML (default: agents/configs/recipe.yaml)", "runs/recipe")
     p.add_argument("--teacher", type=input_file, default=None,
@@ -45,10 +44,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--only", choices=ONLY, default=None,
                    help="build only this policy: 'told', the policy told k and the load (OUT/policy/), without the "
                         "sensor policy of the YAML's 'sensor_policy' section")
-    p.add_argument("--sensor-tier", choices=SENSOR_TIERS, default=None,
-                   help="the sensor tier the sensor policy (OUT/sensor_policy/) drives with, instead of the YAML's: "
-                        "encoder (per-period summaries), trace (positions through each period), self-sensing (and "
-                        "the piezo-sensed forces); docs/adaptation.md")
+    add_sensor_tier_argument(p, "the sensor policy (OUT/sensor_policy/)")
     add_drive_argument(p, "to build the policy for (its run.json records it)")
     add_executor_arguments(p)
 

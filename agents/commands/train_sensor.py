@@ -21,18 +21,14 @@ DESCRIPTION = ("Build a policy that drives MDRDriveSensor-v0 without being told 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from mdr_drive_env.cli_args import folder_with
-    from mdr_drive_env.gym_envs.sensor import SENSOR_TIERS
     from mdr_drive_env.sweep import add_executor_arguments
 
     from ..train.sensor import DEFAULT_CONFIG, TABLE_FILE
-    from . import add_recipe_arguments
+    from . import add_recipe_arguments, add_sensor_tier_argument
 
     add_recipe_arguments(p, DEFAULT_CONFIG, "YAML with seed, validation_seed, table (DriveTableConfig) and sensor "
                          "(SensorConfig) (default: agents/configs/sensor.yaml)", "runs/sensor")
-    p.add_argument("--sensor-tier", choices=SENSOR_TIERS, default=None,
-                   help="the sensor tier the policy drives with (default: the config's sensor_tier): encoder "
-                        "(per-period summaries), trace (positions through each period), self-sensing (and the "
-                        "piezo-sensed forces); docs/adaptation.md")
+    add_sensor_tier_argument(p, "the policy")
     p.add_argument("--reuse", type=folder_with(TABLE_FILE), default=None, metavar="RUN",
                    help="an earlier train-sensor output folder whose drive table (and training episodes' values, "
                         "where they are for the same episodes) are used instead of building them: how the other "
