@@ -215,6 +215,32 @@ class DriveDescription:
         return (round(float(np.mean(env.friction_range)), 12),
                 round(float(np.mean(env.base_friction_range)), 12))
 
+    def sensor_env_kwargs(self) -> dict:
+        """The ``MDRDriveSensor-v0`` keywords of a sensor policy on this drive: its physics and strokes,
+        with k drawn over its k range, the load over its load range up to ``SENSOR_DEFAULTS``' 0.4 of
+        mu F_ref, and the friction pair over the ranges the description sets for it or, where it sets one
+        value, over ``SENSOR_DEFAULTS``' relative spread around it (x 2/3 to 4/3 for mu, x 0.7 to 1.3 for
+        mu1: the paper drive's 0.2-0.4 and 0.07-0.13). ``ValueError`` where the ranges let mu fall to mu1."""
+        from mdr_drive_env import SENSOR_DEFAULTS
+
+        env = template(self.settings)
+        paper = template(())
+        ranges = {}
+        for name, own, nominal in (("friction_coefficient", env.friction_range, paper.friction_range[0]),
+                                   ("base_friction_coefficient", env.base_friction_range, paper.base_friction_range[0])):
+            if own[0] != own[1]:
+                ranges[name] = list(own)
+            else:
+                ranges[name] = [round(own[0] * bound / nominal, 12) for bound in SENSOR_DEFAULTS[name]]
+        if ranges["friction_coefficient"][0] <= ranges["base_friction_coefficient"][1]:
+            raise ValueError(f"{self.name}: the sensor policy's friction ranges mu {ranges['friction_coefficient']} and "
+                             f"mu1 {ranges['base_friction_coefficient']} overlap: {WHY_MU_EXCEEDS_MU1} (set narrower "
+                             "ranges as [low, high] in the drive file)")
+        load_high = SENSOR_DEFAULTS["load_ratio"][1]
+        load = [min(self.load_ratio_range[0], load_high), min(self.load_ratio_range[1], load_high)]
+        return {**self.env_kwargs, **{key: list(v) if isinstance(v, tuple) else v for key, v in SENSOR_DEFAULTS.items()},
+                "k": list(self.k_range), "load_ratio": load, **ranges}
+
     def reference_force(self, k: float, friction_coefficient: float | None = None) -> float:
         """mu F_ref (N) at k: the largest friction force the contact transmits at the full z stroke."""
         env = template(self.settings)

@@ -321,12 +321,12 @@ def trapezoid_critical_load(ks, drive: DriveDescription = PAPER_DRIVE) -> np.nda
 
 
 # ------------------------------------------------------------------------------- hidden parameters
-def draw_hidden(n: int, seed: int, step_period: int | None = None) -> list[dict]:
-    """``n`` draws of ``MDRDriveSensor-v0``'s hidden parameters (its own sampling, the first reset
-    seeded ``seed``): k, cargo_mass (kg), friction_coefficient, base_friction_coefficient, load_ratio
-    (load / (mu F_ref)) and, with ``step_period``, step_cargo_mass (kg): the cargo of a load step
-    before that period."""
-    env = gym.make(SENSOR_ID, max_periods=max(EVAL_PERIODS, (step_period or 0) + 1),
+def draw_hidden(n: int, seed: int, step_period: int | None = None, drive: DriveDescription = PAPER_DRIVE) -> list[dict]:
+    """``n`` draws of the hidden parameters of ``MDRDriveSensor-v0`` on ``drive`` (its own sampling over
+    ``DriveDescription.sensor_env_kwargs``' ranges, the first reset seeded ``seed``): k, cargo_mass (kg),
+    friction_coefficient, base_friction_coefficient, load_ratio (load / (mu F_ref)) and, with
+    ``step_period``, step_cargo_mass (kg): the cargo of a load step before that period."""
+    env = gym.make(SENSOR_ID, **drive.sensor_env_kwargs(), max_periods=max(EVAL_PERIODS, (step_period or 0) + 1),
                    load_step_period=None if step_period is None else (step_period, step_period))
     draws = []
     for i in range(n):

@@ -14,8 +14,7 @@ from typing import Protocol
 import gymnasium as gym
 import numpy as np
 
-from mdr_drive_env import SENSOR_DEFAULTS  # importing it registers the envs
-
+from .drive import PAPER_DRIVE, DriveDescription
 from .protocol import SENSOR_ID
 
 
@@ -33,12 +32,13 @@ class EpisodeSettings(Protocol):
     encoder_noise: float
 
 
-def sensor_envs(config: EpisodeSettings, n: int, seed: int, codebook: np.ndarray | None = None) -> tuple[list, np.ndarray]:
-    """``n`` sensor envs (hidden parameters drawn per episode), the first ``load_step_share`` of
-    them with a load step, reset with seeds ``seed, seed + 1, ...``; and their first observations.
+def sensor_envs(config: EpisodeSettings, n: int, seed: int, codebook: np.ndarray | None = None,
+                drive: DriveDescription = PAPER_DRIVE) -> tuple[list, np.ndarray]:
+    """``n`` sensor envs on ``drive`` (hidden parameters drawn per episode), the first ``load_step_share``
+    of them with a load step, reset with seeds ``seed, seed + 1, ...``; and their first observations.
     ``codebook``: the (m, 5) action table they play rows of (``Discrete(m)`` actions), or None (Box)."""
     n_step = int(round(config.load_step_share * n))
-    kwargs = sensor_env_kwargs(config)
+    kwargs = sensor_env_kwargs(config, drive)
     if codebook is not None:
         kwargs["action_codebook"] = np.asarray(codebook)
     envs = [gym.make(SENSOR_ID, **kwargs, load_step_period=config.load_step_periods if i < n_step else None)
@@ -146,13 +146,13 @@ def collect(envs: list, obs: np.ndarray, driver, noise: float = 0.0, rng: np.ran
     return np.concatenate(sensed), np.concatenate(privileged), np.array(disp)
 
 
-def sensor_env_kwargs(config: EpisodeSettings) -> dict:
-    """The env the sensor policy is trained and acts in, as ``MDRDriveSensor-v0`` keywords: its trained
-    range (run.json: what ``evaluate`` warns outside) and its observation."""
+def sensor_env_kwargs(config: EpisodeSettings, drive: DriveDescription = PAPER_DRIVE) -> dict:
+    """The env the sensor policy of ``drive`` is trained and acts in, as ``MDRDriveSensor-v0`` keywords:
+    the drive, its hidden ranges (``DriveDescription.sensor_env_kwargs``; run.json: what ``evaluate``
+    warns outside) and its observation."""
     tier = {} if config.sensor_tier == "encoder" else {
         "sensor_tier": config.sensor_tier, "trace_samples": config.trace_samples, "encoder_noise": config.encoder_noise}
-    return {**{key: list(v) if isinstance(v, tuple) else v for key, v in SENSOR_DEFAULTS.items()},
-            "history": config.history, "max_periods": config.periods, **tier}
+    return {**drive.sensor_env_kwargs(), "history": config.history, "max_periods": config.periods, **tier}
 
 
 def sensor_structure_of(config: EpisodeSettings) -> dict[str, slice]:

@@ -41,9 +41,10 @@ from mdr_drive_env.files import json_safe, save_figure, write_csv, write_text
 from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..policy import load_policy
-from ..protocol import (ACTION_MAP, AVERAGE_PERIODS, EVAL_PERIODS, draw_hidden, env_rollout,
-                        format_velocity, hidden_point, steady_velocity_of)
+from ..protocol import (AVERAGE_PERIODS, EVAL_PERIODS, draw_hidden, drive_of, env_rollout, format_velocity, hidden_point,
+                        play_drive, steady_velocity_of)
 from ..search import CMA_BUDGET, CYCLE_SEARCH, cma_optimize
 from .blind import QUICK
 from .load_steps import (RECOVERY_FRACTION, RECOVERY_PERIODS, STEP_EPISODE_PERIODS, STEP_PERIOD, candidate_drives,
@@ -53,8 +54,6 @@ from .targets import velocity_statistics
 
 SENSOR_POLICY = "agents/pretrained/ppo_sensor"
 FULL_POLICY = "agents/pretrained/ppo_sensor/teacher"  # told k, the load and mu1/mu: the upper bound the sensor policies approximate
-#: The tuned-once waveform's point: the middle of the sensor env's ranges (k, load ratio, mu, mu1).
-TUNED_ONCE_POINT = {"k": 0.3, "load_ratio": 0.2, "friction_coefficient": 0.3, "base_friction_coefficient": 0.1}
 #: The issue's floor on a sensor drive's fraction of the per-point best drive ("under 0.75" in the tables).
 FRACTION_FLOOR = 0.75
 #: The drives of a report with one sensor policy; a report's own are ``res["drives"]`` (``drive_labels``).
@@ -77,31 +76,50 @@ def drive_labels(sensor_policies: list) -> list[str]:
     return [*labels, *BASELINES]
 
 
-def tuned_once_action(budget: int = CMA_BUDGET) -> np.ndarray:
-    """The best fixed action CMA-ES finds at ``TUNED_ONCE_POINT``."""
-    env = gym.make("MDRDrive-v0", **TUNED_ONCE_POINT)
+def physics_of(drive: DriveDescription) -> dict:
+    """A drive's keywords less its friction pair (which a sensor policy's drive draws over ranges)."""
+    return {key: v for key, v in drive.env_kwargs.items() if key not in ("friction_coefficient", "base_friction_coefficient")}
+
+
+def action_map_of(res: dict):
+    """The action map of the drive a report's policies played on (its ``drive``; the paper's without one)."""
+    return (PAPER_DRIVE if res.get("drive") is None else DriveDescription.from_record(res["drive"])).action_map()
+
+
+def tuned_once_point(drive: DriveDescription = PAPER_DRIVE) -> dict:
+    """The tuned-once waveform's point: the middle of the sensor env's ranges on ``drive`` (k, load ratio,
+    mu, mu1; ``DriveDescription.sensor_env_kwargs``): k 0.3, 0.2, 0.3 and 0.1 on the paper's drive."""
+    ranges = drive.sensor_env_kwargs()
+    return {key: round((ranges[key][0] + ranges[key][1]) / 2.0, 12)
+            for key in ("k", "load_ratio", "friction_coefficient", "base_friction_coefficient")}
+
+
+def tuned_once_action(budget: int = CMA_BUDGET, drive: DriveDescription = PAPER_DRIVE) -> np.ndarray:
+    """The best fixed action CMA-ES finds at ``tuned_once_point(drive)``."""
+    p = tuned_once_point(drive)
+    env = gym.make("MDRDrive-v0", **{**drive.env_kwargs, **p})
     _, info = env.reset(seed=0)
-    p = TUNED_ONCE_POINT
     return cma_optimize(p["k"], info["cargo_mass"], budget,
-                        friction=(p["friction_coefficient"], p["base_friction_coefficient"])).action
+                        friction=(p["friction_coefficient"], p["base_friction_coefficient"]), drive=drive).action
 
 
 class FixedAction:
-    """``obs -> action``: the same action every period."""
+    """``obs -> action``: the same action every period, on ``drive`` (its ``play_kwargs``)."""
 
-    def __init__(self, action):
+    def __init__(self, action, drive: DriveDescription = PAPER_DRIVE):
         self.action = np.asarray(action, dtype=np.float32)
+        self.play_kwargs = drive.env_kwargs
 
     def __call__(self, obs):
         return np.tile(self.action, (len(obs), 1))
 
 
-def play(drive: str, policies: dict, d: dict, periods: int, load_step=None):
-    """One run of ``drive`` at the hidden values ``d``: (velocity per period (periods,) m/s, actions,
-    runaway)."""
+def play(drive: str, policies: dict, d: dict, periods: int, load_step=None, on: DriveDescription = PAPER_DRIVE):
+    """One run of ``drive`` at the hidden values ``d`` on the drive ``on`` (the trapezoid's; a policy plays
+    on its own): (velocity per period (periods,) m/s, actions, runaway)."""
     friction = {"friction_coefficient": d["friction_coefficient"],
                 "base_friction_coefficient": d["base_friction_coefficient"]}
-    return env_rollout(policies[drive], d["k"], d["cargo_mass"], periods, load_step, **friction)  # in its own env
+    return env_rollout(policies[drive], d["k"], d["cargo_mass"], periods, load_step, drive=on, **friction)
 
 
 def estimator_of(policy):
@@ -154,13 +172,17 @@ def run(sensor_policy, full_policy: str, n: int, n_steps: int, seed: int, out: s
     cycle_budget = QUICK["cycle_budget"] if quick else CYCLE_SEARCH["budget"]
     folders = [sensor_policy] if isinstance(sensor_policy, (str, Path)) else list(sensor_policy)
     sensors = [load_policy(f) for f in folders]
+    on = play_drive(sensors)  # the drive they were built for, and its hidden ranges
+    full = load_policy(full_policy)
+    if physics_of(drive_of(full, on)) != physics_of(on):
+        raise ValueError(f"--full-policy {full_policy} was built for another drive than the sensor policies' ({on.name})")
     drives = drive_labels(sensors)
-    policies = {**dict(zip(drives, sensors)), "full-observation policy": load_policy(full_policy),
-                "trapezoid": None, "tuned once": FixedAction(tuned_once_action(fixed_budget))}
+    policies = {**dict(zip(drives, sensors)), "full-observation policy": full,
+                "trapezoid": None, "tuned once": FixedAction(tuned_once_action(fixed_budget, on), on)}
     search = {"fixed_budget": fixed_budget, "cycle_budget": cycle_budget}
-    points = draw_hidden(n, seed)
+    points = draw_hidden(n, seed, drive=on)
     tasks = [PointTask(d["k"], d["cargo_mass"], fixed_budget, cycle_budget,
-                       (d["friction_coefficient"], d["base_friction_coefficient"])) for d in points]
+                       (d["friction_coefficient"], d["base_friction_coefficient"]), drive=on) for d in points]
     store = TaskStore(task_folder(out, resume) / "best")
     if reuse:
         best_runs = reusable_search(reuse, seed, n, search)
@@ -168,18 +190,18 @@ def run(sensor_policy, full_policy: str, n: int, n_steps: int, seed: int, out: s
         best_runs = executor.map(best_drive, tasks, "adaptation: best drive per point", store=store)
     steady, actions = {}, {}
     for drive in drives:
-        runs = [play(drive, policies, d, EVAL_PERIODS) for d in points]
-        steady[drive] = steady_velocity_of(np.array([r[0] for r in runs]).T * ACTION_MAP.period,
+        runs = [play(drive, policies, d, EVAL_PERIODS, on=on) for d in points]
+        steady[drive] = steady_velocity_of(np.array([r[0] for r in runs]).T * on.period, period=on.period,
                                            runaway=[r[2] for r in runs])
         actions[drive] = np.array([r[1][-AVERAGE_PERIODS:] for r in runs])
     # the best drive found at each point: the search's, or any drive's that beat it
     best = np.nanmax(np.array([[r["velocity"] for r in best_runs], *steady.values()]), axis=0)
     stats = {drive: velocity_statistics(steady["trapezoid"], best, steady[drive]) for drive in drives}
 
-    steps = draw_hidden(n_steps, seed + 1, step_period=STEP_PERIOD)
+    steps = draw_hidden(n_steps, seed + 1, step_period=STEP_PERIOD, drive=on)
     series, step_actions = {}, {}
     for drive in drives:
-        runs = [play(drive, policies, d, STEP_EPISODE_PERIODS, (STEP_PERIOD, d["step_cargo_mass"])) for d in steps]
+        runs = [play(drive, policies, d, STEP_EPISODE_PERIODS, (STEP_PERIOD, d["step_cargo_mass"]), on) for d in steps]
         series[drive] = np.array([r[0] for r in runs])
         step_actions[drive] = np.array([r[1] for r in runs])
     codebook = next((p.codebook for p in sensors if p.codebook is not None), None)
@@ -196,7 +218,8 @@ def run(sensor_policy, full_policy: str, n: int, n_steps: int, seed: int, out: s
                "estimate": [t["estimate"] for t in tracked], "truth": [t["truth"] for t in tracked]},
            "sensor_policy": str(folders[0]) if len(folders) == 1 else [str(f) for f in folders],
            "sensor_tiers": {d: p.play_kwargs.get("sensor_tier", "encoder") for d, p in zip(drives, sensors)},
-           "full_policy": str(full_policy), "tuned_once_point": TUNED_ONCE_POINT,
+           "full_policy": str(full_policy), "tuned_once_point": tuned_once_point(on),
+           "drive": None if on.is_paper else on.to_record(),
            "tuned_once_action": policies["tuned once"].action.tolist(),
            "search": search, "search_reused_from": None if reuse is None else str(reuse),
            "protocol": f"steady velocity: mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}; "
@@ -284,6 +307,7 @@ def plot(res: dict, out: Path) -> None:
     import matplotlib.pyplot as plt
 
     steps = res["load_step_episodes"]
+    amap = action_map_of(res)
     change = np.array([d["step_cargo_mass"] - d["cargo_mass"] for d in steps])
     picks = [("load stepped up", int(np.argmax(change))), ("load stepped down", int(np.argmin(change)))]
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
@@ -297,14 +321,14 @@ def plot(res: dict, out: Path) -> None:
             axes[0, col].plot(t, np.asarray(res["load_step_velocity_m_s"][drive][e]) * 1e3, color=colors[drive],
                               label=drive, lw=1.5 if "policy" in drive else 1.0)
             if "policy" in drive:
-                x_amp = [ACTION_MAP.to_params(a).x_amplitude * 1e6 for a in res["load_step_actions"][drive][e]]
+                x_amp = [amap.to_params(a).x_amplitude * 1e6 for a in res["load_step_actions"][drive][e]]
                 axes[1, col].plot(t, x_amp, color=colors[drive], label=drive)
         for ax in axes[:, col]:
             ax.axvline(STEP_PERIOD + 0.5, color="k", ls=":", lw=0.8)
         axes[0, col].set_title(f"{title}: k = {d['k']:.2f}, mu = {d['friction_coefficient']:.2f}, "
                                f"{d['cargo_mass'] * 1e3:.0f} -> {d['step_cargo_mass'] * 1e3:.0f} g", fontsize=9)
         axes[1, col].set_xlabel("period")
-        axes[1, col].set_ylim(0.0, 1.05 * ACTION_MAP.x_amplitude_max * 1e6)  # the whole stroke, on both panels
+        axes[1, col].set_ylim(0.0, 1.05 * amap.x_amplitude_max * 1e6)  # the whole stroke, on both panels
     axes[0, 0].set_ylabel("mean velocity per period (mm/s)")
     axes[1, 0].set_ylabel("x amplitude played (µm)")
     axes[0, 0].legend(fontsize=8)
@@ -320,9 +344,9 @@ def plot(res: dict, out: Path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
     ratio = np.array([d["load_ratio"] for d in res["points"]])
     ks = np.array([d["k"] for d in res["points"]])
-    panels = ((lambda ep: min(ACTION_MAP.to_params(a).x_amplitude for a in ep) * 1e6,
+    panels = ((lambda ep: min(amap.to_params(a).x_amplitude for a in ep) * 1e6,
                "smallest x amplitude, periods 21-30 (µm)"),
-              (lambda ep: ACTION_MAP.to_params(ep[-1]).z_phase, "z phase of period 30 (-)"))
+              (lambda ep: amap.to_params(ep[-1]).z_phase, "z phase of period 30 (-)"))
     for ax, (value_of, label) in zip(axes, panels):
         for drive, marker, alpha in (("full-observation policy", "o", 0.35), *((s, m, 1.0) for s, m in
                                                                           zip(sensors, "x+1234"))):
@@ -369,4 +393,4 @@ def plot_estimates(res: dict, picks: list[tuple[str, int]], out: Path) -> None:
     plt.close(fig)
 
 
-__all__ = ["BASELINES", "DRIVES", "ESTIMATE_LABELS", "FixedAction", "estimates_through", "estimator_of", "plot_estimates", "column_name", "drive_labels", "drives_of", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]
+__all__ = ["BASELINES", "DRIVES", "ESTIMATE_LABELS", "FixedAction", "action_map_of", "physics_of", "tuned_once_point", "estimates_through", "estimator_of", "plot_estimates", "column_name", "drive_labels", "drives_of", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]

@@ -5,10 +5,12 @@
 The adaptation report draws a few dozen hidden values; a closed-loop policy that reads its drive from
 the slider's motion can lose itself at a few of them (the estimate sends it to a drive whose motion
 confirms the wrong estimate: velocities that swing from period to period and average little). This
-check needs no search, so it covers the sensor env's ranges densely: ``--ks`` values of k evenly
-spaced over [0, 0.6] times ``--loads`` loads evenly spaced from 0 to 0.4 of mu F_ref, at each corner
-and the middle of the friction ranges (mu in {0.2, 0.3, 0.4} times mu1 in {0.07, 0.1, 0.13}), each
-played closed loop in the policy's own env (30 periods, mean of 21-30) beside the trapezoid.
+check needs no search, so it covers the sensor env's ranges densely (the policy's own, on the drive it
+was built for): ``--ks`` values of k evenly spaced over its k range (0-0.6 on the paper's drive) times
+``--loads`` loads evenly spaced over its load range (0 to 0.4 of mu F_ref), at each corner and the
+middle of the friction ranges (mu in {0.2, 0.3, 0.4} times mu1 in {0.07, 0.1, 0.13} on the paper's
+drive), each played closed loop in the policy's own env (30 periods, mean of 21-30) beside the
+trapezoid.
 
 Counts the points where the policy is slower than the trapezoid by more than 0.05 mm/s (where
 either moves; ``targets.below_trapezoid``) and the points where its period velocity swings
@@ -26,16 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mdr_drive_env import SENSOR_DEFAULTS
 from mdr_drive_env.files import json_safe, write_csv, write_text
 
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..policy import load_policy
-from ..protocol import (AVERAGE_PERIODS, BELOW_TOLERANCE, EVAL_PERIODS, SENSOR_ID, open_loop_displacements,
+from ..protocol import (AVERAGE_PERIODS, BELOW_TOLERANCE, EVAL_PERIODS, SENSOR_ID, drive_of, open_loop_displacements,
                         steady_velocity_of, trapezoid_action)
 from .targets import below_trapezoid
-
-#: The friction coefficients of the grid: the corners and the middle of the sensor env's ranges.
-FRICTIONS = tuple((mu, mu1) for mu in (0.2, 0.3, 0.4) for mu1 in (0.07, 0.1, 0.13))
 #: A swing: the largest minus the smallest period velocity over the averaged periods (mm/s).
 SWING_MM_S = 10.0
 #: Envs stepped together (bounds memory).
@@ -47,12 +46,23 @@ def is_sensor_run(run: dict) -> bool:
     return run.get("env_id") == SENSOR_ID
 
 
-def grid(n_k: int, n_loads: int) -> list[dict]:
-    """The hidden values of the check: k, load over mu F_ref, mu, mu1 (k-major, then load, friction)."""
-    ks = np.linspace(*SENSOR_DEFAULTS["k"], n_k)
-    ratios = np.linspace(*SENSOR_DEFAULTS["load_ratio"], n_loads)
+def frictions(drive: DriveDescription = PAPER_DRIVE) -> list[tuple[float, float]]:
+    """The friction pairs of the grid: the corners and the middle of ``drive``'s sensor ranges
+    (``DriveDescription.sensor_env_kwargs``), mu-major."""
+    ranges = drive.sensor_env_kwargs()
+    three = [[lo, round((lo + hi) / 2.0, 12), hi] for lo, hi in (ranges["friction_coefficient"],
+                                                                  ranges["base_friction_coefficient"])]
+    return [(mu, mu1) for mu in three[0] for mu1 in three[1]]
+
+
+def grid(n_k: int, n_loads: int, drive: DriveDescription = PAPER_DRIVE) -> list[dict]:
+    """The hidden values of the check on ``drive``'s sensor ranges: k, load over mu F_ref, mu, mu1
+    (k-major, then load, friction)."""
+    ranges = drive.sensor_env_kwargs()
+    ks = np.linspace(*ranges["k"], n_k)
+    ratios = np.linspace(*ranges["load_ratio"], n_loads)
     return [{"k": float(k), "load_ratio": float(r), "friction_coefficient": mu, "base_friction_coefficient": mu1}
-            for k in ks for r in ratios for mu, mu1 in FRICTIONS]
+            for k in ks for r in ratios for mu, mu1 in frictions(drive)]
 
 
 def rollouts(policy, points: list[dict], periods: int = EVAL_PERIODS,
@@ -88,17 +98,19 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     if not is_sensor_run(policy.run):
         raise ValueError(f"{policy_path} is not a sensor policy (its env is {policy.run.get('env_id')!r}); "
                          "mdr-drive dense checks it on the blind benchmark's grid instead")
-    points = grid(n_k, n_loads)
+    drive = drive_of(policy)
+    points = grid(n_k, n_loads, drive)
     v, masses = rollouts(policy, points, progress=progress)
     hidden = [(p["k"], m, p["friction_coefficient"], p["base_friction_coefficient"]) for p, m in zip(points, masses)]
-    disp, _ = open_loop_displacements(hidden, trapezoid_action())
-    trap = steady_velocity_of(disp)
+    disp, _ = open_loop_displacements(hidden, trapezoid_action(drive), drive=drive)
+    trap = steady_velocity_of(disp, period=drive.period)
     learned = v[-AVERAGE_PERIODS:].mean(axis=0)
     below, gap, moving = below_trapezoid(trap, learned)
     swing = (v[-AVERAGE_PERIODS:].max(axis=0) - v[-AVERAGE_PERIODS:].min(axis=0)) * 1e3
     unstable = (swing > SWING_MM_S) & (learned < trap)
     back_faster = ~moving & (gap < -BELOW_TOLERANCE)  # neither moves forward: below_trapezoid does not count these
-    res = json_safe({"policy": str(policy_path), "command": command, "points": points, "cargo_mass_kg": masses,
+    res = json_safe({"policy": str(policy_path), "command": command, "drive": None if drive.is_paper else drive.to_record(),
+                     "points": points, "cargo_mass_kg": masses,
                      "policy_m_s": np.round(learned, 8), "trapezoid_m_s": np.round(trap, 8),
                      "swing_mm_s": np.round(swing, 4)})
     rows = [(p["k"], p["load_ratio"], p["friction_coefficient"], p["base_friction_coefficient"], trap[i], learned[i],
@@ -106,8 +118,11 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     write_csv(out / "below.csv", ["k", "load_over_mu_f_ref", "mu", "mu1", "trapezoid_m_s", "policy_m_s", "swing_mm_s"],
               rows)
     finite = gap[below & np.isfinite(gap)]
-    lines = [f"Dense check of the sensor policy `{policy_path}`: {n_k} k values in [0, 0.6] x {n_loads} loads from 0 "
-             f"to 0.4 of mu F_ref x {len(FRICTIONS)} friction pairs ({len(points)} points); closed loop in its own "
+    k_range, load_range = drive.sensor_env_kwargs()["k"], drive.sensor_env_kwargs()["load_ratio"]
+    on = "" if drive.is_paper else f" on drive {drive.name}"
+    lines = [f"Dense check of the sensor policy `{policy_path}`{on}: {n_k} k values in [{k_range[0]:g}, {k_range[1]:g}] x "
+             f"{n_loads} loads from {load_range[0]:g} to {load_range[1]:g} of mu F_ref x {len(frictions(drive))} friction "
+             f"pairs ({len(points)} points); closed loop in its own "
              f"env, mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}.", f"Command: `{command}`", "",
              f"* points below the trapezoid by more than {BELOW_TOLERANCE * 1e3:g} mm/s (where either moves): **{int(below.sum())}** "
              f"({100.0 * below.mean():.2f} % of the grid); worst "
@@ -130,4 +145,4 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     return text
 
 
-__all__ = ["CHUNK", "FRICTIONS", "SWING_MM_S", "grid", "is_sensor_run", "rollouts", "run"]
+__all__ = ["CHUNK", "SWING_MM_S", "frictions", "grid", "is_sensor_run", "rollouts", "run"]

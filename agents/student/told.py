@@ -151,7 +151,7 @@ def fit_told(field_: DriveField, config: WorthConfig, seed: int, env_kwargs: dic
     mu, mu1 = field_.friction
     quantum = float(env_kwargs.get("time_quantum", field_.drive.action_map().time_quantum))
     velocities = drive_values([(k, m, mu, mu1) for k, m in points], library.drives, executor, store,
-                              "told: every drive at every point", time_quantum=quantum)
+                              "told: every drive at every point", time_quantum=quantum, drive=field_.drive)
     values_s = time.perf_counter() - t0
     x = told_observations(points, env_kwargs)
     structure = gym.make(ENV_ID).unwrapped.observation_structure
@@ -173,7 +173,7 @@ def fit_told(field_: DriveField, config: WorthConfig, seed: int, env_kwargs: dic
                            SimpleNamespace(load_factor=config.load_factor, no_load_share=config.no_load_share))
         held_v = drive_values([(k, m, mu, mu1) for k, m in held], library.drives, executor,
                               None if store is None else TaskStore(store.folder.with_name(store.folder.name + "_validation")),
-                              "told: validation points", time_quantum=quantum)
+                              "told: validation points", time_quantum=quantum, drive=field_.drive)
         validation = pick_quality(held_v, network.predicted_worth(told_observations(held, env_kwargs)).argmax(axis=1))
     student = network.policy(env_kwargs, library.rows, seed, env_id=ENV_ID)
     record = {"drives": len(library.drives), "rows": len(library.rows), "points": len(points), "loss": loss,

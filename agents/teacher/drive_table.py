@@ -33,6 +33,7 @@ from mdr_drive_env.core.params import check_int
 from mdr_drive_env.files import atomic_path
 from mdr_drive_env.sweep import Executor, TaskStore
 
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..protocol import MOVING_THRESHOLD, TIME_QUANTUM, draw_hidden, hidden_point, open_loop_velocity, policy_rollout, trapezoid_action
 from ..search import CMA_BUDGET, CYCLE_SEARCH, PUSH_CLAMP, THROW_COAST, best_cycle, cma_optimize
 
@@ -84,14 +85,15 @@ class DriveTableConfig:
 
 @dataclass(frozen=True)
 class SearchTask:
-    """The searches at one hidden point (k, cargo mass kg, mu, mu1): ``search_drives``. ``start``: the
-    full-observation policy's cycle there (2, 5), or None."""
+    """The searches at one hidden point (k, cargo mass kg, mu, mu1) of ``drive``: ``search_drives``.
+    ``start``: the cycle its polishing search starts from there (2, 5), or None."""
 
     point: tuple[float, float, float, float]
     fixed_budget: int
     cycle_budget: int
     polish_budget: int
     start: np.ndarray | None = None
+    drive: DriveDescription = PAPER_DRIVE
 
 
 def search_drives(task: SearchTask) -> dict:
@@ -100,27 +102,29 @@ def search_drives(task: SearchTask) -> dict:
     ``CYCLE_STARTS`` and, with a ``start``, the cycle searched from it; a budget of 0 skips its
     searches."""
     k, mass, mu, mu1 = task.point
-    found = []
+    drive, found = task.drive, []
     if task.fixed_budget:
-        fixed = cma_optimize(k, mass, task.fixed_budget, friction=(mu, mu1))
+        fixed = cma_optimize(k, mass, task.fixed_budget, friction=(mu, mu1), drive=drive)
         found.append((np.tile(fixed.action, (2, 1)), fixed.velocity))
     for i, start in enumerate(CYCLE_STARTS if task.cycle_budget else ()):
-        c = best_cycle(k, mass, (start,), task.cycle_budget, seed=i, friction=(mu, mu1))
+        c = best_cycle(k, mass, (start,), task.cycle_budget, seed=i, friction=(mu, mu1), drive=drive)
         found.append((np.asarray(c.action), c.velocity))
     if task.start is not None:
-        c = best_cycle(k, mass, (np.asarray(task.start),), task.polish_budget, seed=len(CYCLE_STARTS), friction=(mu, mu1))
+        c = best_cycle(k, mass, (np.asarray(task.start),), task.polish_budget, seed=len(CYCLE_STARTS), friction=(mu, mu1),
+                       drive=drive)
         found.append((np.asarray(c.action), c.velocity))
     return {"drives": np.array([d for d, _ in found]), "velocities": np.array([v for _, v in found])}
 
 
 @dataclass(frozen=True)
 class ValuesTask:
-    """Every drive of ``drives`` (n, 2, 5) played at each of ``points`` (k, cargo mass kg, mu, mu1), its
-    rises and z phase in steps of ``time_quantum`` (s)."""
+    """Every drive of ``drives`` (n, 2, 5) played at each of ``points`` (k, cargo mass kg, mu, mu1) of
+    ``drive``, its rises and z phase in steps of ``time_quantum`` (s)."""
 
     points: tuple
     drives: np.ndarray
     time_quantum: float = TIME_QUANTUM
+    drive: DriveDescription = PAPER_DRIVE
 
 
 def values_task(task: ValuesTask) -> np.ndarray:
@@ -128,17 +132,18 @@ def values_task(task: ValuesTask) -> np.ndarray:
     drives = np.asarray(task.drives)
     points = [tuple(p) for p in task.points for _ in range(len(drives))]
     return open_loop_velocity(points, np.tile(drives, (len(task.points), 1, 1)),
-                              time_quantum=task.time_quantum).reshape(len(task.points), -1)
+                              time_quantum=task.time_quantum, drive=task.drive).reshape(len(task.points), -1)
 
 
 def drive_values(points, drives: np.ndarray, executor: Executor, store: TaskStore | None = None,
-                 desc: str = "drive table: values", time_quantum: float = TIME_QUANTUM) -> np.ndarray:
-    """Steady velocity (m/s) of every drive (n, 2, 5) at every hidden point (k, cargo mass kg, mu, mu1),
-    its rises and z phase in steps of ``time_quantum`` (s): (len(points), n), in tasks of
+                 desc: str = "drive table: values", time_quantum: float = TIME_QUANTUM,
+                 drive: DriveDescription = PAPER_DRIVE) -> np.ndarray:
+    """Steady velocity (m/s) of every drive (n, 2, 5) at every hidden point (k, cargo mass kg, mu, mu1)
+    of ``drive``, its rises and z phase in steps of ``time_quantum`` (s): (len(points), n), in tasks of
     ``VALUE_CHUNK`` points."""
     points = [tuple(float(x) for x in p) for p in points]
     drives = np.asarray(drives, dtype=np.float64)
-    tasks = [ValuesTask(tuple(points[i:i + VALUE_CHUNK]), drives, time_quantum)
+    tasks = [ValuesTask(tuple(points[i:i + VALUE_CHUNK]), drives, time_quantum, drive)
              for i in range(0, len(points), VALUE_CHUNK)]
     return np.concatenate([np.asarray(v) for v in executor.map(values_task, tasks, desc, store=store)])
 
@@ -221,25 +226,31 @@ def policy_cycles(folder: str | Path, points) -> np.ndarray:
     return np.stack([actions[-2], actions[-1]], axis=1).astype(np.float64)
 
 
-def build(config: DriveTableConfig, executor: Executor, tasks: Path, library: DriveTable | None = None) -> DriveTable:
-    """The table of ``config`` (module docstring); each sweep's finished tasks are kept under ``tasks``
-    (``resume``: the same folder again). With a ``library`` (drives found before, such as a teacher
-    field's, ``student.field_library``), each point's polishing search starts from the library's fastest
-    drive there instead of ``polish_from``'s, and every drive of the library is a candidate too."""
-    points = [hidden_point(d) for d in draw_hidden(config.points, config.seed)]
-    candidates = [np.tile(trapezoid_action(), (2, 1))]
+def build(config: DriveTableConfig, executor: Executor, tasks: Path, library: DriveTable | None = None,
+          drive: DriveDescription = PAPER_DRIVE) -> DriveTable:
+    """The table of ``config`` for a sensor policy of ``drive`` (module docstring: its hidden parameters
+    drawn as ``DriveDescription.sensor_env_kwargs`` says); each sweep's finished tasks are kept under
+    ``tasks`` (``resume``: the same folder again). With a ``library`` (drives found before, such as a
+    teacher field's, ``student.field_library``), each point's polishing search starts from the library's
+    fastest drive there instead of ``polish_from``'s, and every drive of the library is a candidate too."""
+    points = [hidden_point(d) for d in draw_hidden(config.points, config.seed, drive=drive)]
+    candidates = [np.tile(trapezoid_action(drive), (2, 1))]
     if library is not None:
         if config.polish_from is not None:
             raise ValueError(f"polish_from={config.polish_from!r}: a table built from a library starts its polishing "
                              "searches from the library's drives; set polish_from to null")
-        known = drive_values(points, library.drives, executor, TaskStore(tasks / "library"), "drive table: library")
+        known = drive_values(points, library.drives, executor, TaskStore(tasks / "library"), "drive table: library",
+                             drive=drive)
         starts = list(np.asarray(library.drives)[np.argmax(known, axis=1)])
         candidates += list(np.asarray(library.drives, dtype=np.float64))
     elif config.polish_from is not None:
+        if not drive.is_paper:
+            raise ValueError(f"polish_from={config.polish_from!r} plays on the paper's drive, not on {drive.name}")
         starts = list(policy_cycles(config.polish_from, points))
     else:
         starts = [None] * len(points)
-    found = executor.map(search_drives, [SearchTask(p, config.fixed_budget, config.cycle_budget, config.polish_budget, s)
+    found = executor.map(search_drives, [SearchTask(p, config.fixed_budget, config.cycle_budget, config.polish_budget, s,
+                                                    drive)
                                          for p, s in zip(points, starts)],
                          "drive table: searches", store=TaskStore(tasks / "searches"))
     for f in found:
@@ -248,13 +259,13 @@ def build(config: DriveTableConfig, executor: Executor, tasks: Path, library: Dr
     candidates = np.array(candidates)
     _, first = np.unique(candidates.reshape(len(candidates), -1), axis=0, return_index=True)
     candidates = candidates[np.sort(first)]  # the trapezoid stays first
-    sample = points + [hidden_point(d) for d in draw_hidden(config.selection_points, config.seed + 1)]
-    values = drive_values(sample, candidates, executor, TaskStore(tasks / "values"))
+    sample = points + [hidden_point(d) for d in draw_hidden(config.selection_points, config.seed + 1, drive=drive)]
+    values = drive_values(sample, candidates, executor, TaskStore(tasks / "values"), drive=drive)
     chosen, history = select(values, config.size)
     best = values.max(axis=1)
     moving = best >= MOVING_THRESHOLD
     fraction = values[:, chosen].max(axis=1)[moving] / best[moving]
-    record = {"config": asdict(config), "library": None if library is None else len(library.drives),
+    record = {"config": asdict(config), "drive": drive.to_record(), "library": None if library is None else len(library.drives),
               "candidates": len(candidates), "sample_points": len(sample),
               "selection_utility": history,
               "coverage": {"points_moving": int(moving.sum()), "mean_fraction_of_best_candidate": float(fraction.mean()),

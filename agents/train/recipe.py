@@ -168,9 +168,7 @@ def searched_with_another_config(field: DriveField, config: FieldConfig) -> bool
 def on_drive(recipe: RecipeConfig, drive: DriveDescription) -> RecipeConfig:
     """``recipe`` for ``drive``: the teacher searches the drive's k range at its friction, and the
     student's env (its run.json's ``env_kwargs``) is the drive's, over its k and load ranges."""
-    mu_mu1 = drive.params(0.0, 0.0).contact
-    teacher = dataclasses.replace(recipe.teacher, k_range=drive.k_range,
-                                  friction=(mu_mu1.friction_coefficient, mu_mu1.base_friction_coefficient))
+    teacher = dataclasses.replace(recipe.teacher, k_range=drive.k_range, friction=drive.nominal_friction)
     env_kwargs = {**recipe.env_kwargs, **drive.env_kwargs, "k": list(drive.k_range),
                   "load_ratio": list(drive.load_ratio_range)}
     return dataclasses.replace(recipe, teacher=teacher, env_kwargs=env_kwargs)
@@ -197,12 +195,7 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         raise ValueError(f"--sensor-tier {sensor_tier}: no sensor policy is built ({config_path} has no "
                          "'sensor_policy' section, or --only told)")
     if sensor is not None and drive is not None:
-        if sensor_tier is not None:
-            raise ValueError(f"--sensor-tier {sensor_tier}: the recipe builds the sensor policy of the paper's drive "
-                             f"only, not of {drive.name}")
-        print(f"recipe: {drive.name}: the told policy alone (the recipe builds the sensor policy of the paper's drive "
-              "only)", file=sys.stderr)
-        sensor = None
+        drive.sensor_env_kwargs()  # its hidden ranges: a one-line error before any search
     if snapshots and recipe.student == "worth":
         raise ValueError(f"--snapshots saves a 'distill' student after each hole round; {config_path}'s student is "
                          "'worth', which has none")
@@ -270,13 +263,13 @@ def run(config_path: str | Path, out: str | Path, executor: Executor | None = No
         sensor_summary = None
         if sensor is not None:
             t2 = time.perf_counter()
-            table = build_table(sensor.table, executor, tasks / "sensor_table", field_library(field))
+            table = build_table(sensor.table, executor, tasks / "sensor_table", field_library(field), field.drive)
             table.save(out / TABLE_FILE)
             stages["sensor_table_s"] = round(time.perf_counter() - t2, 1)
             print(f"recipe: sensor table {stages['sensor_table_s']:.0f} s: {len(table.drives)} drives, coverage "
                   f"{table.record['coverage']}", flush=True)
             sensor_summary = policy_from_table(table, sensor, sensor.sensor, out, out / "sensor_policy", tasks,
-                                               executor, progress, command, str(config_path))
+                                               executor, progress, command, str(config_path), drive=field.drive)
             stages["sensor_policy_s"] = sensor_summary["wall_time_s"]
             print(f"recipe: sensor policy {stages['sensor_policy_s']:.0f} s; policy in {out / 'sensor_policy'}",
                   flush=True)

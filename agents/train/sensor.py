@@ -45,8 +45,9 @@ from mdr_drive_env.gym_envs.sensor import DEFAULT_ENCODER_NOISE, DEFAULT_TRACE_S
 from mdr_drive_env.gym_envs.spaces import PrivilegedLayout
 from mdr_drive_env.sweep import Executor, TaskStore, task_folder
 
+from ..drive import PAPER_DRIVE, DriveDescription
 from ..policy import ESTIMATOR_FILE, package_path, read_run
-from ..protocol import ACTION_MAP, SENSOR_ID, draw_hidden, hidden_point, steady_velocity_of
+from ..protocol import SENSOR_ID, draw_hidden, hidden_point, steady_velocity_of
 from ..run_record import RunLock, command_line, policy_record
 from ..student.drive_values import DriveValueNetwork, DriveValueTargets, check_fit_settings, pick_rows
 from ..student.estimator import FINE_TUNE_PPO, hidden_entries, standardised_error
@@ -194,23 +195,25 @@ class Validation:
     with one before period 20 of 40, as the report plays them): its steady
     velocity's fraction of the table's best drive there (where that moves >= 2 mm/s), points below the
     trapezoid, load steps recovered (``benchmarks.adaptation.recovery``), and its estimates'
-    standardised errors over the periods after the first ``history``."""
+    standardised errors over the periods after the first ``history``. The draws are of ``drive``'s
+    sensor env (``DriveDescription.sensor_env_kwargs``)."""
 
-    def __init__(self, config: SensorConfig, table: DriveTable, seed: int, points: int, load_steps: int):
+    def __init__(self, config: SensorConfig, table: DriveTable, seed: int, points: int, load_steps: int,
+                 drive: DriveDescription = PAPER_DRIVE):
         from ..benchmarks.load_steps import STEP_EPISODE_PERIODS, STEP_PERIOD
 
-        self.config, self.table, self.seed = config, table, seed
-        self.points = draw_hidden(points, seed)
-        self.steps = draw_hidden(load_steps, seed + 1, step_period=STEP_PERIOD)
+        self.config, self.table, self.seed, self.drive = config, table, seed, drive
+        self.points = draw_hidden(points, seed, drive=drive)
+        self.steps = draw_hidden(load_steps, seed + 1, step_period=STEP_PERIOD, drive=drive)
         self.step_period, self.step_periods = STEP_PERIOD, STEP_EPISODE_PERIODS
         self.velocities = drive_values([hidden_point(d) for d in self.points], table.drives,
-                                       Executor(workers=1, progress=False))
+                                       Executor(workers=1, progress=False), drive=drive)
 
     def play(self, network: DriveValueNetwork, draws: list[dict], periods: int):
         """``collect_rows`` of the network at ``draws`` (one episode each)."""
         import gymnasium as gym
 
-        kwargs = {**sensor_env_kwargs(self.config), "max_periods": periods, "action_codebook": self.table.rows}
+        kwargs = {**sensor_env_kwargs(self.config, self.drive), "max_periods": periods, "action_codebook": self.table.rows}
         envs = [gym.make(SENSOR_ID, **kwargs) for _ in draws]
         obs = []
         for env, d in zip(envs, draws):
@@ -226,9 +229,9 @@ class Validation:
         from ..benchmarks.targets import velocity_statistics
 
         sensed, _, privileged, disp = self.play(network, self.points, 30)
-        stats = velocity_statistics(self.velocities[:, 0], self.velocities.max(axis=1), steady_velocity_of(disp))
+        stats = velocity_statistics(self.velocities[:, 0], self.velocities.max(axis=1), steady_velocity_of(disp, period=self.drive.period))
         step_disp = self.play(network, self.steps, self.step_periods)[3]
-        scored = [r[2] for r in (recovery(d / ACTION_MAP.period) for d in step_disp.T) if r[2] is not None]
+        scored = [r[2] for r in (recovery(d / self.drive.period) for d in step_disp.T) if r[2] is not None]
         settled = slice(self.config.history * len(self.points), None)  # rows are period-major
         err = standardised_error(network.estimates(sensed[settled]), privileged[settled])
         return {"val_mean_fraction_of_table": stats["fraction_of_best_mean"],
@@ -243,19 +246,22 @@ def _log(record: dict) -> None:
                    for key, value in record.items()), flush=True)
 
 
-def values_fingerprint(table: DriveTable, config: SensorConfig, seed: int) -> str:
-    """What the training episodes' values depend on: the table's drives, the episodes' draws and seed."""
+def values_fingerprint(table: DriveTable, config: SensorConfig, seed: int, drive: DriveDescription = PAPER_DRIVE) -> str:
+    """What the training episodes' values depend on: the table's drives, the episodes' draws and seed, the
+    drive's sensor env."""
     draws = {key: getattr(config, key) for key in ("episodes", "load_step_share", "load_step_periods")}
-    payload = np.asarray(table.drives, dtype=np.float64).tobytes() + json.dumps([draws, seed]).encode()
+    payload = (np.asarray(table.drives, dtype=np.float64).tobytes()
+               + json.dumps([draws, seed, drive.sensor_env_kwargs()], sort_keys=True).encode())
     return hashlib.sha256(payload).hexdigest()
 
 
 def episode_values(table: DriveTable, config: SensorConfig, seed: int, out: Path, executor: Executor, tasks: Path,
-                   reuse: Path | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The training episodes' hidden points (``episode_points``' index and step) and every drive's steady
-    velocity at them (points, drives) m/s: from ``reuse``'s ``VALUES_FILE`` if it holds them for the same
-    table and episodes, else computed (a sweep) and written to ``out``."""
-    key = values_fingerprint(table, config, seed)
+                   reuse: Path | None = None, drive: DriveDescription = PAPER_DRIVE
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The training episodes' hidden points on ``drive`` (``episode_points``' index and step) and every
+    drive's steady velocity at them (points, drives) m/s: from ``reuse``'s ``VALUES_FILE`` if it holds
+    them for the same table, episodes and drive, else computed (a sweep) and written to ``out``."""
+    key = values_fingerprint(table, config, seed, drive)
     for folder in (out, reuse):
         path = None if folder is None else Path(folder) / VALUES_FILE
         if path is not None and path.is_file():
@@ -264,10 +270,10 @@ def episode_values(table: DriveTable, config: SensorConfig, seed: int, out: Path
                     if folder != out:
                         shutil.copyfile(path, out / VALUES_FILE)
                     return f["index"], f["step"], f["velocities"]
-    envs, _ = sensor_envs(config, config.episodes, seed)
+    envs, _ = sensor_envs(config, config.episodes, seed, drive=drive)
     points, index, step = episode_points(envs)
     velocities = drive_values(points, table.drives, executor, TaskStore(tasks / "episode_values"),
-                              "sensor: drive values at the episodes' hidden points")
+                              "sensor: drive values at the episodes' hidden points", drive=drive)
     with atomic_path(out / VALUES_FILE) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, fingerprint=np.array(key), index=index, step=step, velocities=velocities)
@@ -275,9 +281,10 @@ def episode_values(table: DriveTable, config: SensorConfig, seed: int, out: Path
 
 
 def train(config: SensorConfig, table: DriveTable, index: np.ndarray, step: np.ndarray, velocities: np.ndarray,
-          seed: int = 0, validate: Validation | None = None, progress: bool = True):
+          seed: int = 0, validate: Validation | None = None, progress: bool = True, drive: DriveDescription = PAPER_DRIVE):
     """Round 0, driven by the table's best drive told the hidden point, then ``config.rounds`` rounds
-    driven by the network, each followed by a fit on every episode so far (module docstring). Returns
+    driven by the network, each followed by a fit on every episode so far (module docstring), in the
+    sensor env of ``drive`` (the one ``episode_values`` valued the episodes of). Returns
     the network, the per-round records (the kept round's marked ``"kept": true``) and whether a Ctrl-C cut
     it short. The network kept is the last finished round's, or with ``config.keep_best_round`` and a
     ``validate``, the round whose validation ranks best (``round_rank``); before round 0's fit had
@@ -297,7 +304,7 @@ def train(config: SensorConfig, table: DriveTable, index: np.ndarray, step: np.n
     try:
         for r in range(config.rounds + 1):
             t0 = time.perf_counter()
-            envs, first = sensor_envs(config, config.episodes, seed, codebook=table.rows)
+            envs, first = sensor_envs(config, config.episodes, seed, codebook=table.rows, drive=drive)
             structure = envs[0].unwrapped.observation_structure
             newest = slice(structure["actions"].start, structure["actions"].start + 5)  # the previous action
             if r == 0:  # the table's best drive, told the hidden point
@@ -341,10 +348,11 @@ def round_rank(record: dict) -> tuple[int, float]:
             record["val_mean_fraction_of_table"] + record["val_min_fraction_of_table"])
 
 
-def merge_check(student, network: DriveValueNetwork, config: SensorConfig, table: DriveTable, seed: int) -> dict:
+def merge_check(student, network: DriveValueNetwork, config: SensorConfig, table: DriveTable, seed: int,
+                drive: DriveDescription = PAPER_DRIVE) -> dict:
     """How many of the actions the SB3 policy plays differ from the network's, over the sensor
-    observations of 16 episodes the network drives (none should)."""
-    envs, first = sensor_envs(config, 16, seed + 7, codebook=table.rows)
+    observations of 16 episodes the network drives on ``drive`` (none should)."""
+    envs, first = sensor_envs(config, 16, seed + 7, codebook=table.rows, drive=drive)
     sensed = collect_rows(envs, first, lambda obs, point: network.act(obs))[0]
     differ = np.any(student.act(sensed) != table.rows[network.act(sensed)], axis=1)  # a fixed drive's rows are equal
     return {"merge_rows_differ": int(differ.sum()), "merge_rows_checked": len(sensed)}
@@ -398,22 +406,23 @@ def _run(config_path, out: Path, recipe: SensorRecipeConfig, config: SensorConfi
 
 def policy_from_table(table: DriveTable, recipe: SensorRecipeConfig, config: SensorConfig, values_folder: Path,
                       policy_folder: Path, tasks: Path, executor: Executor, progress: bool, command: str,
-                      config_name: str, reuse: Path | None = None) -> dict:
-    """The sensor policy that picks from ``table``: the training episodes' values (kept in
+                      config_name: str, reuse: Path | None = None, drive: DriveDescription = PAPER_DRIVE) -> dict:
+    """The sensor policy of ``drive`` that picks from ``table``: the training episodes' values (kept in
     ``values_folder``, or taken from ``reuse``'s), the rounds, the policy written to ``policy_folder``
     with its ``estimator.npz``; returns the run's summary (its stage times, rounds and merge check)."""
     t0 = time.perf_counter()
     times = {}
-    index, step, velocities = episode_values(table, config, recipe.seed, values_folder, executor, tasks, reuse)
+    index, step, velocities = episode_values(table, config, recipe.seed, values_folder, executor, tasks, reuse, drive)
     times["values_s"] = round(time.perf_counter() - t0, 1)
     validate = None if recipe.validation_seed is None else Validation(
-        config, table, recipe.validation_seed, recipe.validation_points, recipe.validation_load_steps)
-    network, history, interrupted = train(config, table, index, step, velocities, recipe.seed, validate, progress)
+        config, table, recipe.validation_seed, recipe.validation_points, recipe.validation_load_steps, drive)
+    network, history, interrupted = train(config, table, index, step, velocities, recipe.seed, validate, progress,
+                                          drive)
     times["rounds_s"] = round(time.perf_counter() - t0 - times["values_s"], 1)
-    env_kwargs = sensor_env_kwargs(config)
+    env_kwargs = sensor_env_kwargs(config, drive)
     network.switch_cost = config.play_switch_cost
     student = network.policy(env_kwargs, table.rows, recipe.seed)
-    check = merge_check(student, network, config, table, recipe.seed)
+    check = merge_check(student, network, config, table, recipe.seed, drive)
     _log(check)
     wall = round(time.perf_counter() - t0, 1)
     record = policy_record(
@@ -424,7 +433,8 @@ def policy_from_table(table: DriveTable, recipe: SensorRecipeConfig, config: Sen
                     "drives": len(table.drives), "rows": len(table.rows), "validation_seed": recipe.validation_seed,
                     "validation_points": recipe.validation_points,
                     "validation_load_steps": recipe.validation_load_steps, "history": history, "merged": check},
-        command=command, torch_threads=config.torch_threads, wall_time_s=wall, interrupted=interrupted)
+        command=command, torch_threads=config.torch_threads, wall_time_s=wall, interrupted=interrupted,
+        drive=None if drive.is_paper else drive.to_record())
     save_student(student, policy_folder, record)
     network.estimator().save(policy_folder / ESTIMATOR_FILE)  # what the report plots the estimates with
     return {"config": config_name, "command": command, "seed": recipe.seed, "wall_time_s": wall,

@@ -143,6 +143,45 @@ def test_the_blind_benchmark_judges_the_policy_on_its_drive(drive_recipe, tmp_pa
     assert "--drive needs --blind" in capsys.readouterr().err
 
 
+def test_the_recipe_builds_the_drives_sensor_policy_and_the_adaptation_report_judges_it_there(drive_recipe, tmp_path):
+    """``mdr-drive recipe --drive`` also builds the sensor policy of that drive: its hidden k and load over
+    the drive's ranges, its friction over the default spread around the drive's pair; the adaptation report
+    draws, searches and plays on the drive the sensor policy was built for."""
+    from mdr_drive_agents.benchmarks import adaptation
+    from mdr_drive_agents.policy import load_policy
+    from mdr_drive_agents.protocol import drive_of
+    from mdr_drive_agents.teacher.drive_table import DriveTable
+
+    out = tmp_path / "both"
+    assert main(["recipe", str(DATA / "recipe_tiny_worth.yaml"), "--drive", str(TINY_DRIVE), "--out", str(out),
+                 "--teacher", str(drive_recipe / "teacher_field.npz"), "--no-progress", "--workers", "1"]) == 0
+    run = json.loads((out / "sensor_policy" / "run.json").read_text())
+    kwargs = run["env_kwargs"]
+    assert kwargs["period"] == 5e-4 and kwargs["k"] == [0.1, 0.3] and kwargs["load_ratio"] == [0.0, 0.4]
+    assert kwargs["friction_coefficient"] == pytest.approx([0.25 * 2 / 3, 0.25 * 4 / 3])
+    assert kwargs["base_friction_coefficient"] == pytest.approx([0.08 * 0.7, 0.08 * 1.3])
+    assert run["drive"]["name"] == "drive_tiny"
+    assert DriveTable.load(out / "drive_table.npz").record["drive"]["name"] == "drive_tiny"
+    policy = load_policy(out / "sensor_policy")
+    drive = drive_of(policy)
+    assert drive.name == "drive_tiny" and drive.period == 5e-4 and drive.nominal_friction == (0.25, 0.08)
+
+    res = adaptation.run(out / "sensor_policy", out / "policy", 2, 1, seed=5, out=tmp_path / "adapt", quick=True,
+                         executor=adaptation.Executor(workers=1, progress=False))
+    assert res["drive"]["name"] == "drive_tiny"
+    assert all(0.1 <= d["k"] <= 0.3 and 0.25 * 2 / 3 <= d["friction_coefficient"] <= 0.25 * 4 / 3 for d in res["points"])
+    trapezoid = open_loop_velocity([adaptation.hidden_point(d) for d in res["points"]], trapezoid_action(drive),
+                                   drive=drive)
+    np.testing.assert_allclose(res["steady_velocity_m_s"]["trapezoid"], trapezoid, rtol=1e-9)
+    assert res["tuned_once_point"] == {"k": 0.2, "load_ratio": 0.2, "friction_coefficient": 0.25,
+                                       "base_friction_coefficient": 0.08}
+    assert main(["dense", "--policy", str(out / "sensor_policy"), "--ks", "2", "--loads", "2", "--out",
+                 str(tmp_path / "dense"), "--no-progress"]) == 0
+    dense = json.loads((tmp_path / "dense" / "sensor_dense.json").read_text())
+    assert dense["drive"]["name"] == "drive_tiny" and {p["k"] for p in dense["points"]} == {0.1, 0.3}
+    assert max(p["friction_coefficient"] for p in dense["points"]) == pytest.approx(0.25 * 4 / 3)
+
+
 def test_a_reference_scores_a_policy_only_on_the_drive_it_was_run_on(drive_recipe, tmp_path):
     from mdr_drive_agents.benchmarks.reference import Reference
     from mdr_drive_agents.policy import PRETRAINED, load_policy

@@ -17,7 +17,8 @@ def test_the_grid_spans_the_sensor_envs_hidden_ranges():
     points = sensor_dense.grid(3, 2)
     assert len(points) == 3 * 2 * 9
     assert {p["k"] for p in points} == {0.0, 0.3, 0.6} and {p["load_ratio"] for p in points} == {0.0, 0.4}
-    assert {(p["friction_coefficient"], p["base_friction_coefficient"]) for p in points} == set(sensor_dense.FRICTIONS)
+    assert {(p["friction_coefficient"], p["base_friction_coefficient"]) for p in points} == set(sensor_dense.frictions())
+    assert set(sensor_dense.frictions()) == {(mu, mu1) for mu in (0.2, 0.3, 0.4) for mu1 in (0.07, 0.1, 0.13)}
 
 
 def test_mdr_drive_dense_checks_a_sensor_policy_over_its_hidden_values(tmp_path, capsys):

@@ -453,9 +453,12 @@ def test_a_recipe_builds_the_sensor_policy_from_the_teachers_drives(recipe_run, 
     assert run["picks_from"]["sensor"]["sensor_tier"] == "encoder"
     policy = load_policy(tmp_path / "b" / "sensor_policy")
     np.testing.assert_array_equal(policy.codebook, table.rows)
+    close = tmp_path / "close_friction.yaml"  # mu 0.2 over mu1 0.15: the default spreads overlap
+    close.write_text("friction_coefficient: 0.2\nbase_friction_coefficient: 0.15\n")
     for args, says in ((["--only", "told", "--sensor-tier", "trace"], "no sensor policy is built"),
                        (["--sensor-tier", "trace"], "no sensor policy is built"),
-                       (["--sensor-tier", "trace", "--drive", str(DATA / "drive_tiny.yaml")], "paper's drive only")):
+                       (["--drive", str(close)], "the sensor policy's friction ranges mu [0.133333333333, 0.266666666667]"
+                                                 " and mu1 [0.105, 0.195] overlap")):
         config = TINY if args == ["--sensor-tier", "trace"] else worth
         assert main(["recipe", str(config), "--out", str(tmp_path / "e"), "--teacher", str(out / "teacher_field.npz"),
                      *args]) == 2
