@@ -244,7 +244,8 @@ def markdown(res: dict) -> str:
     drives = drives_of(res)
     lines = [f"# Adaptation: seed {res['seed']}{' (quick)' if res['quick'] else ''}", "",
              f"{res['n']} blind points and {res['load_steps']} load-step episodes of MDRDriveSensor-v0's hidden "
-             f"parameters; {res['protocol']}.", "",
+             f"parameters" + (f" on drive {res['drive']['name']}" if res.get("drive") else "") + f"; {res['protocol']}.",
+             "",
              "| drive | below trapezoid | worst vs trapezoid (mm/s) | fraction of best: mean | min | scored |",
              "|---|---|---|---|---|---|"]
     for drive, s in res["statistics"].items():

@@ -28,7 +28,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"a sensor policy's folder, each played in its own sensor tier; give it once per tier to "
                         f"compare tiers side by side (default: {SENSOR_POLICY})")
     p.add_argument("--full-policy", default=FULL_POLICY, type=policy_path,
-                   help="the full-observation policy's folder, the upper bound")
+                   help="the full-observation policy's folder, the upper bound, built for the sensor policies' drive "
+                        "(default: the paper drive's, told k, the load and mu1/mu; for a sensor policy of "
+                        "`mdr-drive recipe --drive`, the recipe's OUT/policy, told k and the load)")
     p.add_argument("--blind", type=positive_int, default=48, metavar="N", help="draws of the hidden parameters (-)")
     p.add_argument("--load-steps", type=positive_int, default=24, metavar="M", help="load-step episodes (-)")
     p.add_argument("--seed", type=int, required=True,

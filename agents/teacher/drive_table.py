@@ -234,15 +234,18 @@ def build(config: DriveTableConfig, executor: Executor, tasks: Path, library: Dr
     teacher field's, ``student.field_library``), each point's polishing search starts from the library's
     fastest drive there instead of ``polish_from``'s, and every drive of the library is a candidate too."""
     points = [hidden_point(d) for d in draw_hidden(config.points, config.seed, drive=drive)]
+    sample = points + [hidden_point(d) for d in draw_hidden(config.selection_points, config.seed + 1, drive=drive)]
     candidates = [np.tile(trapezoid_action(drive), (2, 1))]
+    known = {}  # a library drive's values over the sample, played once
     if library is not None:
         if config.polish_from is not None:
             raise ValueError(f"polish_from={config.polish_from!r}: a table built from a library starts its polishing "
                              "searches from the library's drives; set polish_from to null")
-        known = drive_values(points, library.drives, executor, TaskStore(tasks / "library"), "drive table: library",
-                             drive=drive)
-        starts = list(np.asarray(library.drives)[np.argmax(known, axis=1)])
-        candidates += list(np.asarray(library.drives, dtype=np.float64))
+        drives = np.asarray(library.drives, dtype=np.float64)
+        values = drive_values(sample, drives, executor, TaskStore(tasks / "library"), "drive table: library", drive=drive)
+        starts = list(drives[np.argmax(values[:len(points)], axis=1)])
+        candidates += list(drives)
+        known = {d.tobytes(): v for d, v in zip(drives, values.T)}
     elif config.polish_from is not None:
         if not drive.is_paper:
             raise ValueError(f"polish_from={config.polish_from!r} plays on the paper's drive, not on {drive.name}")
@@ -255,12 +258,16 @@ def build(config: DriveTableConfig, executor: Executor, tasks: Path, library: Dr
                          "drive table: searches", store=TaskStore(tasks / "searches"))
     for f in found:
         order = np.argsort(-np.asarray(f["velocities"]), kind="stable")[:config.keep_per_point]
-        candidates += [np.asarray(f["drives"])[i] for i in order]
-    candidates = np.array(candidates)
+        candidates += [np.asarray(f["drives"], dtype=np.float64)[i] for i in order]
+    candidates = np.array(candidates, dtype=np.float64)
     _, first = np.unique(candidates.reshape(len(candidates), -1), axis=0, return_index=True)
     candidates = candidates[np.sort(first)]  # the trapezoid stays first
-    sample = points + [hidden_point(d) for d in draw_hidden(config.selection_points, config.seed + 1, drive=drive)]
-    values = drive_values(sample, candidates, executor, TaskStore(tasks / "values"), drive=drive)
+    new = [i for i, c in enumerate(candidates) if c.tobytes() not in known]
+    values = np.empty((len(sample), len(candidates)))
+    values[:, new] = drive_values(sample, candidates[new], executor, TaskStore(tasks / "values"), drive=drive)
+    for i, c in enumerate(candidates):
+        if c.tobytes() in known:
+            values[:, i] = known[c.tobytes()]
     chosen, history = select(values, config.size)
     best = values.max(axis=1)
     moving = best >= MOVING_THRESHOLD

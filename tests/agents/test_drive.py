@@ -168,7 +168,7 @@ def test_the_recipe_builds_the_drives_sensor_policy_and_the_adaptation_report_ju
 
     res = adaptation.run(out / "sensor_policy", out / "policy", 2, 1, seed=5, out=tmp_path / "adapt", quick=True,
                          executor=adaptation.Executor(workers=1, progress=False))
-    assert res["drive"]["name"] == "drive_tiny"
+    assert res["drive"]["name"] == "drive_tiny" and "on drive drive_tiny" in (tmp_path / "adapt" / "adaptation.md").read_text()
     assert all(0.1 <= d["k"] <= 0.3 and 0.25 * 2 / 3 <= d["friction_coefficient"] <= 0.25 * 4 / 3 for d in res["points"])
     trapezoid = open_loop_velocity([adaptation.hidden_point(d) for d in res["points"]], trapezoid_action(drive),
                                    drive=drive)

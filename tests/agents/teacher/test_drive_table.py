@@ -71,6 +71,14 @@ def test_a_table_from_a_library_starts_each_search_from_its_fastest_drive_and_ke
     table = build(config, Executor(workers=1, progress=False), tmp_path, library)
     np.testing.assert_array_equal(table.drives[0], library.drives[0])  # the trapezoid first
     assert table.record["library"] == 3 and table.record["candidates"] <= 3 + 2
+    from mdr_drive_agents.protocol import draw_hidden, hidden_point
+    from mdr_drive_agents.teacher.drive_table import drive_values
+
+    # the library is valued once, apart from the searched drives: a drive's values do not depend on its company
+    sample = [hidden_point(d) for d in draw_hidden(2, config.seed) + draw_hidden(2, config.seed + 1)]
+    together = drive_values(sample, np.concatenate([library.drives, table.drives]), Executor(workers=1, progress=False))
+    apart = drive_values(sample, table.drives, Executor(workers=1, progress=False))
+    np.testing.assert_array_equal(together[:, 3:], apart)
     with pytest.raises(ValueError, match="polish_from"):
         build(DriveTableConfig(points=1, polish_from="agents/pretrained/ppo_generalist"),
               Executor(workers=1, progress=False), tmp_path / "x", library)
