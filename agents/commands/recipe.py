@@ -19,7 +19,9 @@ DESCRIPTION = ("Build a drive's policies, for the paper's drive or --drive FILE 
                "section and without --only told, the sensor policy (OUT/sensor_policy/), told nothing of k, the load or "
                "friction: a table of the teacher's drives and of searches at draws of the hidden values started from "
                "them (OUT/drive_table.npz), and a network that picks from it by the worth it predicts from the sensor, "
-               "trained by DAgger (docs/adaptation.md). Each stage's wall time is printed and kept "
+               "trained by DAgger (docs/adaptation.md); on --drive FILE it hides k and the load over the drive's ranges "
+               "and the friction pair over the ranges the file sets, or x 2/3-4/3 (mu) and x 0.7-1.3 (mu1) of its pair. "
+               "Each stage's wall time is printed and kept "
                "in OUT/recipe.json. Ctrl-C keeps the teacher's finished k slices, the student's labelled "
                "points (with 'distill', its first round once labelled or fitted), the sensor table's searches and "
                "values and its episodes' values: continue with --resume.")
@@ -45,7 +47,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="build only this policy: 'told', the policy told k and the load (OUT/policy/), without the "
                         "sensor policy of the YAML's 'sensor_policy' section")
     add_sensor_tier_argument(p, "the sensor policy (OUT/sensor_policy/)")
-    add_drive_argument(p, "to build the policy for (its run.json records it)")
+    add_drive_argument(p, "to build the policies for (their run.json records it; friction_coefficient and "
+                          "base_friction_coefficient may be [low, high] ranges: the sensor policy's hidden friction)")
     add_executor_arguments(p)
 
 

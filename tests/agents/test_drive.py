@@ -24,6 +24,29 @@ def test_the_paper_drive_is_the_env_default_and_its_trapezoid_the_papers():
     assert PAPER_DRIVE.period == 2e-3 and PAPER_DRIVE.z_amplitude_max == 6e-6
 
 
+def test_a_drives_sensor_policy_hides_its_ranges_and_a_spread_of_its_friction_pair():
+    from mdr_drive_env import SENSOR_DEFAULTS
+
+    assert PAPER_DRIVE.sensor_env_kwargs() == {key: list(v) if isinstance(v, tuple) else v
+                                               for key, v in SENSOR_DEFAULTS.items()}  # MDRDriveSensor-v0 as it is
+    tiny = DriveDescription.load(TINY_DRIVE)
+    kwargs = tiny.sensor_env_kwargs()
+    assert kwargs["k"] == [0.1, 0.3] and kwargs["load_ratio"] == [0.0, 0.4]  # its load range, up to 0.4 of mu F_ref
+    assert kwargs["friction_coefficient"] == pytest.approx([0.25 * 2 / 3, 0.25 * 4 / 3])
+    assert kwargs["base_friction_coefficient"] == pytest.approx([0.08 * 0.7, 0.08 * 1.3])
+    assert kwargs["period"] == 5e-4 and kwargs["observation"] == "sensor"
+    ranged = DriveDescription.from_mapping({"friction_coefficient": [0.28, 0.32], "base_friction_coefficient": [0.09, 0.11],
+                                            "load_ratio": [0.05, 0.3]})
+    kwargs = ranged.sensor_env_kwargs()
+    assert kwargs["friction_coefficient"] == [0.28, 0.32] and kwargs["base_friction_coefficient"] == [0.09, 0.11]
+    assert kwargs["load_ratio"] == [0.05, 0.3] and ranged.nominal_friction == (0.3, 0.1)
+    env = gym.make("MDRDriveSensor-v0", **kwargs)
+    _, info = env.reset(seed=3)
+    assert 0.28 <= info["friction_coefficient"] <= 0.32
+    with pytest.raises(ValueError, match="friction ranges mu .* overlap"):
+        DriveDescription.from_mapping({"friction_coefficient": 0.2, "base_friction_coefficient": 0.15}).sensor_env_kwargs()
+
+
 def test_a_description_reads_yaml_numbers_validates_keys_and_values(tmp_path):
     drive = DriveDescription.load(TINY_DRIVE)
     assert drive.name == "drive_tiny" and drive.k_range == (0.1, 0.3) and drive.load_ratio_range == (0.0, 0.5)
