@@ -215,6 +215,21 @@ class DriveDescription:
         return (round(float(np.mean(env.friction_range)), 12),
                 round(float(np.mean(env.base_friction_range)), 12))
 
+    @property
+    def stage_settings(self) -> tuple:
+        """``settings`` with a friction pair drawn over ranges (a sensor policy's drive) at its nominal values
+        (``nominal_friction``), and a value equal to the paper drive's left out: two descriptions with the
+        same stage settings describe one stage, whichever of its policies, told or sensor, records them."""
+        settings = dict(self.settings)
+        defaults = template(())
+        for key, nominal, default in zip(("friction_coefficient", "base_friction_coefficient"), self.nominal_friction,
+                                         (defaults.friction_range[0], defaults.base_friction_range[0])):
+            if key in settings:
+                settings[key] = nominal
+                if nominal == default:
+                    del settings[key]
+        return tuple(sorted(settings.items()))
+
     def sensor_env_kwargs(self) -> dict:
         """The ``MDRDriveSensor-v0`` keywords of a sensor policy on this drive: its physics and strokes,
         with k drawn over its k range, the load over its load range up to ``SENSOR_DEFAULTS``' 0.4 of

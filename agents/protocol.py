@@ -110,16 +110,17 @@ def drive_of(policy, drive: DriveDescription = PAPER_DRIVE) -> DriveDescription:
 
 
 def play_drive(policies, drive: DriveDescription | None = None) -> DriveDescription:
-    """The one drive ``policies`` were built for (:func:`drive_of` each; the paper's for none), or
-    ``drive`` if given (a ``--drive``), which must be theirs. Raises ``ValueError`` if they were built
-    for different drives, or for another than ``drive``."""
+    """The one drive ``policies`` were built for (:func:`drive_of` each; the paper's for none; a sensor
+    policy's, whose friction pair is drawn, is the same stage as a told policy's at its nominal pair:
+    ``DriveDescription.stage_settings``), or ``drive`` if given (a ``--drive``), which must be theirs.
+    Raises ``ValueError`` if they were built for different drives, or for another than ``drive``."""
     base = PAPER_DRIVE if drive is None else drive
     drives = [drive_of(p, base) for p in policies]
-    if len({d.settings for d in drives}) > 1:
+    if len({d.stage_settings for d in drives}) > 1:  # a sensor policy and a told one of the same stage go together
         raise ValueError("the policies were built for different drives: benchmark them apart")
     if not drives:
         return base
-    if drive is not None and drives[0].settings != drive.settings:
+    if drive is not None and drives[0].stage_settings != drive.stage_settings:
         which = "the policy was" if len(drives) == 1 else "the policies were"
         raise ValueError(f"{which} built for another drive ({dict(drives[0].settings) or 'the paper drive'}) than "
                          f"{drive.name}: leave out --drive to judge on the drive it was built for")

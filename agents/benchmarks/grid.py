@@ -79,7 +79,7 @@ def run(policies: list[str], out: str | Path = "results/benchmark", quick: bool 
         "periods": EVAL_PERIODS, "averaged_over_last": AVERAGE_PERIODS}, "cma_budget_per_point": budget}
 
     loaded = [load_policy(p) for p in tqdm(policies, desc="load policies")]
-    if play_drive(loaded).settings:
+    if play_drive(loaded).stage_settings:
         raise ValueError("the policies were built for another drive than the paper's: the fixed grid is the paper "
                          "drive's; judge them with --blind N --seed S")
     trap = open_loop_velocity(points, trapezoid_action(), mark_runaway=True)

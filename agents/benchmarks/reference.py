@@ -98,7 +98,7 @@ class Reference:
         ``score`` (IQM and mean, bootstrap over the points), the fraction of the best drive and the
         blind statistics. The policy must act at this reference's time quantum (as its search did)
         and have been built for its drive."""
-        if drive_of(policy, self.drive).settings != self.drive.settings:
+        if drive_of(policy, self.drive).stage_settings != self.drive.stage_settings:
             raise ValueError(f"the policy was built for another drive than this reference's ({self.drive.name}): "
                              "score it against a blind benchmark run on its own")
         quantum = float(getattr(policy, "play_kwargs", {}).get("time_quantum", TIME_QUANTUM))

@@ -188,6 +188,12 @@ def test_the_recipe_builds_the_drives_sensor_policy_and_the_adaptation_report_ju
     policy = load_policy(out / "sensor_policy")
     drive = drive_of(policy)
     assert drive.name == "drive_tiny" and drive.period == 5e-4 and drive.nominal_friction == (0.25, 0.08)
+    from mdr_drive_agents.protocol import play_drive
+
+    told = load_policy(out / "policy")  # the same stage: its friction pair is the sensor policy's nominal one
+    assert drive.stage_settings == drive_of(told).stage_settings == DriveDescription.load(TINY_DRIVE).stage_settings
+    assert play_drive([told, policy]).stage_settings == drive.stage_settings
+    assert PAPER_DRIVE.stage_settings == drive_of(load_policy("agents/pretrained/ppo_sensor")).stage_settings == ()
 
     res = adaptation.run(out / "sensor_policy", out / "policy", 2, 1, seed=5, out=tmp_path / "adapt", quick=True,
                          executor=adaptation.Executor(workers=1, progress=False))
