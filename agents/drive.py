@@ -198,9 +198,13 @@ class DriveDescription:
 
     def params(self, k: float, cargo_mass: float, friction: tuple[float, float] | None = None):
         """The physical model (``DriveParams``) at grading exponent k and cargo mass (kg), with
-        ``friction`` = (mu, mu1) instead of the drive's own if given."""
+        ``friction`` = (mu, mu1) instead of the drive's own if given (a pair drawn over ranges: its nominal
+        values, ``nominal_friction``)."""
         env = template(self.settings)
         params = env.params_for(float(k), float(cargo_mass))
+        if friction is None and (env.friction_range[0] != env.friction_range[1]
+                                 or env.base_friction_range[0] != env.base_friction_range[1]):
+            friction = self.nominal_friction
         if friction is None:
             return params
         return dataclasses.replace(params, contact=dataclasses.replace(

@@ -209,17 +209,28 @@ def policy_rollout(policy, points, periods: int = EVAL_PERIODS, drive: DriveDesc
     whatever the policy's ``z_phase_origin``), runaway (n,) bool)."""
     n = len(points)
     play, act, drive = play_kwargs_of(policy), actions_of(policy), drive_of(policy, drive)
-    venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods,
-                        **{**drive.env_kwargs, **play})
     options = {"k": [p[0] for p in points], "cargo_mass": [p[1] for p in points]}
     mu, mu1 = drive.nominal_friction  # a (k, cargo mass) point plays the drive's nominal pair, never a drawn one
     options.update(friction_coefficient=[p[2] if len(p) == 4 else mu for p in points],
                    base_friction_coefficient=[p[3] if len(p) == 4 else mu1 for p in points])
-    obs, _ = venv.reset(seed=0, options=options)
+    if play.get("observation") == "sensor":  # the batched vector env has the full observation only: one env each
+        envs = [gym.make("MDRDrive-v0", max_periods=periods, **{**drive.env_kwargs, **play}) for _ in points]
+        obs = np.array([env.reset(seed=0, options={key: v[i] for key, v in options.items()})[0]
+                        for i, env in enumerate(envs)])
+        venv = None
+    else:
+        venv = gym.make_vec("MDRDrive-v0", num_envs=n, vectorization_mode="vector_entry_point", max_periods=periods,
+                            **{**drive.env_kwargs, **play})
+        obs, _ = venv.reset(seed=0, options=options)
     disp, acts = [], []
     for _ in range(periods):
         a = np.asarray(act(obs), dtype=np.float32).reshape(n, ActionMap.SIZE)
-        obs, _, _, _, info = venv.step(a)
+        if venv is None:
+            steps = [env.step(action) for env, action in zip(envs, a)]
+            obs = np.array([step[0] for step in steps])
+            info = {key: np.array([step[4][key] for step in steps]) for key in ("displacement", "peak_normal_force")}
+        else:
+            obs, _, _, _, info = venv.step(a)
         disp.append(info["displacement"])
         acts.append(a)
     params = [point_params(p, drive) for p in points]

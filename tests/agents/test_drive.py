@@ -40,6 +40,8 @@ def test_a_drives_sensor_policy_hides_its_ranges_and_a_spread_of_its_friction_pa
     kwargs = ranged.sensor_env_kwargs()
     assert kwargs["friction_coefficient"] == [0.28, 0.32] and kwargs["base_friction_coefficient"] == [0.09, 0.11]
     assert kwargs["load_ratio"] == [0.05, 0.3] and ranged.nominal_friction == (0.3, 0.1)
+    contact = ranged.params(0.2, 0.01).contact  # a point of a ranged drive plays its nominal pair
+    assert (contact.friction_coefficient, contact.base_friction_coefficient) == (0.3, 0.1)
     env = gym.make("MDRDriveSensor-v0", **kwargs)
     _, info = env.reset(seed=3)
     assert 0.28 <= info["friction_coefficient"] <= 0.32
@@ -194,6 +196,12 @@ def test_the_recipe_builds_the_drives_sensor_policy_and_the_adaptation_report_ju
     assert drive.stage_settings == drive_of(told).stage_settings == DriveDescription.load(TINY_DRIVE).stage_settings
     assert play_drive([told, policy]).stage_settings == drive.stage_settings
     assert PAPER_DRIVE.stage_settings == drive_of(load_policy("agents/pretrained/ppo_sensor")).stage_settings == ()
+    from mdr_drive_agents.protocol import env_rollout, policy_velocity
+
+    # a sensor policy plays at (k, load) points (the blind benchmark's) at the drive's nominal pair
+    v = policy_velocity(policy, [(0.2, 0.002), (0.15, 0.001)])
+    np.testing.assert_allclose(v, [env_rollout(policy, k, m)[0][-10:].mean() for k, m in ((0.2, 0.002), (0.15, 0.001))],
+                               rtol=1e-9)
 
     res = adaptation.run(out / "sensor_policy", out / "policy", 2, 1, seed=5, out=tmp_path / "adapt", quick=True,
                          executor=adaptation.Executor(workers=1, progress=False))
