@@ -264,7 +264,8 @@ def build(config: DriveTableConfig, executor: Executor, tasks: Path, library: Dr
     candidates = candidates[np.sort(first)]  # the trapezoid stays first
     new = [i for i, c in enumerate(candidates) if c.tobytes() not in known]
     values = np.empty((len(sample), len(candidates)))
-    values[:, new] = drive_values(sample, candidates[new], executor, TaskStore(tasks / "values"), drive=drive)
+    if new:
+        values[:, new] = drive_values(sample, candidates[new], executor, TaskStore(tasks / "values"), drive=drive)
     for i, c in enumerate(candidates):
         if c.tobytes() in known:
             values[:, i] = known[c.tobytes()]
