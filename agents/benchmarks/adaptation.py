@@ -76,11 +76,6 @@ def drive_labels(sensor_policies: list) -> list[str]:
     return [*labels, *BASELINES]
 
 
-def physics_of(drive: DriveDescription) -> dict:
-    """A drive's keywords less its friction pair (which a sensor policy's drive draws over ranges)."""
-    return {key: v for key, v in drive.env_kwargs.items() if key not in ("friction_coefficient", "base_friction_coefficient")}
-
-
 def action_map_of(res: dict):
     """The action map of the drive a report's policies played on (its ``drive``; the paper's without one)."""
     return (PAPER_DRIVE if res.get("drive") is None else DriveDescription.from_record(res["drive"])).action_map()
@@ -174,7 +169,7 @@ def run(sensor_policy, full_policy: str, n: int, n_steps: int, seed: int, out: s
     sensors = [load_policy(f) for f in folders]
     on = play_drive(sensors)  # the drive they were built for, and its hidden ranges
     full = load_policy(full_policy)
-    if physics_of(drive_of(full, on)) != physics_of(on):
+    if drive_of(full, on).stage_settings != on.stage_settings:
         raise ValueError(f"--full-policy {full_policy} was built for another drive than the sensor policies' ({on.name})")
     drives = drive_labels(sensors)
     policies = {**dict(zip(drives, sensors)), "full-observation policy": full,
@@ -394,4 +389,4 @@ def plot_estimates(res: dict, picks: list[tuple[str, int]], out: Path) -> None:
     plt.close(fig)
 
 
-__all__ = ["BASELINES", "DRIVES", "ESTIMATE_LABELS", "FixedAction", "action_map_of", "physics_of", "tuned_once_point", "estimates_through", "estimator_of", "plot_estimates", "column_name", "drive_labels", "drives_of", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]
+__all__ = ["BASELINES", "DRIVES", "ESTIMATE_LABELS", "FixedAction", "action_map_of", "tuned_once_point", "estimates_through", "estimator_of", "plot_estimates", "column_name", "drive_labels", "drives_of", "draw_hidden", "hidden_point", "markdown", "plot", "recovery", "run", "tuned_once_action"]
