@@ -58,11 +58,11 @@ def frictions(drive: DriveDescription = PAPER_DRIVE) -> list[tuple[float, float]
 def grid(n_k: int, n_loads: int, drive: DriveDescription = PAPER_DRIVE) -> list[dict]:
     """The hidden values of the check on ``drive``'s sensor ranges: k, load over mu F_ref, mu, mu1
     (k-major, then load, friction)."""
-    ranges = drive.sensor_env_kwargs()
+    ranges, pairs = drive.sensor_env_kwargs(), frictions(drive)
     ks = np.linspace(*ranges["k"], n_k)
     ratios = np.linspace(*ranges["load_ratio"], n_loads)
     return [{"k": float(k), "load_ratio": float(r), "friction_coefficient": mu, "base_friction_coefficient": mu1}
-            for k in ks for r in ratios for mu, mu1 in frictions(drive)]
+            for k in ks for r in ratios for mu, mu1 in pairs]
 
 
 def rollouts(policy, points: list[dict], periods: int = EVAL_PERIODS,
@@ -118,10 +118,11 @@ def run(policy_path: str, n_k: int, n_loads: int, out: str | Path, command: str,
     write_csv(out / "below.csv", ["k", "load_over_mu_f_ref", "mu", "mu1", "trapezoid_m_s", "policy_m_s", "swing_mm_s"],
               rows)
     finite = gap[below & np.isfinite(gap)]
-    k_range, load_range = drive.sensor_env_kwargs()["k"], drive.sensor_env_kwargs()["load_ratio"]
+    ranges = drive.sensor_env_kwargs()
+    k_range, load_range = ranges["k"], ranges["load_ratio"]
     on = "" if drive.is_paper else f" on drive {drive.name}"
     lines = [f"Dense check of the sensor policy `{policy_path}`{on}: {n_k} k values in [{k_range[0]:g}, {k_range[1]:g}] x "
-             f"{n_loads} loads from {load_range[0]:g} to {load_range[1]:g} of mu F_ref x {len(frictions(drive))} friction "
+             f"{n_loads} loads from {load_range[0]:g} to {load_range[1]:g} of mu F_ref x {len(points) // (n_k * n_loads)} friction "
              f"pairs ({len(points)} points); closed loop in its own "
              f"env, mean of periods {EVAL_PERIODS - AVERAGE_PERIODS + 1}-{EVAL_PERIODS}.", f"Command: `{command}`", "",
              f"* points below the trapezoid by more than {BELOW_TOLERANCE * 1e3:g} mm/s (where either moves): **{int(below.sum())}** "

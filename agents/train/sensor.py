@@ -229,7 +229,8 @@ class Validation:
         from ..benchmarks.targets import velocity_statistics
 
         sensed, _, privileged, disp = self.play(network, self.points, 30)
-        stats = velocity_statistics(self.velocities[:, 0], self.velocities.max(axis=1), steady_velocity_of(disp, period=self.drive.period))
+        stats = velocity_statistics(self.velocities[:, 0], self.velocities.max(axis=1),
+                                    steady_velocity_of(disp, period=self.drive.period))
         step_disp = self.play(network, self.steps, self.step_periods)[3]
         scored = [r[2] for r in (recovery(d / self.drive.period) for d in step_disp.T) if r[2] is not None]
         settled = slice(self.config.history * len(self.points), None)  # rows are period-major
